@@ -1,0 +1,223 @@
+//! Mean background model of the edge-enhanced intensity `I'` (paper section 3.2).
+//!
+//! The model is one `u8` plane: the per-pixel mean of `I'` over K learned frames, rounded
+//! (`B = (Σ I' + K/2) / K`, `docs/pipeline-spec.md` §2). Learning sums exactly in 16 bits: the
+//! model's own plane holds the low byte and a caller-provided plane of the same size (on a camera,
+//! the label plane of the [`crate::Workspace`], free while learning) holds the high byte, so no
+//! extra frame-sized buffer is needed. Up to [`MAX_LEARN_FRAMES`] frames can be averaged.
+//!
+//! Two ways to follow a changing scene:
+//! - [`Background::update`]: slow update on background pixels, `B ← B ± 1` towards `I'` every
+//!   `2^shift` calls (lighting drift);
+//! - [`Background::set_from_frame`]: frame-difference mode for slowly moving parts, the
+//!   "background" is simply the previous frame's `I'`.
+//!
+//! Memory: `width·height` bytes (plus the borrowed high-byte plane while learning).
+
+use crate::enhance::{enhance_row, enhance_span, Alpha};
+
+/// Pixels of `I'` computed at a time on the stack while learning or updating.
+const CHUNK: usize = 64;
+use crate::error::{Error, Result};
+use crate::frame::Frame;
+
+/// The largest number of frames [`Background::learn`] averages (the 16-bit sum of 255 frames of
+/// 255 still fits).
+pub const MAX_LEARN_FRAMES: usize = 255;
+
+/// The learned background over a caller-provided plane of `width·height` bytes.
+///
+/// ```
+/// use vorl_core::{background::Background, enhance::Alpha, Frame};
+/// let a = Alpha::new(1.0).unwrap();
+/// let mut plane = [0u8; 4];
+/// let mut high = [0u8; 4];
+/// let mut bg = Background::new(&mut plane[..], 2, 2).unwrap();
+/// bg.learn(&Frame::new_checked(&[10u8, 20, 30, 40][..], 2, 2).unwrap(), a, &mut high).unwrap();
+/// bg.learn(&Frame::new_checked(&[11u8, 20, 30, 41][..], 2, 2).unwrap(), a, &mut high).unwrap();
+/// bg.finish_learning(&high).unwrap();
+/// assert_eq!(bg.plane(), &[11, 20, 30, 41]); // 10.5 → 11, 40.5 → 41
+/// ```
+#[derive(Debug)]
+pub struct Background<S> {
+    plane: S,
+    width: usize,
+    height: usize,
+    learned: usize,
+    ready: bool,
+    updates: u32,
+}
+
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Background<S> {
+    /// A model of `width`×`height` over `plane`.
+    ///
+    /// # Errors
+    /// [`Error::EmptyFrame`] or [`Error::BufferTooSmall`].
+    pub fn new(plane: S, width: usize, height: usize) -> Result<Self> {
+        if width == 0 || height == 0 {
+            return Err(Error::EmptyFrame { width, height });
+        }
+        let needed = width.saturating_mul(height);
+        let got = plane.as_ref().len();
+        if got < needed {
+            return Err(Error::BufferTooSmall { needed, got });
+        }
+        Ok(Background { plane, width, height, learned: 0, ready: false, updates: 0 })
+    }
+
+    /// Width of the model.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Height of the model.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Whether the model can be used (learning finished, or set from a frame).
+    pub fn is_ready(&self) -> bool {
+        self.ready
+    }
+
+    /// Frames averaged by the last learning.
+    pub fn learned_frames(&self) -> usize {
+        self.learned
+    }
+
+    /// The model's pixels, row by row (`width·height` bytes).
+    pub fn plane(&self) -> &[u8] {
+        let n = self.width * self.height;
+        self.plane.as_ref().get(..n).unwrap_or(&[])
+    }
+
+    fn check<B: AsRef<[u8]>>(&self, frame: &Frame<B>) -> Result<()> {
+        if frame.width() != self.width || frame.height() != self.height {
+            return Err(Error::FrameSize {
+                expected_width: self.width,
+                expected_height: self.height,
+                width: frame.width(),
+                height: frame.height(),
+            });
+        }
+        Ok(())
+    }
+
+    /// Adds one frame of `I'` to the running 16-bit sum; `high` (at least `width·height` bytes)
+    /// holds the sum's high byte and must not be touched until [`Self::finish_learning`].
+    /// The first call after a finished learning starts a new one.
+    ///
+    /// # Errors
+    /// [`Error::FrameSize`], [`Error::BufferTooSmall`] for `high`, and
+    /// [`Error::TooManyBackgroundFrames`] past [`MAX_LEARN_FRAMES`].
+    pub fn learn<B: AsRef<[u8]>>(&mut self, frame: &Frame<B>, alpha: Alpha, high: &mut [u8]) -> Result<()> {
+        self.check(frame)?;
+        let n = self.width * self.height;
+        if high.len() < n {
+            return Err(Error::BufferTooSmall { needed: n, got: high.len() });
+        }
+        if self.ready || self.learned == 0 {
+            self.plane.as_mut().iter_mut().take(n).for_each(|p| *p = 0);
+            high.iter_mut().take(n).for_each(|p| *p = 0);
+            self.learned = 0;
+            self.ready = false;
+        }
+        if self.learned >= MAX_LEARN_FRAMES {
+            return Err(Error::TooManyBackgroundFrames { max: MAX_LEARN_FRAMES });
+        }
+        let w = self.width;
+        let low = self.plane.as_mut();
+        for (y, (lo_row, hi_row)) in low.chunks_exact_mut(w).zip(high.chunks_exact_mut(w)).take(self.height).enumerate() {
+            let mut x0 = 0;
+            for (lo_chunk, hi_chunk) in lo_row.chunks_mut(CHUNK).zip(hi_row.chunks_mut(CHUNK)) {
+                let mut enh = [0u8; CHUNK];
+                enhance_span(frame, y, x0, alpha, &mut enh);
+                for ((lo, hi), &v) in lo_chunk.iter_mut().zip(hi_chunk.iter_mut()).zip(&enh) {
+                    let sum = ((*hi as u16) << 8 | *lo as u16) + v as u16;
+                    *lo = sum as u8;
+                    *hi = (sum >> 8) as u8;
+                }
+                x0 += lo_chunk.len();
+            }
+        }
+        self.learned += 1;
+        Ok(())
+    }
+
+    /// Turns the sum into the rounded mean (`docs/pipeline-spec.md` §2).
+    ///
+    /// # Errors
+    /// [`Error::NoBackground`] when no frame was learned, [`Error::BufferTooSmall`] for `high`.
+    pub fn finish_learning(&mut self, high: &[u8]) -> Result<()> {
+        if self.learned == 0 {
+            return Err(Error::NoBackground);
+        }
+        let n = self.width * self.height;
+        if high.len() < n {
+            return Err(Error::BufferTooSmall { needed: n, got: high.len() });
+        }
+        let k = self.learned as u32;
+        for (lo, &hi) in self.plane.as_mut().iter_mut().zip(high).take(n) {
+            let sum = (hi as u32) << 8 | *lo as u32;
+            *lo = ((sum + k / 2) / k).min(255) as u8;
+        }
+        self.ready = true;
+        Ok(())
+    }
+
+    /// Frame-difference mode: the model becomes this frame's `I'`.
+    ///
+    /// # Errors
+    /// [`Error::FrameSize`].
+    pub fn set_from_frame<B: AsRef<[u8]>>(&mut self, frame: &Frame<B>, alpha: Alpha) -> Result<()> {
+        self.check(frame)?;
+        let w = self.width;
+        for (y, row) in self.plane.as_mut().chunks_exact_mut(w).take(self.height).enumerate() {
+            enhance_row(frame, y, alpha, row);
+        }
+        self.learned = 1;
+        self.ready = true;
+        Ok(())
+    }
+
+    /// Slow update: every `2^shift` calls, each pixel whose `labels` entry is 0 (background in
+    /// the last mask) moves one grey level towards this frame's `I'`.
+    ///
+    /// # Errors
+    /// [`Error::NoBackground`], [`Error::FrameSize`], [`Error::BufferTooSmall`] for `labels`.
+    pub fn update<B: AsRef<[u8]>>(&mut self, frame: &Frame<B>, alpha: Alpha, labels: &[u8], shift: u8) -> Result<()> {
+        if !self.ready {
+            return Err(Error::NoBackground);
+        }
+        self.check(frame)?;
+        let n = self.width * self.height;
+        if labels.len() < n {
+            return Err(Error::BufferTooSmall { needed: n, got: labels.len() });
+        }
+        self.updates = self.updates.wrapping_add(1);
+        let period = 1u32 << shift.min(31);
+        if self.updates % period != 0 {
+            return Ok(());
+        }
+        let w = self.width;
+        for (y, (brow, lrow)) in self.plane.as_mut().chunks_exact_mut(w).zip(labels.chunks_exact(w)).take(self.height).enumerate() {
+            let mut x0 = 0;
+            for (bchunk, lchunk) in brow.chunks_mut(CHUNK).zip(lrow.chunks(CHUNK)) {
+                let mut enh = [0u8; CHUNK];
+                enhance_span(frame, y, x0, alpha, &mut enh);
+                for ((b, &l), &v) in bchunk.iter_mut().zip(lchunk).zip(&enh) {
+                    if l == 0 {
+                        if v > *b {
+                            *b += 1;
+                        } else if v < *b {
+                            *b -= 1;
+                        }
+                    }
+                }
+                x0 += bchunk.len();
+            }
+        }
+        Ok(())
+    }
+}
+

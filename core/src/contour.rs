@@ -1,0 +1,478 @@
+//! Border following: Suzuki & Abe (1985), 8-connectivity (paper section 3.3).
+//!
+//! Input: the label plane written by [`crate::mask::foreground_mask`] (0 background, 1
+//! foreground), labelled in place as the algorithm goes: a traced border's pixels get its number
+//! `NBD`, or `−NBD` where the pixel's right neighbour is background that the trace examined.
+//! The plane is `u8`, so a label is `NBD` (2..=127) or `0x80 | NBD`; after 126 borders in one
+//! frame the labels saturate: tracing goes on (nothing is dropped) but the parents of later
+//! borders are reported unknown and [`TraceStats::labels_saturated`] is set.
+//!
+//! Output: ordered border points in a [`ContourStore`] of fixed capacity, each border with its
+//! type (outer or hole) and parent. Borders with fewer than `min_points` points or a polygon area
+//! under `min_area` are dropped (and counted). A border longer than the free point storage is
+//! traced again keeping every `stride`-th point, so it still describes the whole outline
+//! ([`Contour::stride`] > 1), never a cut-off piece; only when the storage is nearly full is a
+//! border skipped, and that is counted in [`TraceStats::skipped_capacity`].
+//!
+//! Pixels outside the image count as background, which is what `imageproc`'s `find_contours`
+//! gives on the mask padded with a one-pixel zero frame (`docs/pipeline-spec.md` §4).
+//!
+//! Time: one raster scan plus `O(border length)` per border (twice for a subsampled one).
+//! Memory: `4·P` bytes of points and a small record per border in the store; 128 border records
+//! on the stack while tracing.
+
+use crate::error::{Error, Result};
+
+/// A border pixel (pixel-centre coordinates).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Point {
+    /// Column.
+    pub x: u16,
+    /// Row.
+    pub y: u16,
+}
+
+/// Whether a border encloses a region (outer) or lies around a hole in one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BorderKind {
+    /// Border between a region and the background around it.
+    Outer,
+    /// Border between a region and a hole inside it.
+    Hole,
+}
+
+/// One kept border in a [`ContourStore`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Contour {
+    /// Outer border or hole border.
+    pub kind: BorderKind,
+    /// Index of the enclosing kept border in the store (a hole's parent is the outer border of
+    /// its region), `None` at the top level or when unknown.
+    pub parent: Option<u16>,
+    /// First point in the store's point array.
+    pub start: u32,
+    /// Points stored.
+    pub len: u32,
+    /// Points of the full trace (equal to `len` unless subsampled).
+    pub traced_len: u32,
+    /// 1, or the subsampling step when the border did not fit.
+    pub stride: u32,
+    /// Twice the signed polygon area over the full trace (shoelace, exact in integers); positive
+    /// when the points run counter-clockwise in image coordinates.
+    pub area2: i64,
+    /// Whether the border touches the image's edge.
+    pub touches_edge: bool,
+}
+
+impl Contour {
+    /// Polygon area of the full trace, px².
+    pub fn area(&self) -> f32 {
+        (self.area2.unsigned_abs() as f32) * 0.5
+    }
+}
+
+/// What [`trace_borders`] did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct TraceStats {
+    /// Borders found (kept or not).
+    pub found: usize,
+    /// Borders kept in the store.
+    pub kept: usize,
+    /// Borders dropped as too small (`min_points`, `min_area`).
+    pub dropped_small: usize,
+    /// Borders kept subsampled because they did not fit.
+    pub subsampled: usize,
+    /// Borders skipped because the store was full.
+    pub skipped_capacity: usize,
+    /// Borders whose trace was abandoned by the iteration guard (never on a valid plane).
+    pub aborted: usize,
+    /// More than 126 borders: parents of later ones are unknown.
+    pub labels_saturated: bool,
+}
+
+/// Fixed-capacity storage for borders: `P` points and `C` border records.
+///
+/// `4·P + C·size_of::<Contour>()` bytes; see `vorl budget`.
+#[derive(Debug, Clone)]
+pub struct ContourStore<const P: usize, const C: usize> {
+    points: [Point; P],
+    contours: heapless::Vec<Contour, C>,
+    used: usize,
+}
+
+impl<const P: usize, const C: usize> Default for ContourStore<P, C> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const P: usize, const C: usize> ContourStore<P, C> {
+    /// An empty store (`const`, for `static` use).
+    pub const fn new() -> Self {
+        ContourStore { points: [Point { x: 0, y: 0 }; P], contours: heapless::Vec::new(), used: 0 }
+    }
+
+    /// Removes every border.
+    pub fn clear(&mut self) {
+        self.contours.clear();
+        self.used = 0;
+    }
+
+    /// The kept borders, in the order they were found.
+    pub fn contours(&self) -> &[Contour] {
+        &self.contours
+    }
+
+    /// The points of border `index` (empty for an unknown index).
+    pub fn points(&self, index: usize) -> &[Point] {
+        match self.contours.get(index) {
+            Some(c) => {
+                let s = c.start as usize;
+                self.points.get(s..s + c.len as usize).unwrap_or(&[])
+            }
+            None => &[],
+        }
+    }
+
+    /// Kept hole borders whose parent is border `index`.
+    pub fn holes_of(&self, index: usize) -> impl Iterator<Item = usize> + '_ {
+        self.contours
+            .iter()
+            .enumerate()
+            .filter(move |(_, c)| c.kind == BorderKind::Hole && c.parent == Some(index as u16))
+            .map(|(i, _)| i)
+    }
+}
+
+/// Size filters for [`trace_borders`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BorderFilter {
+    /// Fewest points of a kept border.
+    pub min_points: usize,
+    /// Smallest polygon area of a kept border, px².
+    pub min_area: f32,
+}
+
+/// Directions clockwise on screen from west: W, NW, N, NE, E, SE, S, SW.
+const DIRS: [(i32, i32); 8] = [(-1, 0), (-1, -1), (0, -1), (1, -1), (1, 0), (1, 1), (0, 1), (-1, 1)];
+const EAST: usize = 4;
+const MAX_NBD: u8 = 127;
+const NEG: u8 = 0x80;
+
+/// Per-NBD record while tracing: kind, parent NBD, index in the store.
+#[derive(Clone, Copy)]
+struct Nbd {
+    hole: bool,
+    parent: u8,
+    stored: Option<u16>,
+}
+
+struct Plane<'a> {
+    px: &'a mut [u8],
+    w: usize,
+    h: usize,
+}
+
+impl Plane<'_> {
+    #[inline]
+    fn at(&self, x: i32, y: i32) -> u8 {
+        if x < 0 || y < 0 || x as usize >= self.w || y as usize >= self.h {
+            return 0;
+        }
+        self.px.get(y as usize * self.w + x as usize).copied().unwrap_or(0)
+    }
+
+    #[inline]
+    fn set(&mut self, x: i32, y: i32, v: u8) {
+        if x >= 0 && y >= 0 && (x as usize) < self.w && (y as usize) < self.h {
+            if let Some(p) = self.px.get_mut(y as usize * self.w + x as usize) {
+                *p = v;
+            }
+        }
+    }
+}
+
+/// Signed label value: positive NBD, negative NBD, or the plain 0/1.
+#[inline]
+fn label_abs(v: u8) -> u8 {
+    v & !NEG
+}
+
+/// Follows every border of the 0/1 plane `labels` (`width·height`, row-major), keeping those
+/// that pass `filter` in `store` (which is cleared first).
+///
+/// ```
+/// use vorl_core::contour::{trace_borders, BorderFilter, BorderKind, ContourStore, Point};
+/// // A 2×2 square in a 4×4 image.
+/// let mut plane = [0u8; 16];
+/// for (x, y) in [(1, 1), (2, 1), (1, 2), (2, 2)] { plane[y * 4 + x] = 1; }
+/// let mut store = ContourStore::<64, 4>::new();
+/// let f = BorderFilter { min_points: 1, min_area: 0.0 };
+/// let stats = trace_borders(&mut plane, 4, 4, f, &mut store).unwrap();
+/// assert_eq!(stats.kept, 1);
+/// assert_eq!(store.contours()[0].kind, BorderKind::Outer);
+/// let pts: Vec<(u16, u16)> = store.points(0).iter().map(|p| (p.x, p.y)).collect();
+/// assert_eq!(pts, [(1, 1), (1, 2), (2, 2), (2, 1)]);
+/// ```
+///
+/// # Errors
+/// [`Error::EmptyFrame`], [`Error::BufferTooSmall`] when `labels` is short, and
+/// [`Error::Capacity`] when the image is too large for `u16` coordinates.
+pub fn trace_borders<const P: usize, const C: usize>(
+    labels: &mut [u8],
+    width: usize,
+    height: usize,
+    filter: BorderFilter,
+    store: &mut ContourStore<P, C>,
+) -> Result<TraceStats> {
+    if width == 0 || height == 0 {
+        return Err(Error::EmptyFrame { width, height });
+    }
+    if width > u16::MAX as usize || height > u16::MAX as usize {
+        return Err(Error::Capacity {
+            what: "image side for u16 border coordinates",
+            capacity: u16::MAX as usize,
+            requested: width.max(height),
+        });
+    }
+    let n = width * height;
+    if labels.len() < n {
+        return Err(Error::BufferTooSmall { needed: n, got: labels.len() });
+    }
+    store.clear();
+    let mut plane = Plane { px: &mut labels[..n], w: width, h: height };
+    let mut stats = TraceStats::default();
+    // Index 1 is the frame (the background around everything).
+    let mut nbds = [Nbd { hole: true, parent: 0, stored: None }; MAX_NBD as usize + 1];
+    let mut nbd: u8 = 1;
+    for y in 0..height as i32 {
+        let mut lnbd: u8 = 1;
+        for x in 0..width as i32 {
+            let v = plane.at(x, y);
+            if v == 0 {
+                continue;
+            }
+            let start = if v == 1 && plane.at(x - 1, y) == 0 {
+                Some((false, 0usize))
+            } else if v & NEG == 0 && plane.at(x + 1, y) == 0 {
+                if v > 1 {
+                    lnbd = v;
+                }
+                Some((true, EAST))
+            } else {
+                None
+            };
+            if let Some((hole, from)) = start {
+                let saturated = nbd >= MAX_NBD;
+                if saturated {
+                    stats.labels_saturated = true;
+                } else {
+                    nbd += 1;
+                }
+                // Parent by Suzuki–Abe's table: same kind as LNBD's border → LNBD's parent.
+                let lb = nbds.get(lnbd as usize).copied().unwrap_or(nbds[1]);
+                let parent_nbd = if lnbd == 1 {
+                    1
+                } else if lb.hole != hole {
+                    lnbd
+                } else {
+                    lb.parent
+                };
+                let parent_known = !(stats.labels_saturated && (saturated || lnbd == MAX_NBD));
+                let parent = if parent_known {
+                    nbds.get(parent_nbd as usize).and_then(|p| p.stored)
+                } else {
+                    None
+                };
+                stats.found += 1;
+                let stored = follow(&mut plane, x, y, from, nbd, hole, parent, filter, store, &mut stats);
+                if !saturated {
+                    if let Some(slot) = nbds.get_mut(nbd as usize) {
+                        *slot = Nbd { hole, parent: parent_nbd, stored };
+                    }
+                }
+            }
+            let v = plane.at(x, y);
+            if v != 1 {
+                lnbd = label_abs(v);
+            }
+        }
+    }
+    Ok(stats)
+}
+
+/// One border trace from `(x0, y0)`; `from` is the direction of the background neighbour that
+/// started it. Stores the border when it passes the filter; returns its store index.
+#[allow(clippy::too_many_arguments)]
+fn follow<const P: usize, const C: usize>(
+    plane: &mut Plane<'_>,
+    x0: i32,
+    y0: i32,
+    from: usize,
+    nbd: u8,
+    hole: bool,
+    parent: Option<u16>,
+    filter: BorderFilter,
+    store: &mut ContourStore<P, C>,
+    stats: &mut TraceStats,
+) -> Option<u16> {
+    let free = P.saturating_sub(store.used);
+    let first = trace(plane, x0, y0, from, nbd, 1, &mut store.points, store.used, free);
+    let Some(first) = first else {
+        stats.aborted += 1;
+        return None;
+    };
+    if first.len < filter.min_points || (first.area2.unsigned_abs() as f32) * 0.5 < filter.min_area {
+        stats.dropped_small += 1;
+        return None;
+    }
+    let mut result = first;
+    let mut stride = 1;
+    if first.len > free {
+        // Keep every stride-th point; at least 8 must remain to describe an outline.
+        if free < 8 {
+            stats.skipped_capacity += 1;
+            return None;
+        }
+        stride = first.len.div_ceil(free);
+        match trace(plane, x0, y0, from, nbd, stride, &mut store.points, store.used, free) {
+            Some(r) => result = r,
+            None => {
+                stats.aborted += 1;
+                return None;
+            }
+        }
+        stats.subsampled += 1;
+    }
+    let stored_len = result.len.div_ceil(stride).min(free);
+    let contour = Contour {
+        kind: if hole { BorderKind::Hole } else { BorderKind::Outer },
+        parent,
+        start: store.used as u32,
+        len: stored_len as u32,
+        traced_len: result.len as u32,
+        stride: stride as u32,
+        area2: result.area2,
+        touches_edge: result.touches_edge,
+    };
+    let index = store.contours.len();
+    if store.contours.push(contour).is_err() {
+        stats.skipped_capacity += 1;
+        return None;
+    }
+    store.used += stored_len;
+    stats.kept += 1;
+    Some(index as u16)
+}
+
+#[derive(Clone, Copy)]
+struct TraceResult {
+    len: usize,
+    area2: i64,
+    touches_edge: bool,
+}
+
+/// Traces one border, labelling pixels, storing every `stride`-th point into
+/// `points[offset .. offset + free]` while there is room. `None` when the iteration guard trips.
+#[allow(clippy::too_many_arguments)]
+fn trace(
+    plane: &mut Plane<'_>,
+    x0: i32,
+    y0: i32,
+    from: usize,
+    nbd: u8,
+    stride: usize,
+    points: &mut [Point],
+    offset: usize,
+    free: usize,
+) -> Option<TraceResult> {
+    let (w, h) = (plane.w as i32, plane.h as i32);
+    let mut len = 0usize;
+    let mut stored = 0usize;
+    let mut area2: i64 = 0;
+    let mut touches_edge = false;
+    let mut push = |x: i32, y: i32, len: &mut usize| {
+        if *len % stride == 0 && stored < free {
+            if let Some(p) = points.get_mut(offset + stored) {
+                *p = Point { x: x as u16, y: y as u16 };
+            }
+            stored += 1;
+        }
+        *len += 1;
+        if x == 0 || y == 0 || x == w - 1 || y == h - 1 {
+            touches_edge = true;
+        }
+    };
+    // Step 3.1: clockwise from `from` for the first foreground neighbour.
+    let mut first = None;
+    for k in 0..8 {
+        let d = (from + k) % 8;
+        let (dx, dy) = DIRS[d];
+        if plane.at(x0 + dx, y0 + dy) != 0 {
+            first = Some((x0 + dx, y0 + dy));
+            break;
+        }
+    }
+    let Some((x1, y1)) = first else {
+        // Isolated pixel.
+        plane.set(x0, y0, NEG | nbd);
+        push(x0, y0, &mut len);
+        return Some(TraceResult { len, area2: 0, touches_edge });
+    };
+    let (mut x2, mut y2) = (x1, y1);
+    let (mut x3, mut y3) = (x0, y0);
+    // Each pixel is entered at most 4 times on one border; the guard only protects against a
+    // plane changed under our feet.
+    let guard = 4 * (plane.w * plane.h) + 16;
+    loop {
+        push(x3, y3, &mut len);
+        if len > guard {
+            return None;
+        }
+        // Step 3.3: counter-clockwise from the direction after (x2, y2).
+        let back = dir_index(x2 - x3, y2 - y3);
+        let mut east_examined = false;
+        let mut next = (x2, y2);
+        for k in 1..=8 {
+            let d = (back + 8 - k) % 8;
+            let (dx, dy) = DIRS[d];
+            if plane.at(x3 + dx, y3 + dy) != 0 {
+                next = (x3 + dx, y3 + dy);
+                break;
+            }
+            if d == EAST {
+                east_examined = true;
+            }
+        }
+        // Step 3.4: label.
+        if east_examined {
+            plane.set(x3, y3, NEG | nbd);
+        } else if plane.at(x3, y3) == 1 {
+            plane.set(x3, y3, nbd);
+        }
+        let (x4, y4) = next;
+        area2 += x3 as i64 * y4 as i64 - x4 as i64 * y3 as i64;
+        // Step 3.5: back at the start heading for the first point → done.
+        if x4 == x0 && y4 == y0 && x3 == x1 && y3 == y1 {
+            break;
+        }
+        (x2, y2) = (x3, y3);
+        (x3, y3) = (x4, y4);
+    }
+    Some(TraceResult { len, area2, touches_edge })
+}
+
+/// Index in [`DIRS`] of a unit step (W for anything unexpected).
+#[inline]
+fn dir_index(dx: i32, dy: i32) -> usize {
+    match (dx, dy) {
+        (-1, 0) => 0,
+        (-1, -1) => 1,
+        (0, -1) => 2,
+        (1, -1) => 3,
+        (1, 0) => 4,
+        (1, 1) => 5,
+        (0, 1) => 6,
+        _ => 7,
+    }
+}

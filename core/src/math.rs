@@ -1,0 +1,97 @@
+//! The one place that names `libm`: every floating-point function the core uses.
+//!
+//! The core runs in `f32` (a Cortex-M4F has a single-precision FPU). `libm` gives correctly
+//! rounded or near-correctly rounded results on every target, so host and MCU agree bit for bit
+//! on the same inputs.
+
+/// Square root.
+#[inline]
+pub fn sqrt(x: f32) -> f32 {
+    libm::sqrtf(x)
+}
+
+/// Four-quadrant arctangent of `y / x`, radians in `(−π, π]`.
+#[inline]
+pub fn atan2(y: f32, x: f32) -> f32 {
+    libm::atan2f(y, x)
+}
+
+/// Arccosine, radians. The argument is clamped to `[−1, 1]` first: a normalised dot product
+/// can exceed 1 by a few ulps, and `acos(1 + ε)` would be NaN (paper eq. 6.1 guard).
+#[inline]
+pub fn acos_clamped(x: f32) -> f32 {
+    libm::acosf(x.clamp(-1.0, 1.0))
+}
+
+/// Sine and cosine of an angle in radians.
+#[inline]
+pub fn sin_cos(x: f32) -> (f32, f32) {
+    libm::sincosf(x)
+}
+
+/// Round half away from zero.
+#[inline]
+pub fn round(x: f32) -> f32 {
+    libm::roundf(x)
+}
+
+/// Largest integer not above `x`.
+#[inline]
+pub fn floor(x: f32) -> f32 {
+    libm::floorf(x)
+}
+
+/// Euclidean length of `(x, y)` without undue overflow.
+#[inline]
+pub fn hypot(x: f32, y: f32) -> f32 {
+    libm::hypotf(x, y)
+}
+
+/// Degrees from radians.
+#[inline]
+pub fn degrees(rad: f32) -> f32 {
+    rad * (180.0 / core::f32::consts::PI)
+}
+
+/// Radians from degrees.
+#[inline]
+pub fn radians(deg: f32) -> f32 {
+    deg * (core::f32::consts::PI / 180.0)
+}
+
+/// An angle in degrees taken into `[0, 360)`.
+#[inline]
+pub fn wrap_degrees(deg: f32) -> f32 {
+    if !deg.is_finite() {
+        return 0.0;
+    }
+    let mut a = deg - 360.0 * floor(deg / 360.0);
+    // `deg` just below 0 can round to exactly 360.0.
+    if a >= 360.0 {
+        a -= 360.0;
+    }
+    if a < 0.0 {
+        a = 0.0;
+    }
+    a
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn acos_is_clamped() {
+        assert_eq!(acos_clamped(1.000_001), 0.0);
+        assert!((acos_clamped(-1.5) - core::f32::consts::PI).abs() < 1e-6);
+    }
+
+    #[test]
+    fn wrap_degrees_range() {
+        for d in [-720.0f32, -360.0, -1e-7, 0.0, 359.9999, 360.0, 725.0, f32::NAN] {
+            let w = wrap_degrees(d);
+            assert!((0.0..360.0).contains(&w), "{d} -> {w}");
+        }
+        assert!((wrap_degrees(-90.0) - 270.0).abs() < 1e-4);
+    }
+}

@@ -1,0 +1,119 @@
+//! Every tunable parameter of the pipeline, with its default and range.
+
+use crate::contour::BorderFilter;
+use crate::descriptor::DescriptorParams;
+use crate::enhance::Alpha;
+use crate::error::{Error, Result};
+use crate::mask::Threshold;
+use crate::resample::check_counts;
+
+/// Which rotation estimator fills [`crate::Detection::angle_deg`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AngleEstimator {
+    /// Signed least-squares rotation over the DP correspondences, full circle (default).
+    Signed,
+    /// The paper's mean of unsigned arccos angles (eqs. 6.1–6.4), `[0, 180]`.
+    Paper,
+}
+
+/// Pipeline parameters. [`Params::DEFAULT`] is a good start for parts of 40–200 px.
+///
+/// ```
+/// let mut p = vorl_core::Params::DEFAULT;
+/// p.n = 48;
+/// p.m = 72;
+/// p.validate().unwrap();
+/// p.m = 100; // m < 2n fails
+/// assert!(p.validate().is_err());
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Params {
+    /// Weight of intensity against gradient in `I'` (eq. 3.1), `[0, 1]`.
+    pub alpha: f32,
+    /// Foreground threshold on `|I' − B|`.
+    pub threshold: Threshold,
+    /// 3×3 opening and closing of the mask.
+    pub cleanup: bool,
+    /// Fewest border points of a kept contour.
+    pub min_points: usize,
+    /// Smallest polygon area of a kept contour, px².
+    pub min_area: f32,
+    /// Points a part contour is resampled to (`n`).
+    pub n: usize,
+    /// Points a template contour is resampled to (`m`, `n ≤ m < 2n`, eq. 4.5).
+    pub m: usize,
+    /// Neighbourhood of the angle term for parts (eq. 4.2); templates use `round(k·m/n)`.
+    pub k: usize,
+    /// Weight of the angle term `ω` (eq. 4.3), `[0, 1]`.
+    pub omega: f32,
+    /// Decision threshold `ε` on `f'` (eq. 5.2): known part iff `f' < ε`.
+    pub epsilon: f32,
+    /// Rotation estimator for the reported angle.
+    pub angle: AngleEstimator,
+}
+
+impl Params {
+    /// The defaults.
+    pub const DEFAULT: Params = Params {
+        alpha: 1.0,
+        threshold: Threshold::Fixed(30),
+        cleanup: true,
+        min_points: 16,
+        min_area: 64.0,
+        n: 64,
+        m: 96,
+        k: 4,
+        omega: 0.5,
+        epsilon: 0.08,
+        angle: AngleEstimator::Signed,
+    };
+
+    /// Checks every range.
+    ///
+    /// # Errors
+    /// [`Error::Parameter`] naming the first parameter out of range, or [`Error::PointCounts`].
+    pub fn validate(&self) -> Result<()> {
+        if Alpha::new(self.alpha).is_none() {
+            return Err(Error::Parameter { name: "alpha", value: self.alpha });
+        }
+        if !(0.0..=1.0).contains(&self.omega) {
+            return Err(Error::Parameter { name: "omega", value: self.omega });
+        }
+        if !(self.epsilon >= 0.0) || !self.epsilon.is_finite() {
+            return Err(Error::Parameter { name: "epsilon", value: self.epsilon });
+        }
+        if !(self.min_area >= 0.0) || !self.min_area.is_finite() {
+            return Err(Error::Parameter { name: "min_area", value: self.min_area });
+        }
+        check_counts(self.n, self.m)?;
+        if self.n < 8 {
+            return Err(Error::Parameter { name: "n", value: self.n as f32 });
+        }
+        if self.k == 0 || 2 * self.k >= self.n {
+            return Err(Error::Parameter { name: "k", value: self.k as f32 });
+        }
+        Ok(())
+    }
+
+    /// `α` as checked type (1.0 when out of range; [`Self::validate`] reports that).
+    pub fn alpha(&self) -> Alpha {
+        Alpha::new(self.alpha).unwrap_or(Alpha::ONE)
+    }
+
+    /// The border size filter.
+    pub fn filter(&self) -> BorderFilter {
+        BorderFilter { min_points: self.min_points, min_area: self.min_area }
+    }
+
+    /// Descriptor parameters for a contour of `points` points.
+    pub fn descriptor(&self, points: usize) -> DescriptorParams {
+        DescriptorParams { k: crate::descriptor::scaled_k(self.k, self.n, points), omega: self.omega }
+    }
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+

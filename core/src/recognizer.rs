@@ -1,0 +1,319 @@
+//! The whole pipeline on one frame: mask → borders → descriptors → match → pose → detections.
+//!
+//! A [`Recognizer`] owns every buffer except the two frame-sized planes (the background model and
+//! the label plane), which the caller places where it likes (on a camera: `static`s in RAM,
+//! with the frame itself in flash or a DMA buffer). Its capacities are const generics, so its
+//! size is known at compile time and `vorl budget` can add it up:
+//!
+//! | parameter | meaning | bytes |
+//! |---|---|---|
+//! | `T` | templates in the library | `T·(12·M + 32)` |
+//! | `M` | points of a template (≥ `m`, and ≥ `n`) | part buffers `14·M` |
+//! | `P` | border points stored per frame | `4·P` |
+//! | `C` | borders kept per frame | `C·40` |
+//! | `D` | DP table cells, ≥ `n·(m − n + 1)` | `4·D` |
+//!
+//! Each kept outer border is a part: resampled to `n` points, described, and matched against
+//! every template (the cyclic DP, with a bound from the best template so far so hopeless starts
+//! are abandoned early); the best template is its class when `f' < ε`, otherwise it is unknown.
+//! The rotation comes from the best template's correspondence, the position is the area
+//! centroid. A border that cannot be described is reported as a [`Skip`] with the reason.
+
+use crate::background::Background;
+use crate::contour::{trace_borders, BorderKind, ContourStore, TraceStats};
+use crate::descriptor::describe;
+use crate::error::{Error, Result};
+use crate::frame::Frame;
+use crate::mask::{foreground_mask, MaskStats};
+use crate::matching::{best_cost, match_with_assignment, table_cells};
+use crate::params::{AngleEstimator, Params};
+use crate::pose::{angle_paper, angle_signed, area_centroid};
+use crate::resample::resample;
+use crate::template::Template;
+
+/// Most detections reported for one frame.
+pub const MAX_DETECTIONS: usize = 32;
+/// Most skips reported for one frame (more are counted in [`Report::skips_lost`]).
+pub const MAX_SKIPS: usize = 16;
+
+/// One part found in a frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Detection {
+    /// Index of the matched template, `None` for an unknown part (`f' ≥ ε` or no templates).
+    pub template: Option<u16>,
+    /// The best template even when the part is unknown.
+    pub best_template: Option<u16>,
+    /// `f'` against the best template (eq. 5.1); infinite without templates.
+    pub score: f32,
+    /// Area centroid, x (px).
+    pub x: f32,
+    /// Area centroid, y (px).
+    pub y: f32,
+    /// Rotation from the template's reference pose, degrees counter-clockwise on screen,
+    /// `[0, 360)`, by [`Params::angle`].
+    pub angle_deg: f32,
+    /// The paper's unsigned estimate (eq. 6.4), degrees in `[0, 180]`.
+    pub angle_paper_deg: f32,
+    /// Index of the part's border in the recognizer's contour store.
+    pub contour: u16,
+    /// Polygon area of the border, px².
+    pub area: f32,
+    /// The border touches the frame's edge (the part may be cut).
+    pub touches_edge: bool,
+}
+
+/// Why a border was not turned into a detection.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SkipReason {
+    /// The border has no extent to resample or describe.
+    Degenerate,
+    /// The border's polygon has zero net area (no centroid).
+    NoArea,
+    /// [`MAX_DETECTIONS`] were already reported.
+    TooManyParts,
+}
+
+/// A border that did not become a detection.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Skip {
+    /// Index of the border in the contour store.
+    pub contour: u16,
+    /// The reason.
+    pub reason: SkipReason,
+}
+
+/// Everything the recognizer found in one frame.
+#[derive(Debug, Clone, Default)]
+pub struct Report {
+    /// The parts, in border order (top to bottom by first row).
+    pub detections: heapless::Vec<Detection, MAX_DETECTIONS>,
+    /// Borders that were kept but not reported as parts.
+    pub skips: heapless::Vec<Skip, MAX_SKIPS>,
+    /// Skips that did not fit in [`Self::skips`].
+    pub skips_lost: usize,
+    /// The mask stage's figures.
+    pub mask: MaskStats,
+    /// The border stage's figures (dropped, subsampled and skipped borders are counted here).
+    pub trace: TraceStats,
+}
+
+impl Report {
+    fn skip(&mut self, contour: usize, reason: SkipReason) {
+        if self.skips.push(Skip { contour: contour as u16, reason }).is_err() {
+            self.skips_lost += 1;
+        }
+    }
+}
+
+/// The recognizer: parameters, template library and working buffers of fixed capacity.
+///
+/// ```
+/// use vorl_core::{background::Background, Frame, Params, Recognizer};
+/// // A 60×40 platform (grey 100) with a dark 16×10 bar, taught as template 0.
+/// let (w, h) = (60, 40);
+/// let bg_px = vec![100u8; w * h];
+/// let mut tpl = vec![0u8; w * h];
+/// let mut scene = bg_px.clone();
+/// for y in 15..25 { for x in 22..38 { tpl[y * w + x] = 255; scene[y * w + x] = 20; } }
+/// let mut labels = vec![0u8; w * h];
+/// let mut rec = Recognizer::<2, 96, 2048, 16, 4096>::new();
+/// rec.set_params(Params::DEFAULT).unwrap();
+/// rec.teach(&Frame::new_checked(&tpl[..], w, h).unwrap(), &mut labels).unwrap();
+/// let mut bg = Background::new(vec![0u8; w * h], w, h).unwrap();
+/// bg.set_from_frame(&Frame::new_checked(&bg_px[..], w, h).unwrap(), Params::DEFAULT.alpha()).unwrap();
+/// let report = rec.process(&Frame::new_checked(&scene[..], w, h).unwrap(), &bg, &mut labels).unwrap();
+/// let d = report.detections[0];
+/// assert_eq!(d.template, Some(0));
+/// assert!((d.x - 29.5).abs() < 0.01 && (d.y - 19.5).abs() < 0.01);
+/// assert!(d.angle_deg < 1.0 || d.angle_deg > 359.0 || (d.angle_deg - 180.0).abs() < 1.0);
+/// ```
+#[derive(Debug, Clone)]
+pub struct Recognizer<const T: usize, const M: usize, const P: usize, const C: usize, const D: usize> {
+    params: Params,
+    templates: heapless::Vec<Template<M>, T>,
+    store: ContourStore<P, C>,
+    points: [[f32; 2]; M],
+    descriptor: [f32; M],
+    assignment: [u16; M],
+    table: [f32; D],
+}
+
+impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: usize> Default for Recognizer<T, M, P, C, D> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: usize> Recognizer<T, M, P, C, D> {
+    /// A recognizer with [`Params::DEFAULT`] and no templates (`const`, for `static` use).
+    pub const fn new() -> Self {
+        Recognizer {
+            params: Params::DEFAULT,
+            templates: heapless::Vec::new(),
+            store: ContourStore::new(),
+            points: [[0.0; 2]; M],
+            descriptor: [0.0; M],
+            assignment: [0; M],
+            table: [0.0; D],
+        }
+    }
+
+    /// Sets the parameters after checking them and the capacities; clears the templates when
+    /// `m`, `k` or `ω` change (they shape the templates).
+    ///
+    /// # Errors
+    /// [`Params::validate`]'s errors; [`Error::Capacity`] when `m > M` or the DP table needs
+    /// more than `D` cells.
+    pub fn set_params(&mut self, params: Params) -> Result<()> {
+        params.validate()?;
+        if params.m > M {
+            return Err(Error::Capacity { what: "template points M", capacity: M, requested: params.m });
+        }
+        let cells = table_cells(params.n, params.m);
+        if cells > D {
+            return Err(Error::Capacity { what: "DP table cells D", capacity: D, requested: cells });
+        }
+        let p = &self.params;
+        if p.m != params.m || p.k != params.k || p.n != params.n || p.omega != params.omega {
+            self.templates.clear();
+        }
+        self.params = params;
+        Ok(())
+    }
+
+    /// The parameters in use.
+    pub fn params(&self) -> &Params {
+        &self.params
+    }
+
+    /// Adds a template; returns its index.
+    ///
+    /// # Errors
+    /// [`Error::Capacity`] when `T` templates are held already.
+    pub fn add_template(&mut self, template: Template<M>) -> Result<usize> {
+        let index = self.templates.len();
+        self.templates
+            .push(template)
+            .map_err(|_| Error::Capacity { what: "templates T", capacity: T, requested: T + 1 })?;
+        Ok(index)
+    }
+
+    /// Teaches the part in a silhouette image (part > 127) as a new template; `labels` is
+    /// scratch of the silhouette's size.
+    ///
+    /// # Errors
+    /// As [`Template::from_silhouette`] and [`Self::add_template`].
+    pub fn teach<B: AsRef<[u8]>>(&mut self, silhouette: &Frame<B>, labels: &mut [u8]) -> Result<usize> {
+        let t = Template::from_silhouette(silhouette, &self.params, labels, &mut self.store)?;
+        self.add_template(t)
+    }
+
+    /// The templates.
+    pub fn templates(&self) -> &[Template<M>] {
+        &self.templates
+    }
+
+    /// Removes every template.
+    pub fn clear_templates(&mut self) {
+        self.templates.clear();
+    }
+
+    /// The borders of the last processed frame (index with [`Detection::contour`]).
+    pub fn contours(&self) -> &ContourStore<P, C> {
+        &self.store
+    }
+
+    /// Runs one frame through the whole pipeline. `labels` (`width·height` bytes) is scratch;
+    /// afterwards it holds the labelled mask (0 = background).
+    ///
+    /// # Errors
+    /// [`Error::NoBackground`], [`Error::FrameSize`] (frame and background differ),
+    /// [`Error::BufferTooSmall`] for `labels`. Problems with single borders are skips, not errors.
+    pub fn process<B: AsRef<[u8]>, S: AsRef<[u8]> + AsMut<[u8]>>(
+        &mut self,
+        frame: &Frame<B>,
+        background: &Background<S>,
+        labels: &mut [u8],
+    ) -> Result<Report> {
+        let params = self.params;
+        let mut report = Report::default();
+        report.mask = foreground_mask(frame, background, params.alpha(), params.threshold, params.cleanup, labels)?;
+        report.trace = trace_borders(labels, frame.width(), frame.height(), params.filter(), &mut self.store)?;
+        let n = params.n;
+        for index in 0..self.store.contours().len() {
+            let Some(contour) = self.store.contours().get(index).copied() else { continue };
+            if contour.kind != BorderKind::Outer {
+                continue;
+            }
+            let border = self.store.points(index);
+            let holes = self.store.holes_of(index).map(|i| self.store.points(i));
+            let Some([x, y]) = area_centroid(border, holes) else {
+                report.skip(index, SkipReason::NoArea);
+                continue;
+            };
+            let points = self.points.get_mut(..n).unwrap_or(&mut []);
+            let descriptor = self.descriptor.get_mut(..n).unwrap_or(&mut []);
+            let centroid = match resample(border, points).and_then(|_| describe(points, params.descriptor(n), descriptor)) {
+                Ok(c) => c,
+                Err(_) => {
+                    report.skip(index, SkipReason::Degenerate);
+                    continue;
+                }
+            };
+            let mut detection = Detection {
+                template: None,
+                best_template: None,
+                score: f32::INFINITY,
+                x,
+                y,
+                angle_deg: 0.0,
+                angle_paper_deg: 0.0,
+                contour: index as u16,
+                area: contour.area(),
+                touches_edge: contour.touches_edge,
+            };
+            if let Some((ti, _)) = self.best_template(n) {
+                if let Some(t) = self.templates.get(ti) {
+                    let part_desc = self.descriptor.get(..n).unwrap_or(&[]);
+                    let assignment = self.assignment.get_mut(..n).unwrap_or(&mut []);
+                    if let Ok(m) = match_with_assignment(part_desc, t.descriptor(), &mut self.table, assignment) {
+                        let part_pts = self.points.get(..n).unwrap_or(&[]);
+                        let assignment = self.assignment.get(..n).unwrap_or(&[]);
+                        let signed = angle_signed(part_pts, centroid, t.points(), t.centroid(), assignment);
+                        let paper = angle_paper(part_pts, centroid, t.points(), t.centroid(), assignment);
+                        detection.best_template = Some(ti as u16);
+                        detection.score = m.normalized;
+                        detection.angle_paper_deg = paper.unwrap_or(0.0);
+                        detection.angle_deg = match params.angle {
+                            AngleEstimator::Signed => signed.unwrap_or(0.0),
+                            AngleEstimator::Paper => paper.unwrap_or(0.0),
+                        };
+                        if m.normalized < params.epsilon {
+                            detection.template = Some(ti as u16);
+                        }
+                    }
+                }
+            }
+            if report.detections.push(detection).is_err() {
+                report.skip(index, SkipReason::TooManyParts);
+            }
+        }
+        Ok(report)
+    }
+
+    /// The template with the lowest `f'` for the described part in `self.descriptor[..n]`,
+    /// each template's DP bounded by the best cost so far (early rejection, exact).
+    fn best_template(&mut self, n: usize) -> Option<(usize, f32)> {
+        let part = self.descriptor.get(..n)?;
+        let mut best: Option<(usize, f32)> = None;
+        for (ti, t) in self.templates.iter().enumerate() {
+            let bound = best.map_or(f32::INFINITY, |(_, c)| c);
+            if let Ok(Some(m)) = best_cost(part, t.descriptor(), bound, &mut self.table) {
+                if m.cost < bound {
+                    best = Some((ti, m.cost));
+                }
+            }
+        }
+        best
+    }
+}

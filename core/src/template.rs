@@ -1,0 +1,143 @@
+//! Templates: the taught silhouettes, resampled to `m` points and described.
+//!
+//! A template is made from the outer border of a part at its reference pose (angle 0): the
+//! border is resampled to `m` points (eq. 4.5) and described with the neighbourhood
+//! `round(k·m/n)` (DESIGN.md: the same fraction of the outline as a part's `k` of `n`).
+//! [`Template::from_silhouette`] takes the largest outer border of a silhouette image (part 255,
+//! rest 0; `docs/pipeline-spec.md` §9).
+//!
+//! Memory: `12·M + 32` bytes per template of capacity `M`.
+
+use crate::contour::{trace_borders, BorderFilter, BorderKind, ContourStore, Point};
+use crate::descriptor::describe;
+use crate::error::{Error, Result};
+use crate::frame::Frame;
+use crate::params::Params;
+use crate::pose::area_centroid;
+use crate::resample::resample;
+
+/// One taught part: `m` resampled border points, their descriptor and centroids.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Template<const M: usize> {
+    m: usize,
+    points: [[f32; 2]; M],
+    descriptor: [f32; M],
+    centroid: [f32; 2],
+    area_centroid: [f32; 2],
+    area: f32,
+}
+
+impl<const M: usize> Template<M> {
+    /// An empty template (`const`, for `static` storage).
+    pub const fn empty() -> Self {
+        Template { m: 0, points: [[0.0; 2]; M], descriptor: [0.0; M], centroid: [0.0; 2], area_centroid: [0.0; 2], area: 0.0 }
+    }
+
+    /// A template from an outer border (and its holes, for the area centroid).
+    ///
+    /// # Errors
+    /// [`Error::PointCounts`] when `params.m > M`, [`Error::DegenerateContour`] for a border
+    /// that cannot be resampled or described.
+    pub fn from_border<'a>(border: &[Point], holes: impl Iterator<Item = &'a [Point]>, params: &Params) -> Result<Self> {
+        let m = params.m;
+        if m > M || m == 0 {
+            return Err(Error::PointCounts { n: params.n, m });
+        }
+        let mut t = Self::empty();
+        t.m = m;
+        resample(border, &mut t.points[..m])?;
+        t.centroid = describe(&t.points[..m], params.descriptor(m), &mut t.descriptor[..m])?;
+        let ac = area_centroid(border, holes).ok_or(Error::DegenerateContour { points: border.len() })?;
+        t.area_centroid = ac;
+        let mut a2 = 0i64;
+        for (i, p) in border.iter().enumerate() {
+            let q = border.get((i + 1) % border.len()).copied().unwrap_or(*p);
+            a2 += p.x as i64 * q.y as i64 - q.x as i64 * p.y as i64;
+        }
+        t.area = a2.unsigned_abs() as f32 * 0.5;
+        Ok(t)
+    }
+
+    /// A template from a silhouette image (part > 127): its largest outer border.
+    /// `labels` (`width·height` bytes) and `store` are scratch.
+    ///
+    /// ```
+    /// use vorl_core::{contour::ContourStore, Frame, Params, Template};
+    /// let (w, h) = (40, 40);
+    /// let mut px = vec![0u8; w * h];
+    /// for y in 10..30 { for x in 8..32 { px[y * w + x] = 255; } }
+    /// let mut labels = vec![0u8; w * h];
+    /// let mut store = ContourStore::<1024, 8>::new();
+    /// let t = Template::<96>::from_silhouette(&Frame::new_checked(&px[..], w, h).unwrap(), &Params::DEFAULT, &mut labels, &mut store).unwrap();
+    /// assert_eq!(t.points().len(), 96);
+    /// assert!((t.area_centroid()[0] - 19.5).abs() < 1e-4);
+    /// ```
+    ///
+    /// # Errors
+    /// [`Error::NoPart`] when the image has no border, plus those of [`Self::from_border`] and
+    /// [`trace_borders`].
+    pub fn from_silhouette<B: AsRef<[u8]>, const P: usize, const C: usize>(
+        silhouette: &Frame<B>,
+        params: &Params,
+        labels: &mut [u8],
+        store: &mut ContourStore<P, C>,
+    ) -> Result<Self> {
+        let (w, h) = (silhouette.width(), silhouette.height());
+        let n = w * h;
+        if labels.len() < n {
+            return Err(Error::BufferTooSmall { needed: n, got: labels.len() });
+        }
+        for (y, row) in labels.chunks_exact_mut(w).take(h).enumerate() {
+            for (l, &p) in row.iter_mut().zip(silhouette.row(y)) {
+                *l = (p > 127) as u8;
+            }
+        }
+        let filter = BorderFilter { min_points: 1, min_area: 0.0 };
+        trace_borders(labels, w, h, filter, store)?;
+        let best = store
+            .contours()
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| c.kind == BorderKind::Outer)
+            .max_by_key(|(_, c)| c.area2.unsigned_abs())
+            .map(|(i, _)| i)
+            .ok_or(Error::NoPart)?;
+        let holes = store.holes_of(best).map(|i| store.points(i));
+        Self::from_border(store.points(best), holes, params)
+    }
+
+    /// Number of resampled points `m`.
+    pub fn len(&self) -> usize {
+        self.m
+    }
+
+    /// Whether the template is empty (never for one made by a constructor).
+    pub fn is_empty(&self) -> bool {
+        self.m == 0
+    }
+
+    /// The `m` resampled border points.
+    pub fn points(&self) -> &[[f32; 2]] {
+        self.points.get(..self.m).unwrap_or(&[])
+    }
+
+    /// The `m` descriptor values `c'_j`.
+    pub fn descriptor(&self) -> &[f32] {
+        self.descriptor.get(..self.m).unwrap_or(&[])
+    }
+
+    /// Mean of the resampled points (the `C'` of eqs. 4.1–4.2 and 6.3).
+    pub fn centroid(&self) -> [f32; 2] {
+        self.centroid
+    }
+
+    /// Area centroid of the silhouette (the reference position).
+    pub fn area_centroid(&self) -> [f32; 2] {
+        self.area_centroid
+    }
+
+    /// Polygon area of the border, px².
+    pub fn area(&self) -> f32 {
+        self.area
+    }
+}
