@@ -63,6 +63,7 @@ pub struct Detection {
 }
 
 /// Why a border was not turned into a detection.
+#[non_exhaustive]
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SkipReason {
     /// The border has no extent to resample or describe.

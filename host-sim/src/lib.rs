@@ -2,6 +2,14 @@
 //! generator and the pieces of the `vorl` command-line program.
 
 #![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
+pub mod cli;
+pub mod config;
+pub mod engine;
 pub mod gen;
+pub mod io;
+pub mod overlay;
 pub mod reference;
+pub mod set;
+pub mod truth;

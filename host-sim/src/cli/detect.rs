@@ -1,0 +1,216 @@
+//! `vorl detect`: run the core on frames and print what it finds.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use crate::cli::params::ParamArgs;
+use crate::engine::{skip_text, Engine, FrameResult};
+use crate::io::{file_name, load_gray};
+use crate::set::{load_background_frames, FixtureSet};
+use crate::truth::{FramesJson, PartJson};
+
+/// Arguments of `vorl detect`.
+#[derive(Debug, clap::Args)]
+#[command(after_help = "Examples:\n  \
+    vorl detect examples/plant\n  \
+    vorl detect examples/plant --json > predictions.json\n  \
+    vorl detect examples/plant --overlay out/overlays\n  \
+    vorl detect --background bg.png --templates templates/ frame1.png frame2.png")]
+pub struct DetectArgs {
+    /// A fixture set folder (background.png, templates/, frames/).
+    #[arg(value_name = "SET", required_unless_present = "background")]
+    pub set: Option<PathBuf>,
+    /// Background image (instead of a set).
+    #[arg(long, value_name = "BG", requires = "templates")]
+    pub background: Option<PathBuf>,
+    /// Template folder (instead of a set).
+    #[arg(long, value_name = "DIR")]
+    pub templates: Option<PathBuf>,
+    /// Frames (instead of a set's frames/).
+    #[arg(value_name = "FRAME", conflicts_with = "set", last = false)]
+    pub frames: Vec<PathBuf>,
+    /// Print the predictions as JSON (the truth.json shape).
+    #[arg(long)]
+    pub json: bool,
+    /// Write an overlay PNG per frame into this folder.
+    #[arg(long, value_name = "DIR")]
+    pub overlay: Option<PathBuf>,
+    /// Pipeline parameters.
+    #[command(flatten)]
+    pub params: ParamArgs,
+}
+
+/// Where the inputs of a run come from.
+pub struct Inputs {
+    /// The engine with background and templates.
+    pub engine: Engine,
+    /// The frames to run.
+    pub frames: Vec<PathBuf>,
+    /// Notes (conversions) to print.
+    pub notes: Vec<String>,
+}
+
+/// Builds the engine from a set or from explicit files.
+///
+/// # Errors
+/// Any unreadable background or template, or a template that is not one part.
+pub fn prepare(
+    set: Option<&Path>,
+    background: Option<&Path>,
+    templates: Option<&Path>,
+    frames: &[PathBuf],
+    params: &ParamArgs,
+) -> Result<Inputs, String> {
+    let mut engine = Engine::new(params.params()?)?;
+    let (bgs, tpls, frames) = match set {
+        Some(root) => {
+            let s = FixtureSet::open(root).map_err(|e| e.to_string())?;
+            (s.load_backgrounds().map_err(|e| e.to_string())?, s.load_templates().map_err(|e| e.to_string())?, s.frames)
+        }
+        None => {
+            let bg = background.ok_or("--background is needed without a SET")?.to_path_buf();
+            let dir = templates.ok_or("--templates is needed without a SET")?;
+            let bgs = load_background_frames([&bg]).map_err(|e| e.to_string())?;
+            let tpls = crate::engine::load_silhouettes(dir).map_err(|e| e.to_string())?;
+            (bgs, tpls, frames.to_vec())
+        }
+    };
+    engine.learn_background(&bgs)?;
+    let dir = set.map(|s| s.join("templates")).or_else(|| templates.map(Path::to_path_buf)).unwrap_or_default();
+    for t in &tpls {
+        engine
+            .add_silhouette(&t.name, &t.image)
+            .map_err(|e| format!("{}: {e}", dir.join(format!("{}.png", t.name)).display()))?;
+    }
+    Ok(Inputs { engine, frames, notes: Vec::new() })
+}
+
+/// Loads and runs one frame; a one-line error naming the file on failure.
+///
+/// # Errors
+/// Unreadable frame, or a size that differs from the background's.
+pub fn run_frame(engine: &mut Engine, path: &Path) -> Result<(FrameResult, image::GrayImage, Option<String>), String> {
+    let loaded = load_gray(path).map_err(|e| e.to_string())?;
+    if let Some(bg) = engine.background() {
+        let (w, h) = (loaded.image.width() as usize, loaded.image.height() as usize);
+        if (w, h) != (bg.width(), bg.height()) {
+            return Err(format!(
+                "{}: frame is {w}×{h} but the background is {}×{}",
+                path.display(),
+                bg.width(),
+                bg.height()
+            ));
+        }
+    }
+    let note = loaded.note.map(|n| format!("{}: {n}", path.display()));
+    let result = engine.detect(&loaded.image).map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok((result, loaded.image, note))
+}
+
+/// The prediction JSON of one frame's result.
+pub fn to_json(result: &FrameResult) -> Vec<PartJson> {
+    result
+        .detections
+        .iter()
+        .map(|d| {
+            let mut extra = std::collections::BTreeMap::new();
+            extra.insert("angle_paper_deg".into(), serde_json::json!(round6(d.core.angle_paper_deg as f64)));
+            if let Some(b) = &d.best_class {
+                extra.insert("best_class".into(), serde_json::json!(b));
+            }
+            PartJson {
+                class: d.class.clone(),
+                x: round6(d.core.x as f64),
+                y: round6(d.core.y as f64),
+                angle_deg: round6(d.core.angle_deg as f64),
+                symmetry: None,
+                score: d.core.score.is_finite().then_some(round6(d.core.score as f64)),
+                partial: d.core.touches_edge.then_some(true),
+                extra,
+            }
+        })
+        .collect()
+}
+
+fn round6(v: f64) -> f64 {
+    (v * 1e6).round() / 1e6
+}
+
+/// Runs `vorl detect`.
+///
+/// # Errors
+/// Set-up problems (background, templates, parameters); frame problems are reported per frame
+/// and make the exit code 1.
+pub fn run(args: DetectArgs) -> Result<ExitCode, String> {
+    let mut inputs = prepare(
+        args.set.as_deref(),
+        args.background.as_deref(),
+        args.templates.as_deref(),
+        &args.frames,
+        &args.params,
+    )?;
+    if inputs.frames.is_empty() {
+        return Err("no frames to process".into());
+    }
+    if let Some(dir) = &args.overlay {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: cannot create folder: {e}", dir.display()))?;
+    }
+    let mut out = FramesJson::default();
+    let mut failed = 0usize;
+    for path in inputs.frames.clone() {
+        let name = file_name(&path);
+        match run_frame(&mut inputs.engine, &path) {
+            Ok((result, image, note)) => {
+                if let Some(n) = note {
+                    eprintln!("note: {n}");
+                }
+                if let Some(dir) = &args.overlay {
+                    let target = dir.join(&name);
+                    let pic = crate::overlay::draw(&image, &result);
+                    if let Err(e) = pic.save(&target) {
+                        eprintln!("error: {}: cannot write overlay: {e}", target.display());
+                        failed += 1;
+                    }
+                }
+                for s in &result.skips {
+                    eprintln!("note: {name}: border {} skipped: {}", s.contour, skip_text(s.reason));
+                }
+                if !args.json {
+                    print_human(&name, &result);
+                }
+                out.frames.insert(name, to_json(&result));
+            }
+            Err(e) => {
+                eprintln!("error: {e}");
+                failed += 1;
+            }
+        }
+    }
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&out).map_err(|e| e.to_string())?);
+    }
+    if failed > 0 {
+        eprintln!("{failed} frame(s) failed");
+        return Ok(ExitCode::from(1));
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn print_human(name: &str, result: &FrameResult) {
+    println!("{name}: {} part(s) in {:.1} ms", result.detections.len(), result.seconds * 1e3);
+    for d in &result.detections {
+        let class = d.class.as_deref().unwrap_or("unknown");
+        let best = match (&d.class, &d.best_class) {
+            (None, Some(b)) => format!(" (nearest {b})"),
+            _ => String::new(),
+        };
+        println!(
+            "  {class:<14} x {:8.2}  y {:8.2}  angle {:7.2}°  f' {:.4}{best}{}",
+            d.core.x,
+            d.core.y,
+            d.core.angle_deg,
+            d.core.score,
+            if d.core.touches_edge { "  [touches edge]" } else { "" }
+        );
+    }
+}

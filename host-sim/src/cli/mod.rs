@@ -1,0 +1,43 @@
+//! The `vorl` command line: one module per subcommand.
+
+pub mod config;
+pub mod detect;
+pub mod params;
+
+use clap::{Parser, Subcommand};
+
+/// vorl: contour matching for smart cameras over a plain platform.
+///
+/// Teach templates, replay recorded frames through the same core that runs on the camera,
+/// and measure it.
+#[derive(Debug, Parser)]
+#[command(name = "vorl", version, about, long_about = None, propagate_version = true)]
+pub struct Cli {
+    /// The subcommand.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// Subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Find the parts in frames: class (or unknown), position, angle.
+    Detect(detect::DetectArgs),
+    /// Print the pipeline parameters.
+    Config(config::ConfigArgs),
+}
+
+/// Runs the parsed command; the exit code.
+pub fn run(cli: Cli) -> std::process::ExitCode {
+    let result = match cli.command {
+        Command::Detect(a) => detect::run(a),
+        Command::Config(a) => config::run(a),
+    };
+    match result {
+        Ok(code) => code,
+        Err(msg) => {
+            eprintln!("error: {msg}");
+            std::process::ExitCode::from(2)
+        }
+    }
+}

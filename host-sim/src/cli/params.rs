@@ -1,0 +1,74 @@
+//! Parameter flags shared by the subcommands that run the pipeline.
+
+use std::path::PathBuf;
+
+use vorl_core::Params;
+
+use crate::config::{AngleSetting, Config, ThresholdName, ThresholdSetting};
+
+/// Pipeline parameters: a config file, then single flags on top.
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct ParamArgs {
+    /// TOML file of parameters (see `vorl config --defaults`).
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Foreground threshold τ on |I' − B| (0..255) or "otsu".
+    #[arg(long, value_name = "TAU|otsu")]
+    pub threshold: Option<String>,
+    /// Intensity weight α of I' = α·I + (1−α)·|∇I|.
+    #[arg(long)]
+    pub alpha: Option<f32>,
+    /// Points per part contour (n).
+    #[arg(long)]
+    pub n: Option<usize>,
+    /// Points per template contour (m, n ≤ m < 2n).
+    #[arg(long)]
+    pub m: Option<usize>,
+    /// Descriptor neighbourhood k.
+    #[arg(long)]
+    pub k: Option<usize>,
+    /// Descriptor angle weight ω.
+    #[arg(long)]
+    pub omega: Option<f32>,
+    /// Decision threshold ε on f'.
+    #[arg(long)]
+    pub epsilon: Option<f32>,
+    /// Rotation estimator.
+    #[arg(long, value_enum)]
+    pub angle: Option<AngleSetting>,
+}
+
+impl ParamArgs {
+    /// The config file (or defaults) with the flags applied.
+    ///
+    /// # Errors
+    /// The config file cannot be read, a flag is malformed, or a value is out of range.
+    pub fn config(&self) -> Result<Config, String> {
+        let mut c = match &self.config {
+            Some(p) => Config::load(p)?,
+            None => Config::default(),
+        };
+        if let Some(t) = &self.threshold {
+            c.threshold = if t.eq_ignore_ascii_case("otsu") {
+                ThresholdSetting::Named(ThresholdName::Otsu)
+            } else {
+                ThresholdSetting::Fixed(
+                    t.parse().map_err(|_| format!("--threshold {t}: expected 0..255 or \"otsu\""))?,
+                )
+            };
+        }
+        macro_rules! set {
+            ($($f:ident),*) => { $( if let Some(v) = self.$f { c.$f = v; } )* };
+        }
+        set!(alpha, n, m, k, omega, epsilon, angle);
+        Ok(c)
+    }
+
+    /// The checked core parameters.
+    ///
+    /// # Errors
+    /// As [`Self::config`] and [`Config::to_params`].
+    pub fn params(&self) -> Result<Params, String> {
+        self.config()?.to_params()
+    }
+}

@@ -1,0 +1,191 @@
+//! Pipeline parameters on the host: flags, a TOML file, and `vorl config --defaults`.
+
+use serde::{Deserialize, Serialize};
+use vorl_core::mask::Threshold;
+use vorl_core::{AngleEstimator, Params};
+
+/// The parameters as they appear in a TOML config file. Every field is optional in the file;
+/// missing ones keep their defaults.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Config {
+    /// Weight of intensity against gradient in I' = α·I + (1−α)·|∇I| (eq. 3.1), 0..1.
+    pub alpha: f32,
+    /// Foreground threshold on |I' − B|: a number 0..255, or "otsu".
+    pub threshold: ThresholdSetting,
+    /// 3×3 opening and closing of the foreground mask.
+    pub cleanup: bool,
+    /// Fewest border points of a kept contour.
+    pub min_points: usize,
+    /// Smallest area of a kept contour, px².
+    pub min_area: f32,
+    /// Points a part contour is resampled to (n).
+    pub n: usize,
+    /// Points a template contour is resampled to (m, n ≤ m < 2n).
+    pub m: usize,
+    /// Neighbourhood k of the descriptor's angle term (eq. 4.2), in part points.
+    pub k: usize,
+    /// Weight ω of the angle term in c = ω·a + (1−ω)·d (eq. 4.3), 0..1.
+    pub omega: f32,
+    /// Decision threshold ε: a part is known iff f' < ε (eq. 5.2).
+    pub epsilon: f32,
+    /// Rotation estimator: "signed" (full circle) or "paper" (eq. 6.4, unsigned).
+    pub angle: AngleSetting,
+}
+
+/// Threshold as written in a config file.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum ThresholdSetting {
+    /// A fixed τ.
+    Fixed(u8),
+    /// `"otsu"`.
+    Named(ThresholdName),
+}
+
+/// The named threshold methods.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ThresholdName {
+    /// Otsu's level per frame.
+    Otsu,
+}
+
+/// Angle estimator as written in a config file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum AngleSetting {
+    /// Signed least-squares rotation, 0–360°.
+    Signed,
+    /// The paper's unsigned mean arccos (eq. 6.4).
+    Paper,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Config::from_params(&Params::DEFAULT)
+    }
+}
+
+impl Config {
+    /// The config that gives `p`.
+    pub fn from_params(p: &Params) -> Self {
+        Config {
+            alpha: p.alpha,
+            threshold: match p.threshold {
+                Threshold::Fixed(t) => ThresholdSetting::Fixed(t),
+                Threshold::Otsu => ThresholdSetting::Named(ThresholdName::Otsu),
+            },
+            cleanup: p.cleanup,
+            min_points: p.min_points,
+            min_area: p.min_area,
+            n: p.n,
+            m: p.m,
+            k: p.k,
+            omega: p.omega,
+            epsilon: p.epsilon,
+            angle: match p.angle {
+                AngleEstimator::Signed => AngleSetting::Signed,
+                AngleEstimator::Paper => AngleSetting::Paper,
+            },
+        }
+    }
+
+    /// The core parameters, checked.
+    ///
+    /// # Errors
+    /// The core's validation message.
+    pub fn to_params(&self) -> Result<Params, String> {
+        let p = Params {
+            alpha: self.alpha,
+            threshold: match self.threshold {
+                ThresholdSetting::Fixed(t) => Threshold::Fixed(t),
+                ThresholdSetting::Named(ThresholdName::Otsu) => Threshold::Otsu,
+            },
+            cleanup: self.cleanup,
+            min_points: self.min_points,
+            min_area: self.min_area,
+            n: self.n,
+            m: self.m,
+            k: self.k,
+            omega: self.omega,
+            epsilon: self.epsilon,
+            angle: match self.angle {
+                AngleSetting::Signed => AngleEstimator::Signed,
+                AngleSetting::Paper => AngleEstimator::Paper,
+            },
+        };
+        p.validate().map_err(|e| format!("invalid parameters: {e}"))?;
+        Ok(p)
+    }
+
+    /// Reads a TOML config file.
+    ///
+    /// # Errors
+    /// A one-line message naming the file.
+    pub fn load(path: &std::path::Path) -> Result<Self, String> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| format!("{}: {}", path.display(), crate::io::io_problem(&e)))?;
+        toml::from_str(&text).map_err(|e| {
+            format!("{}: not a valid vorl config: {}", path.display(), e.message())
+        })
+    }
+
+    /// Every parameter with its default and meaning, as a commented TOML file.
+    pub fn defaults_toml() -> String {
+        let d = Config::default();
+        let thr = match d.threshold {
+            ThresholdSetting::Fixed(t) => t.to_string(),
+            ThresholdSetting::Named(_) => "\"otsu\"".into(),
+        };
+        let angle = match d.angle {
+            AngleSetting::Signed => "signed",
+            AngleSetting::Paper => "paper",
+        };
+        format!(
+            "# vorl pipeline parameters (defaults). Pass with --config FILE; flags override.\n\
+             # Weight of intensity against gradient in I' = α·I + (1−α)·|∇I| (paper eq. 3.1), 0..1.\n\
+             alpha = {}\n\
+             # Foreground threshold on |I' − B|: 0..255, or \"otsu\" for Otsu's level per frame.\n\
+             threshold = {}\n\
+             # 3×3 opening and closing of the foreground mask.\n\
+             cleanup = {}\n\
+             # Fewest border points of a kept contour.\n\
+             min_points = {}\n\
+             # Smallest area of a kept contour, px².\n\
+             min_area = {:?}\n\
+             # Points a part contour is resampled to (n).\n\
+             n = {}\n\
+             # Points a template contour is resampled to (m; n ≤ m < 2n, eq. 4.5).\n\
+             m = {}\n\
+             # Neighbourhood k of the descriptor's angle term (eq. 4.2), in part points; templates use round(k·m/n).\n\
+             k = {}\n\
+             # Weight ω of the angle term in c = ω·a + (1−ω)·d (eq. 4.3), 0..1.\n\
+             omega = {:?}\n\
+             # Decision threshold ε: a part is known iff f' = f_min/n < ε (eqs. 5.1–5.2).\n\
+             epsilon = {:?}\n\
+             # Rotation estimator: \"signed\" (least squares, 0–360°) or \"paper\" (eq. 6.4, unsigned 0–180°).\n\
+             angle = \"{}\"\n",
+            d.alpha, thr, d.cleanup, d.min_points, d.min_area, d.n, d.m, d.k, d.omega, d.epsilon, angle
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_toml_round_trips() {
+        let c: Config = toml::from_str(&Config::defaults_toml()).unwrap();
+        assert_eq!(c, Config::default());
+        assert_eq!(c.to_params().unwrap(), Params::DEFAULT);
+    }
+
+    #[test]
+    fn otsu_and_unknown_keys() {
+        let c: Config = toml::from_str("threshold = \"otsu\"").unwrap();
+        assert_eq!(c.to_params().unwrap().threshold, Threshold::Otsu);
+        assert!(toml::from_str::<Config>("thresold = 3").is_err());
+    }
+}

@@ -1,0 +1,222 @@
+//! The host's driver of the core: a boxed [`vorl_core::Recognizer`] with generous capacities,
+//! the frame-sized planes, template names and silhouette checks.
+
+use std::path::Path;
+
+use image::GrayImage;
+use vorl_core::background::Background;
+use vorl_core::contour::{trace_borders, BorderFilter, BorderKind, ContourStore, Point};
+use vorl_core::recognizer::{Report, Skip, SkipReason};
+use vorl_core::{Frame, Params, Recognizer, Template};
+
+use crate::io::{file_stem, list_files, load_gray, InputError};
+
+/// Templates the host recognizer holds.
+pub const HOST_TEMPLATES: usize = 64;
+/// Template point capacity (`m ≤ 512`).
+pub const HOST_M: usize = 512;
+/// Border points stored per frame.
+pub const HOST_POINTS: usize = 1 << 16;
+/// Borders kept per frame.
+pub const HOST_CONTOURS: usize = 512;
+/// DP table cells.
+pub const HOST_CELLS: usize = 1 << 16;
+
+/// The core recognizer with the host's capacities.
+pub type HostRecognizer = Recognizer<HOST_TEMPLATES, HOST_M, HOST_POINTS, HOST_CONTOURS, HOST_CELLS>;
+
+/// A template silhouette with its class name.
+#[derive(Debug, Clone)]
+pub struct NamedSilhouette {
+    /// Class name (the file stem).
+    pub name: String,
+    /// The silhouette (part > 127).
+    pub image: GrayImage,
+}
+
+/// One detection with names and the border, ready for JSON or an overlay.
+#[derive(Debug, Clone)]
+pub struct HostDetection {
+    /// The core's detection.
+    pub core: vorl_core::Detection,
+    /// Class name, `None` for unknown.
+    pub class: Option<String>,
+    /// Best template's name even when unknown.
+    pub best_class: Option<String>,
+    /// The part's border points.
+    pub border: Vec<(u16, u16)>,
+}
+
+/// What one frame gave.
+#[derive(Debug, Clone)]
+pub struct FrameResult {
+    /// The detections.
+    pub detections: Vec<HostDetection>,
+    /// Skipped borders.
+    pub skips: Vec<Skip>,
+    /// The core's report figures (mask, trace).
+    pub report: Report,
+    /// Time spent in the core, seconds.
+    pub seconds: f64,
+}
+
+/// Loads every silhouette (`*.png`, `*.gif`, `*.bmp`) in a folder; names are file stems.
+///
+/// # Errors
+/// The folder is missing or holds no image, or one image cannot be read.
+pub fn load_silhouettes(dir: &Path) -> Result<Vec<NamedSilhouette>, InputError> {
+    let files = list_files(dir, &["png", "gif", "bmp"])?;
+    if files.is_empty() {
+        return Err(InputError::new(dir, "template folder holds no PNG, GIF or BMP image"));
+    }
+    files
+        .iter()
+        .map(|p| load_gray(p).map(|l| NamedSilhouette { name: file_stem(p), image: l.image }))
+        .collect()
+}
+
+/// Checks that a silhouette holds exactly one part, returning the number of pixels set.
+///
+/// # Errors
+/// No part, or several separate blobs (each at least 1% of the largest and 16 px²).
+pub fn check_silhouette(img: &GrayImage) -> Result<(), String> {
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    let mut labels: Vec<u8> = img.as_raw().iter().map(|&p| (p > 127) as u8).collect();
+    let mut store = Box::new(ContourStore::<HOST_POINTS, HOST_CONTOURS>::new());
+    let filter = BorderFilter { min_points: 1, min_area: 0.0 };
+    trace_borders(&mut labels, w, h, filter, &mut store).map_err(|e| e.to_string())?;
+    let areas: Vec<f32> = store
+        .contours()
+        .iter()
+        .filter(|c| c.kind == BorderKind::Outer)
+        .map(|c| c.area())
+        .collect();
+    let largest = areas.iter().copied().fold(0.0f32, f32::max);
+    if largest <= 0.0 {
+        return Err("silhouette holds no part (no pixel above 127, or only specks)".into());
+    }
+    let blobs = areas.iter().filter(|&&a| a >= (0.01 * largest).max(16.0)).count();
+    if blobs > 1 {
+        return Err(format!("silhouette holds {blobs} separate blobs; a template must be one part"));
+    }
+    Ok(())
+}
+
+/// The core, its planes and the class names.
+pub struct Engine {
+    rec: Box<HostRecognizer>,
+    names: Vec<String>,
+    background: Option<Background<Vec<u8>>>,
+    labels: Vec<u8>,
+}
+
+impl Engine {
+    /// An engine with these parameters and no templates.
+    ///
+    /// # Errors
+    /// Invalid parameters or capacities.
+    pub fn new(params: Params) -> Result<Self, String> {
+        let mut rec: Box<HostRecognizer> = Box::default();
+        rec.set_params(params).map_err(|e| format!("invalid parameters: {e}"))?;
+        Ok(Engine { rec, names: Vec::new(), background: None, labels: Vec::new() })
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &Params {
+        self.rec.params()
+    }
+
+    /// Class names by template index.
+    pub fn names(&self) -> &[String] {
+        &self.names
+    }
+
+    /// The core templates.
+    pub fn templates(&self) -> &[Template<HOST_M>] {
+        self.rec.templates()
+    }
+
+    /// Teaches one silhouette under `name`.
+    ///
+    /// # Errors
+    /// The silhouette holds no part or several blobs, or the library is full.
+    pub fn add_silhouette(&mut self, name: &str, img: &GrayImage) -> Result<(), String> {
+        check_silhouette(img)?;
+        let (w, h) = (img.width() as usize, img.height() as usize);
+        let frame = Frame::new_checked(img.as_raw().as_slice(), w, h).map_err(|e| e.to_string())?;
+        let mut labels = vec![0u8; w * h];
+        self.rec.teach(&frame, &mut labels).map_err(|e| e.to_string())?;
+        self.names.push(name.to_string());
+        Ok(())
+    }
+
+    /// The background is this image's `I'` (one frame).
+    ///
+    /// # Errors
+    /// An empty image.
+    pub fn set_background(&mut self, img: &GrayImage) -> Result<(), String> {
+        self.learn_background(std::slice::from_ref(img))
+    }
+
+    /// Learns the mean background from several frames of one size.
+    ///
+    /// # Errors
+    /// No frame, frames of different sizes, or more than the core can average.
+    pub fn learn_background(&mut self, frames: &[GrayImage]) -> Result<(), String> {
+        let first = frames.first().ok_or("no background frame")?;
+        let (w, h) = (first.width() as usize, first.height() as usize);
+        let mut bg = Background::new(vec![0u8; w * h], w, h).map_err(|e| e.to_string())?;
+        let mut high = vec![0u8; w * h];
+        let alpha = self.rec.params().alpha();
+        for f in frames {
+            let frame = Frame::new_checked(f.as_raw().as_slice(), f.width() as usize, f.height() as usize)
+                .map_err(|e| e.to_string())?;
+            bg.learn(&frame, alpha, &mut high).map_err(|e| e.to_string())?;
+        }
+        bg.finish_learning(&high).map_err(|e| e.to_string())?;
+        self.labels = vec![0u8; w * h];
+        self.background = Some(bg);
+        Ok(())
+    }
+
+    /// The background model, when set.
+    pub fn background(&self) -> Option<&Background<Vec<u8>>> {
+        self.background.as_ref()
+    }
+
+    /// Runs the core on one frame.
+    ///
+    /// # Errors
+    /// No background, or the frame's size differs from the background's.
+    pub fn detect(&mut self, img: &GrayImage) -> Result<FrameResult, String> {
+        let bg = self.background.as_ref().ok_or("no background set")?;
+        let frame = Frame::new_checked(img.as_raw().as_slice(), img.width() as usize, img.height() as usize)
+            .map_err(|e| e.to_string())?;
+        let t0 = std::time::Instant::now();
+        let report = self.rec.process(&frame, bg, &mut self.labels).map_err(|e| e.to_string())?;
+        let seconds = t0.elapsed().as_secs_f64();
+        let store = self.rec.contours();
+        let name = |i: Option<u16>| i.and_then(|i| self.names.get(i as usize).cloned());
+        let detections = report
+            .detections
+            .iter()
+            .map(|d| HostDetection {
+                core: *d,
+                class: name(d.template),
+                best_class: name(d.best_template),
+                border: store.points(d.contour as usize).iter().map(|p: &Point| (p.x, p.y)).collect(),
+            })
+            .collect();
+        Ok(FrameResult { detections, skips: report.skips.to_vec(), report, seconds })
+    }
+}
+
+/// A readable reason for a skip.
+pub fn skip_text(reason: SkipReason) -> &'static str {
+    match reason {
+        SkipReason::Degenerate => "border has no extent to resample",
+        SkipReason::NoArea => "border encloses no area",
+        SkipReason::TooManyParts => "more parts than the report holds",
+        _ => "skipped",
+    }
+}

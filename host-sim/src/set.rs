@@ -1,0 +1,89 @@
+//! A fixture set folder (DESIGN.md): background.png, templates/, frames/, truth.json.
+
+use std::path::{Path, PathBuf};
+
+use image::GrayImage;
+
+use crate::engine::{load_silhouettes, NamedSilhouette};
+use crate::io::{list_files, load_gray, InputError};
+
+/// The files of a fixture set.
+#[derive(Debug, Clone)]
+pub struct FixtureSet {
+    /// The set's folder.
+    pub root: PathBuf,
+    /// `background.png`.
+    pub background: PathBuf,
+    /// Extra captures of the empty platform (`backgrounds/*.png`), learned with the background.
+    pub backgrounds: Vec<PathBuf>,
+    /// `templates/`.
+    pub templates: PathBuf,
+    /// `frames/*.png`, sorted.
+    pub frames: Vec<PathBuf>,
+    /// `truth.json`, when present.
+    pub truth: Option<PathBuf>,
+}
+
+impl FixtureSet {
+    /// Opens a set folder.
+    ///
+    /// # Errors
+    /// The folder, its background or its frames folder are missing.
+    pub fn open(root: &Path) -> Result<Self, InputError> {
+        if !root.is_dir() {
+            return Err(InputError::new(root, "not a fixture set folder (no such folder)"));
+        }
+        let background = root.join("background.png");
+        if !background.is_file() {
+            return Err(InputError::new(&background, "no such file (every fixture set needs its empty platform)"));
+        }
+        let bg_dir = root.join("backgrounds");
+        let backgrounds = if bg_dir.is_dir() { list_files(&bg_dir, &["png"])? } else { Vec::new() };
+        let frames = list_files(&root.join("frames"), &["png"])?;
+        let truth = Some(root.join("truth.json")).filter(|p| p.is_file());
+        Ok(FixtureSet { root: root.to_path_buf(), background, backgrounds, templates: root.join("templates"), frames, truth })
+    }
+
+    /// The background frames: `background.png` then `backgrounds/*.png`.
+    ///
+    /// # Errors
+    /// One cannot be read, or they differ in size.
+    pub fn load_backgrounds(&self) -> Result<Vec<GrayImage>, InputError> {
+        load_background_frames(std::iter::once(&self.background).chain(&self.backgrounds))
+    }
+
+    /// The template silhouettes.
+    ///
+    /// # Errors
+    /// As [`load_silhouettes`].
+    pub fn load_templates(&self) -> Result<Vec<NamedSilhouette>, InputError> {
+        load_silhouettes(&self.templates)
+    }
+}
+
+/// Loads background frames, all of one size.
+///
+/// # Errors
+/// A file cannot be read or its size differs from the first's.
+pub fn load_background_frames<'a>(paths: impl IntoIterator<Item = &'a PathBuf>) -> Result<Vec<GrayImage>, InputError> {
+    let mut out: Vec<GrayImage> = Vec::new();
+    for p in paths {
+        let img = load_gray(p)?.image;
+        if let Some(first) = out.first() {
+            if first.dimensions() != img.dimensions() {
+                return Err(InputError::new(
+                    p,
+                    format!(
+                        "background is {}×{} but the first background is {}×{}",
+                        img.width(),
+                        img.height(),
+                        first.width(),
+                        first.height()
+                    ),
+                ));
+            }
+        }
+        out.push(img);
+    }
+    Ok(out)
+}
