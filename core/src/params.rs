@@ -10,7 +10,8 @@ use crate::resample::check_counts;
 /// Which rotation estimator fills [`crate::Detection::angle_deg`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum AngleEstimator {
-    /// Signed least-squares rotation over the DP correspondences, full circle (default).
+    /// Signed least-squares rotation over the DP correspondences refined below the sampling
+    /// step ([`crate::pose::angle_signed_refined`]), full circle (default).
     Signed,
     /// The paper's mean of unsigned arccos angles (eqs. 6.1–6.4), `[0, 180]`.
     Paper,

@@ -27,7 +27,7 @@ use crate::frame::Frame;
 use crate::mask::{foreground_mask, MaskStats};
 use crate::matching::{best_cost, match_with_assignment, table_cells};
 use crate::params::{AngleEstimator, Params};
-use crate::pose::{angle_paper, angle_signed, area_centroid};
+use crate::pose::{angle_paper, angle_signed_refined, area_centroid};
 use crate::resample::resample;
 use crate::template::Template;
 
@@ -280,7 +280,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                     if let Ok(m) = match_with_assignment(part_desc, t.descriptor(), &mut self.table, assignment) {
                         let part_pts = self.points.get(..n).unwrap_or(&[]);
                         let assignment = self.assignment.get(..n).unwrap_or(&[]);
-                        let signed = angle_signed(part_pts, centroid, t.points(), t.centroid(), assignment);
+                        let signed = angle_signed_refined(part_pts, centroid, t.points(), t.centroid(), assignment);
                         let paper = angle_paper(part_pts, centroid, t.points(), t.centroid(), assignment);
                         detection.best_template = Some(ti as u16);
                         detection.score = m.normalized;
