@@ -179,6 +179,11 @@ impl Engine {
         Ok(())
     }
 
+    /// The label plane of the last frame (0 = background; row-major, background's size).
+    pub fn labels(&self) -> &[u8] {
+        &self.labels
+    }
+
     /// The background model, when set.
     pub fn background(&self) -> Option<&Background<Vec<u8>>> {
         self.background.as_ref()

@@ -7,6 +7,7 @@
 pub mod cli;
 pub mod config;
 pub mod engine;
+pub mod eval;
 pub mod gen;
 pub mod io;
 pub mod overlay;

@@ -1,8 +1,22 @@
-//! Overlay pictures: each contour, class name and f', a position cross and an angle arrow.
+//! Overlay pictures: each part's contour, its class name (or "unknown") and f', a cross at its
+//! position and an arrow along its angle.
+//!
+//! Colours: green for a known part, red for an unknown one, yellow for a part touching the
+//! frame's edge. The arrow points along the template's +x axis turned by the detected angle
+//! (counter-clockwise on screen), so a part at 0° has its arrow pointing right.
 
+use font8x8::UnicodeFonts;
 use image::{GrayImage, Rgb, RgbImage};
+use imageproc::drawing::{draw_cross_mut, draw_filled_rect_mut, draw_line_segment_mut};
+use imageproc::rect::Rect;
 
-use crate::engine::FrameResult;
+use crate::engine::{FrameResult, HostDetection};
+
+const KNOWN: Rgb<u8> = Rgb([40, 220, 60]);
+const UNKNOWN: Rgb<u8> = Rgb([250, 60, 40]);
+const EDGE: Rgb<u8> = Rgb([250, 210, 40]);
+const WHITE: Rgb<u8> = Rgb([255, 255, 255]);
+const SHADOW: Rgb<u8> = Rgb([0, 0, 0]);
 
 /// The frame in colour with the detections drawn on it.
 pub fn draw(frame: &GrayImage, result: &FrameResult) -> RgbImage {
@@ -11,12 +25,77 @@ pub fn draw(frame: &GrayImage, result: &FrameResult) -> RgbImage {
         Rgb([v, v, v])
     });
     for d in &result.detections {
-        let colour = if d.class.is_some() { Rgb([40, 220, 60]) } else { Rgb([240, 60, 40]) };
-        for &(x, y) in &d.border {
-            if (x as u32) < img.width() && (y as u32) < img.height() {
-                img.put_pixel(x as u32, y as u32, colour);
+        draw_detection(&mut img, d);
+    }
+    let caption = format!("{} part(s), {:.1} ms", result.detections.len(), result.seconds * 1e3);
+    draw_label(&mut img, 4, 4, &caption, WHITE);
+    img
+}
+
+fn colour(d: &HostDetection) -> Rgb<u8> {
+    if d.core.touches_edge {
+        EDGE
+    } else if d.class.is_some() {
+        KNOWN
+    } else {
+        UNKNOWN
+    }
+}
+
+/// Draws one detection: contour, cross, arrow and label.
+pub fn draw_detection(img: &mut RgbImage, d: &HostDetection) {
+    let c = colour(d);
+    let n = d.border.len();
+    for i in 0..n {
+        let (a, b) = (d.border[i], d.border[(i + 1) % n]);
+        draw_line_segment_mut(img, (a.0 as f32, a.1 as f32), (b.0 as f32, b.1 as f32), c);
+    }
+    let (x, y) = (d.core.x, d.core.y);
+    draw_cross_mut(img, WHITE, x.round() as i32, y.round() as i32);
+    let len = (d.core.area.max(1.0).sqrt() * 0.6).clamp(12.0, 120.0);
+    let (s, co) = d.core.angle_deg.to_radians().sin_cos();
+    let tip = (x + len * co, y - len * s);
+    draw_line_segment_mut(img, (x, y), tip, c);
+    // Arrow head: two short strokes back from the tip at ±25°.
+    for side in [-1.0f32, 1.0] {
+        let a = d.core.angle_deg.to_radians() + std::f32::consts::PI - side * 25f32.to_radians();
+        let back = (tip.0 + 7.0 * a.cos(), tip.1 - 7.0 * a.sin());
+        draw_line_segment_mut(img, tip, back, c);
+    }
+    let name = d.class.as_deref().unwrap_or("unknown");
+    let text = if d.core.score.is_finite() {
+        format!("{name} f'={:.3} {:.1}deg", d.core.score, d.core.angle_deg)
+    } else {
+        name.to_string()
+    };
+    let (bx, by) = bbox_top_left(&d.border);
+    draw_label(img, bx as i32, by as i32 - 11, &text, c);
+}
+
+fn bbox_top_left(border: &[(u16, u16)]) -> (u16, u16) {
+    let x = border.iter().map(|p| p.0).min().unwrap_or(0);
+    let y = border.iter().map(|p| p.1).min().unwrap_or(0);
+    (x, y)
+}
+
+/// Draws `text` in the 8×8 bitmap font on a dark box, clipped to the image.
+pub fn draw_label(img: &mut RgbImage, x: i32, y: i32, text: &str, colour: Rgb<u8>) {
+    let (w, h) = (img.width() as i32, img.height() as i32);
+    let tw = 8 * text.chars().count() as i32 + 2;
+    let x = x.clamp(0, (w - tw).max(0));
+    let y = y.clamp(0, (h - 10).max(0));
+    draw_filled_rect_mut(img, Rect::at(x, y).of_size(tw as u32, 10), SHADOW);
+    for (i, ch) in text.chars().enumerate() {
+        let Some(glyph) = font8x8::BASIC_FONTS.get(ch) else { continue };
+        for (row, bits) in glyph.iter().enumerate() {
+            for col in 0..8 {
+                if bits & (1 << col) != 0 {
+                    let (px, py) = (x + 1 + 8 * i as i32 + col, y + 1 + row as i32);
+                    if px >= 0 && py >= 0 && px < w && py < h {
+                        img.put_pixel(px as u32, py as u32, colour);
+                    }
+                }
             }
         }
     }
-    img
 }

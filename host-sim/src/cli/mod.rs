@@ -2,7 +2,9 @@
 
 pub mod config;
 pub mod detect;
+pub mod eval;
 pub mod params;
+pub mod teach;
 
 use clap::{Parser, Subcommand};
 
@@ -23,6 +25,10 @@ pub struct Cli {
 pub enum Command {
     /// Find the parts in frames: class (or unknown), position, angle.
     Detect(detect::DetectArgs),
+    /// Score detect against a set's truth.json.
+    Eval(eval::EvalArgs),
+    /// Take the part in a frame as a new template.
+    Teach(teach::TeachArgs),
     /// Print the pipeline parameters.
     Config(config::ConfigArgs),
 }
@@ -31,6 +37,8 @@ pub enum Command {
 pub fn run(cli: Cli) -> std::process::ExitCode {
     let result = match cli.command {
         Command::Detect(a) => detect::run(a),
+        Command::Eval(a) => eval::run(a),
+        Command::Teach(a) => teach::run(a),
         Command::Config(a) => config::run(a),
     };
     match result {

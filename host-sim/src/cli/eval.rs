@@ -1,0 +1,168 @@
+//! `vorl eval`: run detect on a fixture set and score it against its truth.json.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use indicatif::{ProgressBar, ProgressStyle};
+use serde::Serialize;
+
+use crate::cli::detect::{prepare, run_frame, to_json};
+use crate::cli::params::ParamArgs;
+use crate::eval::{score, Scores};
+use crate::io::file_name;
+use crate::set::FixtureSet;
+use crate::truth::FramesJson;
+
+/// Arguments of `vorl eval`.
+#[derive(Debug, clap::Args)]
+#[command(after_help = "Examples:\n  \
+    vorl eval examples/plant\n  \
+    vorl eval examples/plant --overlay out/overlays\n  \
+    vorl eval my_set --epsilon 0.06 --json > scores.json")]
+pub struct EvalArgs {
+    /// A fixture set folder with truth.json.
+    #[arg(value_name = "SET")]
+    pub set: PathBuf,
+    /// Print the scores as JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// Also write an overlay PNG per frame into this folder.
+    #[arg(long, value_name = "DIR")]
+    pub overlay: Option<PathBuf>,
+    /// Pipeline parameters.
+    #[command(flatten)]
+    pub params: ParamArgs,
+}
+
+/// The scores plus timing, as printed by `--json`.
+#[derive(Debug, Serialize)]
+pub struct EvalReport {
+    /// The set.
+    pub set: String,
+    /// Frames that could not be processed.
+    pub failed_frames: usize,
+    /// Mean core time per frame, ms.
+    pub ms_per_frame: f64,
+    /// The scores.
+    #[serde(flatten)]
+    pub scores: Scores,
+    /// Detection recall.
+    pub recall: f64,
+    /// Detection precision.
+    pub precision: f64,
+    /// Classification accuracy.
+    pub classification: f64,
+    /// Unknown-rejection rate.
+    pub unknown_rejection: f64,
+}
+
+/// Runs detect over a set and scores it; per-frame errors are reported and counted.
+///
+/// # Errors
+/// The set, its truth, background or templates cannot be read.
+pub fn evaluate(args: &EvalArgs) -> Result<EvalReport, String> {
+    let set = FixtureSet::open(&args.set).map_err(|e| e.to_string())?;
+    let truth_path = set.truth.clone().ok_or_else(|| format!("{}: no such file (eval needs the set's truth)", args.set.join("truth.json").display()))?;
+    let truth = FramesJson::load(&truth_path)?;
+    let mut inputs = prepare(Some(&args.set), None, None, &[], &args.params)?;
+    if let Some(dir) = &args.overlay {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: cannot create folder: {e}", dir.display()))?;
+    }
+    let bar = ProgressBar::new(inputs.frames.len() as u64);
+    bar.set_style(
+        ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} frames, {eta} left")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    bar.set_prefix("eval");
+    let mut pred = FramesJson::default();
+    let (mut failed, mut seconds, mut done) = (0usize, 0.0f64, 0usize);
+    for path in inputs.frames.clone() {
+        let name = file_name(&path);
+        match run_frame(&mut inputs.engine, &path) {
+            Ok((result, image, note)) => {
+                if let Some(n) = note {
+                    bar.suspend(|| eprintln!("note: {n}"));
+                }
+                if let Some(dir) = &args.overlay {
+                    let target = dir.join(&name);
+                    if let Err(e) = crate::overlay::draw(&image, &result).save(&target) {
+                        bar.suspend(|| eprintln!("error: {}: cannot write overlay: {e}", target.display()));
+                    }
+                }
+                seconds += result.seconds;
+                done += 1;
+                pred.frames.insert(name, to_json(&result));
+            }
+            Err(e) => {
+                bar.suspend(|| eprintln!("error: {e}"));
+                failed += 1;
+            }
+        }
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    // Frames that failed are not scored (they are reported above).
+    let mut scored_truth = truth.clone();
+    scored_truth.frames.retain(|k, _| pred.frames.contains_key(k));
+    let missing: Vec<&String> = truth.frames.keys().filter(|k| !set.frames.iter().any(|p| &file_name(p) == *k)).collect();
+    if !missing.is_empty() {
+        eprintln!("warning: {} frame(s) in truth.json have no file in frames/ (first: {})", missing.len(), missing[0]);
+    }
+    let scores = score(&scored_truth, &pred);
+    Ok(EvalReport {
+        set: args.set.display().to_string(),
+        failed_frames: failed,
+        ms_per_frame: if done > 0 { seconds * 1e3 / done as f64 } else { f64::NAN },
+        recall: scores.recall(),
+        precision: scores.precision(),
+        classification: scores.classification(),
+        unknown_rejection: scores.rejection(),
+        scores,
+    })
+}
+
+/// Runs `vorl eval`.
+///
+/// # Errors
+/// As [`evaluate`].
+pub fn run(args: EvalArgs) -> Result<ExitCode, String> {
+    let r = evaluate(&args)?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&r).map_err(|e| e.to_string())?);
+    } else {
+        print_table(&r);
+    }
+    Ok(if r.failed_frames > 0 { ExitCode::from(1) } else { ExitCode::SUCCESS })
+}
+
+fn pct(v: f64) -> String {
+    if v.is_nan() {
+        "n/a".into()
+    } else {
+        format!("{:.1}%", 100.0 * v)
+    }
+}
+
+/// The human-readable table.
+pub fn print_table(r: &EvalReport) {
+    let s = &r.scores;
+    println!("vorl eval {}: {} frames, {} parts", r.set, s.frames, s.truth_parts);
+    println!("  detection recall        {:>8}   ({}/{})", pct(r.recall), s.detected, s.truth_parts);
+    println!("  detection precision     {:>8}   ({}/{})", pct(r.precision), s.true_predictions, s.predictions);
+    println!("  classification          {:>8}   ({}/{} known parts)", pct(r.classification), s.known_correct, s.known);
+    println!("  unknown rejection       {:>8}   ({}/{} parts not taught)", pct(r.unknown_rejection), s.unknown_rejected, s.unknown);
+    println!("  angle error  (reported) median {:.3}°  p95 {:.3}°  max {:.3}°  ({} parts)", s.angle.median, s.angle.p95, s.angle.max, s.angle.count);
+    println!("  angle error  (paper 6.4) median {:.3}°  p95 {:.3}°  max {:.3}°", s.angle_paper.median, s.angle_paper.p95, s.angle_paper.max);
+    println!("  position error          median {:.3} px  p95 {:.3} px  max {:.3} px", s.position.median, s.position.p95, s.position.max);
+    println!("  time                    {:.2} ms/frame (core, this machine)", r.ms_per_frame);
+    if r.failed_frames > 0 {
+        println!("  failed frames           {}", r.failed_frames);
+    }
+    if !s.confusions.is_empty() {
+        println!("  confusions (truth → predicted):");
+        for (t, p, n) in &s.confusions {
+            println!("    {t} → {p}: {n}");
+        }
+    }
+}

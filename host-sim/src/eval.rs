@@ -1,0 +1,244 @@
+//! Scoring predictions against truth (the `truth.json` contract).
+//!
+//! Parts are paired per frame greedily by centroid distance (closest pair first, at most
+//! [`MATCH_RADIUS_PX`] apart). Then:
+//! - detection recall: paired truth parts / truth parts; precision: paired predictions /
+//!   predictions (parts cut by the frame border count only when paired, never against recall);
+//! - classification accuracy: paired known truth parts (not partial) whose class is right;
+//! - unknown rejection: paired truth parts that are not templates and were called unknown;
+//! - angle error: correctly classified known parts, taken modulo `360/symmetry` (symmetry 0 —
+//!   a round part — has no angle and is left out);
+//! - position error: every paired part not cut by the border.
+
+use serde::Serialize;
+
+use crate::truth::{FramesJson, PartJson};
+
+/// Furthest a prediction may lie from a truth part and still be paired with it, px.
+pub const MATCH_RADIUS_PX: f64 = 15.0;
+
+/// Median, 95th percentile and maximum of a list of errors.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct Spread {
+    /// Values.
+    pub count: usize,
+    /// Median.
+    pub median: f64,
+    /// 95th percentile (nearest rank).
+    pub p95: f64,
+    /// Maximum.
+    pub max: f64,
+}
+
+impl Spread {
+    /// The spread of `values` (all zero when empty).
+    pub fn of(values: &[f64]) -> Spread {
+        let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+        if v.is_empty() {
+            return Spread::default();
+        }
+        v.sort_by(f64::total_cmp);
+        let rank = |q: f64| v[((q * v.len() as f64).ceil() as usize).clamp(1, v.len()) - 1];
+        Spread { count: v.len(), median: rank(0.5), p95: rank(0.95), max: v[v.len() - 1] }
+    }
+}
+
+/// Counts and error spreads over a set.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct Scores {
+    /// Frames scored.
+    pub frames: usize,
+    /// Truth parts (not partial).
+    pub truth_parts: usize,
+    /// Predictions.
+    pub predictions: usize,
+    /// Truth parts paired with a prediction.
+    pub detected: usize,
+    /// Predictions paired with a truth part.
+    pub true_predictions: usize,
+    /// Known truth parts paired.
+    pub known: usize,
+    /// … of which classified right.
+    pub known_correct: usize,
+    /// Unknown truth parts paired.
+    pub unknown: usize,
+    /// … of which called unknown.
+    pub unknown_rejected: usize,
+    /// Angle errors of the reported angle, degrees.
+    pub angle: Spread,
+    /// Angle errors of the paper's estimator (eq. 6.4) where predictions carry it.
+    pub angle_paper: Spread,
+    /// Position errors, px.
+    pub position: Spread,
+    /// Confusions: (truth class, predicted class or "unknown", count).
+    pub confusions: Vec<(String, String, usize)>,
+}
+
+impl Scores {
+    /// Detection recall.
+    pub fn recall(&self) -> f64 {
+        ratio(self.detected, self.truth_parts)
+    }
+    /// Detection precision.
+    pub fn precision(&self) -> f64 {
+        ratio(self.true_predictions, self.predictions)
+    }
+    /// Classification accuracy over known parts.
+    pub fn classification(&self) -> f64 {
+        ratio(self.known_correct, self.known)
+    }
+    /// Unknown-rejection rate.
+    pub fn rejection(&self) -> f64 {
+        ratio(self.unknown_rejected, self.unknown)
+    }
+}
+
+fn ratio(a: usize, b: usize) -> f64 {
+    if b == 0 {
+        f64::NAN
+    } else {
+        a as f64 / b as f64
+    }
+}
+
+/// Angle error modulo `360/symmetry` (symmetry 1 or missing: modulo 360), in `[0, period/2]`.
+pub fn angle_error(pred: f64, truth: f64, symmetry: u32) -> f64 {
+    let period = 360.0 / symmetry.max(1) as f64;
+    let d = (pred - truth).rem_euclid(period);
+    d.min(period - d)
+}
+
+/// Scores `pred` against `truth` over the frames present in both (frames missing from the
+/// predictions count as frames with no detection).
+pub fn score(truth: &FramesJson, pred: &FramesJson) -> Scores {
+    let mut s = Scores::default();
+    let mut angle = Vec::new();
+    let mut angle_paper = Vec::new();
+    let mut position = Vec::new();
+    let mut confusions: std::collections::BTreeMap<(String, String), usize> = Default::default();
+    let empty = Vec::new();
+    for (name, truth_parts) in &truth.frames {
+        let preds = pred.frames.get(name).unwrap_or(&empty);
+        s.frames += 1;
+        s.predictions += preds.len();
+        s.truth_parts += truth_parts.iter().filter(|t| t.partial != Some(true)).count();
+        for (ti, pi) in pair(truth_parts, preds) {
+            let (t, p) = (&truth_parts[ti], &preds[pi]);
+            s.true_predictions += 1;
+            if t.partial == Some(true) {
+                continue;
+            }
+            s.detected += 1;
+            position.push(((t.x - p.x).powi(2) + (t.y - p.y).powi(2)).sqrt());
+            match &t.class {
+                Some(tc) => {
+                    s.known += 1;
+                    if p.class.as_deref() == Some(tc.as_str()) {
+                        s.known_correct += 1;
+                        let sym = t.symmetry.unwrap_or(1);
+                        if sym != 0 {
+                            angle.push(angle_error(p.angle_deg, t.angle_deg, sym));
+                            if let Some(a) = p.extra.get("angle_paper_deg").and_then(|v| v.as_f64()) {
+                                angle_paper.push(angle_error(a, t.angle_deg, sym));
+                            }
+                        }
+                    } else {
+                        let got = p.class.clone().unwrap_or_else(|| "unknown".into());
+                        *confusions.entry((tc.clone(), got)).or_default() += 1;
+                    }
+                }
+                None => {
+                    s.unknown += 1;
+                    if p.class.is_none() {
+                        s.unknown_rejected += 1;
+                    } else {
+                        let got = p.class.clone().unwrap_or_default();
+                        *confusions.entry(("(not a template)".into(), got)).or_default() += 1;
+                    }
+                }
+            }
+        }
+    }
+    s.angle = Spread::of(&angle);
+    s.angle_paper = Spread::of(&angle_paper);
+    s.position = Spread::of(&position);
+    s.confusions = confusions.into_iter().map(|((a, b), n)| (a, b, n)).collect();
+    s
+}
+
+/// Greedy pairing by distance: (truth index, prediction index).
+fn pair(truth: &[PartJson], pred: &[PartJson]) -> Vec<(usize, usize)> {
+    let mut cands: Vec<(f64, usize, usize)> = Vec::new();
+    for (ti, t) in truth.iter().enumerate() {
+        for (pi, p) in pred.iter().enumerate() {
+            let d = ((t.x - p.x).powi(2) + (t.y - p.y).powi(2)).sqrt();
+            if d <= MATCH_RADIUS_PX {
+                cands.push((d, ti, pi));
+            }
+        }
+    }
+    cands.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let (mut tu, mut pu) = (vec![false; truth.len()], vec![false; pred.len()]);
+    let mut out = Vec::new();
+    for (_, ti, pi) in cands {
+        if !tu[ti] && !pu[pi] {
+            tu[ti] = true;
+            pu[pi] = true;
+            out.push((ti, pi));
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn part(class: Option<&str>, x: f64, y: f64, a: f64, sym: Option<u32>) -> PartJson {
+        PartJson {
+            class: class.map(String::from),
+            x,
+            y,
+            angle_deg: a,
+            symmetry: sym,
+            score: None,
+            partial: None,
+            extra: Default::default(),
+        }
+    }
+
+    #[test]
+    fn angle_error_respects_symmetry() {
+        assert!((angle_error(359.0, 1.0, 1) - 2.0).abs() < 1e-12);
+        assert!((angle_error(95.0, 5.0, 4) - 0.0).abs() < 1e-12);
+        assert!((angle_error(50.0, 5.0, 4) - 45.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn scores_count_what_they_say() {
+        let mut truth = FramesJson::default();
+        truth.frames.insert(
+            "a.png".into(),
+            vec![
+                part(Some("gear"), 10.0, 10.0, 30.0, Some(1)),
+                part(None, 100.0, 100.0, 0.0, Some(1)),
+                part(Some("nut"), 200.0, 50.0, 10.0, Some(6)),
+            ],
+        );
+        let mut pred = FramesJson::default();
+        pred.frames.insert(
+            "a.png".into(),
+            vec![
+                part(Some("gear"), 10.3, 10.4, 31.0, None),
+                part(Some("gear"), 101.0, 100.0, 0.0, None),
+                part(Some("bracket"), 400.0, 400.0, 0.0, None),
+            ],
+        );
+        let s = score(&truth, &pred);
+        assert_eq!((s.truth_parts, s.detected, s.predictions, s.true_predictions), (3, 2, 3, 2));
+        assert_eq!((s.known, s.known_correct, s.unknown, s.unknown_rejected), (1, 1, 1, 0));
+        assert!((s.position.median - 0.5).abs() < 1e-9);
+        assert!((s.angle.max - 1.0).abs() < 1e-9);
+        assert_eq!(s.confusions, vec![("(not a template)".into(), "gear".into(), 1)]);
+    }
+}

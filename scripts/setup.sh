@@ -1,0 +1,50 @@
+#!/usr/bin/env bash
+# Installs everything vorl's build and tests need, idempotently:
+#   - the Cortex-M4F target (thumbv7em-none-eabihf) and the llvm-tools, clippy and rustfmt
+#     components, via rustup;
+#   - qemu-system-arm (to run the firmware example), via apt-get, when it is missing.
+# Safe to run again: each step checks first. Needs the Rust toolchain (rustup) already.
+set -euo pipefail
+
+say() { printf '[setup] %s\n' "$*"; }
+
+if ! command -v rustup >/dev/null 2>&1; then
+    echo "[setup] error: rustup not found; install the Rust toolchain first (https://rustup.rs)" >&2
+    exit 1
+fi
+
+if rustup target list --installed | grep -qx thumbv7em-none-eabihf; then
+    say "target thumbv7em-none-eabihf: present"
+else
+    say "adding target thumbv7em-none-eabihf"
+    rustup target add thumbv7em-none-eabihf
+fi
+
+for comp in llvm-tools clippy rustfmt; do
+    if rustup component list --installed | grep -q "^${comp}"; then
+        say "component ${comp}: present"
+    else
+        say "adding component ${comp}"
+        rustup component add "${comp}"
+    fi
+done
+
+if command -v qemu-system-arm >/dev/null 2>&1; then
+    say "qemu-system-arm: present"
+elif [ "${VORL_SKIP_QEMU:-0}" = "1" ]; then
+    say "qemu-system-arm: missing, skipped (VORL_SKIP_QEMU=1); the firmware run test will be skipped"
+else
+    SUDO=""
+    if [ "$(id -u)" != "0" ]; then
+        if command -v sudo >/dev/null 2>&1; then SUDO="sudo"; else
+            echo "[setup] error: qemu-system-arm is missing and this user cannot apt-get install it (no root, no sudo); set VORL_SKIP_QEMU=1 to go on without the firmware run" >&2
+            exit 1
+        fi
+    fi
+    say "installing qemu-system-arm (apt-get)"
+    export DEBIAN_FRONTEND=noninteractive
+    $SUDO apt-get update -qq
+    $SUDO apt-get install -y -qq --no-install-recommends qemu-system-arm >/dev/null
+    say "qemu-system-arm: $(qemu-system-arm --version | head -n 1)"
+fi
+say "done"

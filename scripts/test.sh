@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# Runs every check of the project, as CI does: set-up (idempotent), formatting, lints, the
+# microcontroller build of the core, the whole test suite (unit, doc, integration, property and
+# the firmware-in-QEMU test), and a build of the benchmarks.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+step() { printf '\n==> %s\n' "$*"; }
+
+step "set-up"
+bash scripts/setup.sh
+
+step "formatting (cargo fmt --check)"
+cargo fmt --all -- --check
+
+step "lints (cargo clippy -D warnings)"
+cargo clippy --workspace --all-targets -- -D warnings
+
+step "vorl-core for the MCU (thumbv7em-none-eabihf, no std, no alloc)"
+cargo build -p vorl-core --target thumbv7em-none-eabihf --release
+
+step "tests (cargo test --workspace)"
+timeout 1800 cargo test --workspace
+
+step "benchmarks build (cargo bench --no-run)"
+cargo bench --workspace --no-run
+
+printf '\nall checks passed\n'
