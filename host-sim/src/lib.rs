@@ -13,4 +13,5 @@ pub mod io;
 pub mod overlay;
 pub mod reference;
 pub mod set;
+pub mod similarity;
 pub mod truth;

@@ -4,6 +4,7 @@ pub mod config;
 pub mod detect;
 pub mod eval;
 pub mod params;
+pub mod similarity;
 pub mod teach;
 
 use clap::{Parser, Subcommand};
@@ -27,6 +28,8 @@ pub enum Command {
     Detect(detect::DetectArgs),
     /// Score detect against a set's truth.json.
     Eval(eval::EvalArgs),
+    /// The all-pairs f' matrix of silhouettes: which parts will be confused.
+    Similarity(similarity::SimilarityArgs),
     /// Take the part in a frame as a new template.
     Teach(teach::TeachArgs),
     /// Print the pipeline parameters.
@@ -38,6 +41,7 @@ pub fn run(cli: Cli) -> std::process::ExitCode {
     let result = match cli.command {
         Command::Detect(a) => detect::run(a),
         Command::Eval(a) => eval::run(a),
+        Command::Similarity(a) => similarity::run(a),
         Command::Teach(a) => teach::run(a),
         Command::Config(a) => config::run(a),
     };

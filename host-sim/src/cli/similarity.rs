@@ -1,0 +1,78 @@
+//! `vorl similarity`: the all-pairs f' matrix of the silhouettes in a folder.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use indicatif::{ProgressBar, ProgressStyle};
+
+use crate::cli::params::ParamArgs;
+use crate::engine::load_silhouettes;
+use crate::similarity::similarity;
+
+/// Output format of the matrix.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Format {
+    /// Comma-separated, a header row of names.
+    Csv,
+    /// `{"names", "matrix", "epsilon", "too_alike"}`.
+    Json,
+}
+
+/// Arguments of `vorl similarity`.
+#[derive(Debug, clap::Args)]
+#[command(after_help = "Row i, column j is f' of silhouette i seen as a part against silhouette j as a \
+    template. Pairs below ε in either direction are warned about on stderr: the matcher cannot tell \
+    them apart at that ε.\n\n\
+    Examples:\n  vorl similarity examples/plant/templates\n  \
+    vorl similarity my_templates --format json --out sim.json --epsilon 0.05")]
+pub struct SimilarityArgs {
+    /// Folder of silhouettes (PNG, GIF or BMP; part bright on dark).
+    #[arg(value_name = "DIR")]
+    pub dir: PathBuf,
+    /// Output format.
+    #[arg(long, value_enum, default_value = "csv")]
+    pub format: Format,
+    /// Write to this file instead of standard output.
+    #[arg(long, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+    /// Pipeline parameters (n, m, k, ω, ε).
+    #[command(flatten)]
+    pub params: ParamArgs,
+}
+
+/// Runs `vorl similarity`.
+///
+/// # Errors
+/// Unreadable folder or silhouette, or an output file that cannot be written.
+pub fn run(args: SimilarityArgs) -> Result<ExitCode, String> {
+    let params = args.params.params()?;
+    let sils = load_silhouettes(&args.dir).map_err(|e| e.to_string())?;
+    let bar = ProgressBar::new(sils.len() as u64);
+    bar.set_style(
+        ProgressStyle::with_template("similarity [{bar:30}] {pos}/{len} rows, {eta} left")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    let sim = similarity(&sils, &params, &|| bar.inc(1)).map_err(|e| format!("{}/{e}", args.dir.display()))?;
+    bar.finish_and_clear();
+    let text = match args.format {
+        Format::Csv => sim.to_csv(),
+        Format::Json => serde_json::to_string_pretty(&sim).map_err(|e| e.to_string())? + "\n",
+    };
+    match &args.out {
+        Some(p) => std::fs::write(p, text).map_err(|e| format!("{}: cannot write: {e}", p.display()))?,
+        None => print!("{text}"),
+    }
+    const SHOWN: usize = 25;
+    for &(i, j, v) in sim.too_alike.iter().take(SHOWN) {
+        eprintln!(
+            "warning: {} and {} are too alike to tell apart at ε = {}: f' = {v:.4}",
+            sim.names[i], sim.names[j], sim.epsilon
+        );
+    }
+    if sim.too_alike.len() > SHOWN {
+        eprintln!("warning: … and {} more pairs (all are listed by --format json)", sim.too_alike.len() - SHOWN);
+    }
+    eprintln!("{} silhouettes, {} pair(s) below ε = {}", sim.names.len(), sim.too_alike.len(), sim.epsilon);
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,591 @@
+//! The part catalogue: each part a set of polygon rings in its own millimetre frame.
+//!
+//! Frame of a part: x right, y down (as seen on screen at the reference pose, angle 0), origin at
+//! the area centroid of the silhouette (shape minus holes). Rings are filled by the even–odd rule;
+//! outer borders are stored with a positive shoelace area, holes with a negative one. Curves are
+//! polygons whose chord error is below [`ARC_TOL_MM`], and the polygon *is* the shape: area and
+//! centroid are exact (shoelace formulas), and the renderer, the templates and the truth all use
+//! the same vertices.
+
+use std::f64::consts::{PI, TAU};
+
+/// A point in mm (part frame) or px (image), `[x, y]`, y down.
+pub(crate) type P = [f64; 2];
+
+/// Largest distance between a sampled arc and the true circle, mm.
+pub(crate) const ARC_TOL_MM: f64 = 0.005;
+
+pub(crate) fn add(a: P, b: P) -> P {
+    [a[0] + b[0], a[1] + b[1]]
+}
+pub(crate) fn sub(a: P, b: P) -> P {
+    [a[0] - b[0], a[1] - b[1]]
+}
+pub(crate) fn mul(a: P, s: f64) -> P {
+    [a[0] * s, a[1] * s]
+}
+pub(crate) fn dot(a: P, b: P) -> f64 {
+    a[0] * b[0] + a[1] * b[1]
+}
+pub(crate) fn norm(a: P) -> f64 {
+    dot(a, a).sqrt()
+}
+fn unit(a: P) -> P {
+    mul(a, 1.0 / norm(a))
+}
+fn polar(c: P, r: f64, a: f64) -> P {
+    [c[0] + r * a.cos(), c[1] + r * a.sin()]
+}
+
+/// Signed shoelace area and centroid of one ring.
+pub(crate) fn ring_moments(ring: &[P]) -> (f64, P) {
+    let (mut a2, mut mx, mut my) = (0.0, 0.0, 0.0);
+    for (i, p) in ring.iter().enumerate() {
+        let q = ring[(i + 1) % ring.len()];
+        let cr = p[0] * q[1] - q[0] * p[1];
+        a2 += cr;
+        mx += (p[0] + q[0]) * cr;
+        my += (p[1] + q[1]) * cr;
+    }
+    let area = a2 / 2.0;
+    if area == 0.0 {
+        return (0.0, [0.0, 0.0]);
+    }
+    (area, [mx / (3.0 * a2), my / (3.0 * a2)])
+}
+
+/// Even–odd inside test of a point against rings (half-open in y, like the rasteriser).
+pub(crate) fn inside(rings: &[Vec<P>], x: f64, y: f64) -> bool {
+    let mut odd = false;
+    for ring in rings {
+        for (i, a) in ring.iter().enumerate() {
+            let b = ring[(i + 1) % ring.len()];
+            if (a[1] > y) != (b[1] > y) {
+                let xi = a[0] + (y - a[1]) * (b[0] - a[0]) / (b[1] - a[1]);
+                if x < xi {
+                    odd = !odd;
+                }
+            }
+        }
+    }
+    odd
+}
+
+/// A closed path built from points, straight segments between them and sampled arcs.
+struct Path(Vec<P>);
+
+impl Path {
+    fn new() -> Self {
+        Path(Vec::new())
+    }
+
+    /// Appends a point (a straight segment from the previous one); drops exact repeats.
+    fn to(&mut self, p: P) {
+        if self.0.last().is_none_or(|l| norm(sub(*l, p)) > 1e-9) {
+            self.0.push(p);
+        }
+    }
+
+    /// Appends the arc around `c` of radius `r` from angle `a0` to `a1` (radians, either way;
+    /// angles measured from +x towards +y), both ends included.
+    fn arc(&mut self, c: P, r: f64, a0: f64, a1: f64) {
+        let step = 2.0 * (1.0 - ARC_TOL_MM / r).clamp(-1.0, 1.0).acos();
+        let n = ((a1 - a0).abs() / step).ceil().max(2.0) as usize;
+        for i in 0..=n {
+            self.to(polar(c, r, a0 + (a1 - a0) * i as f64 / n as f64));
+        }
+    }
+
+    fn finish(mut self) -> Vec<P> {
+        while self.0.len() > 1 && norm(sub(self.0[0], *self.0.last().unwrap_or(&[0.0; 2]))) <= 1e-9 {
+            self.0.pop();
+        }
+        self.0
+    }
+}
+
+fn circle(c: P, r: f64) -> Vec<P> {
+    let mut p = Path::new();
+    p.arc(c, r, 0.0, TAU);
+    p.finish()
+}
+
+/// A polygon with each corner rounded by a fillet of the given radius (0 = sharp). Works for
+/// convex and concave corners; the fillets of one edge must fit on it.
+fn rounded_polygon(corners: &[(P, f64)]) -> Vec<P> {
+    let n = corners.len();
+    let mut path = Path::new();
+    for i in 0..n {
+        let (b, r) = corners[i];
+        if r <= 0.0 {
+            path.to(b);
+            continue;
+        }
+        let a = corners[(i + n - 1) % n].0;
+        let c = corners[(i + 1) % n].0;
+        let (u1, u2) = (unit(sub(a, b)), unit(sub(c, b)));
+        let half = dot(u1, u2).clamp(-1.0, 1.0).acos() / 2.0;
+        let t = r / half.tan();
+        let (p1, p2) = (add(b, mul(u1, t)), add(b, mul(u2, t)));
+        let centre = add(b, mul(unit(add(u1, u2)), r / half.sin()));
+        let a0 = (p1[1] - centre[1]).atan2(p1[0] - centre[0]);
+        let a1 = (p2[1] - centre[1]).atan2(p2[0] - centre[0]);
+        let mut d = a1 - a0;
+        while d > PI {
+            d -= TAU;
+        }
+        while d < -PI {
+            d += TAU;
+        }
+        path.arc(centre, r, a0, a0 + d);
+    }
+    path.finish()
+}
+
+/// Convex hull (monotone chain) of points.
+fn convex_hull(mut pts: Vec<P>) -> Vec<P> {
+    pts.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
+    pts.dedup();
+    let cross = |o: P, a: P, b: P| (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]);
+    let mut hull: Vec<P> = Vec::with_capacity(pts.len() + 1);
+    for pass in 0..2 {
+        let start = hull.len();
+        let iter: Box<dyn Iterator<Item = &P>> = if pass == 0 {
+            Box::new(pts.iter())
+        } else {
+            Box::new(pts.iter().rev())
+        };
+        for &p in iter {
+            while hull.len() >= start + 2 && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0 {
+                hull.pop();
+            }
+            hull.push(p);
+        }
+        hull.pop();
+    }
+    hull
+}
+
+/// A silhouette: rings (even–odd), centred on its area centroid.
+#[derive(Clone, Debug)]
+pub(crate) struct Shape {
+    /// Outer borders (positive shoelace area) and holes (negative), mm, centroid at the origin.
+    pub(crate) rings: Vec<Vec<P>>,
+    /// Area, mm².
+    pub(crate) area: f64,
+    /// Largest distance of a vertex from the centroid, mm.
+    pub(crate) radius: f64,
+    /// `[min_x, min_y, max_x, max_y]`, mm.
+    pub(crate) bbox: [f64; 4],
+}
+
+impl Shape {
+    /// Orients the rings (a ring is a hole when it lies inside an odd number of the others),
+    /// moves the area centroid to the origin and measures the shape.
+    fn new(mut rings: Vec<Vec<P>>) -> Self {
+        let depth_odd: Vec<bool> = (0..rings.len())
+            .map(|i| {
+                let p = rings[i][0];
+                let others: Vec<Vec<P>> = rings
+                    .iter()
+                    .enumerate()
+                    .filter(|(j, _)| *j != i)
+                    .map(|(_, r)| r.clone())
+                    .collect();
+                inside(&others, p[0], p[1])
+            })
+            .collect();
+        for (ring, hole) in rings.iter_mut().zip(&depth_odd) {
+            let (a, _) = ring_moments(ring);
+            if (a < 0.0) != *hole {
+                ring.reverse();
+            }
+        }
+        let (mut area, mut mx, mut my) = (0.0, 0.0, 0.0);
+        for ring in &rings {
+            let (a, c) = ring_moments(ring);
+            area += a;
+            mx += a * c[0];
+            my += a * c[1];
+        }
+        let c = [mx / area, my / area];
+        for ring in &mut rings {
+            for p in ring.iter_mut() {
+                *p = sub(*p, c);
+            }
+        }
+        let mut bbox = [f64::MAX, f64::MAX, f64::MIN, f64::MIN];
+        let mut radius: f64 = 0.0;
+        for p in rings.iter().flatten() {
+            bbox = [bbox[0].min(p[0]), bbox[1].min(p[1]), bbox[2].max(p[0]), bbox[3].max(p[1])];
+            radius = radius.max(norm(*p));
+        }
+        Shape { rings, area, radius, bbox }
+    }
+}
+
+/// One part of the catalogue: a template class or a distractor.
+#[derive(Clone, Debug)]
+pub struct PartSpec {
+    /// Class name (the template file stem); distractors are written with class `null`.
+    pub name: &'static str,
+    /// A known part with a template (`false`: a distractor, not a template).
+    pub is_template: bool,
+    /// n for n-fold rotational symmetry; 0 = rotation undefined (a ring), 1 = none.
+    pub symmetry: u32,
+    pub(crate) shape: Shape,
+}
+
+impl PartSpec {
+    /// Inside test in the part's own frame: `x_mm`, `y_mm` from the area centroid, x right,
+    /// y down, at the reference pose. Holes are outside.
+    pub fn coverage(&self, x_mm: f64, y_mm: f64) -> bool {
+        inside(&self.shape.rings, x_mm, y_mm)
+    }
+
+    /// The polygon rings (outer borders counter-clockwise in the shoelace sense, holes the other
+    /// way), mm, centroid at the origin.
+    pub fn rings(&self) -> &[Vec<[f64; 2]>] {
+        &self.shape.rings
+    }
+
+    /// Area of the silhouette (holes removed), mm².
+    pub fn area_mm2(&self) -> f64 {
+        self.shape.area
+    }
+
+    /// Radius of the bounding circle about the centroid, mm.
+    pub fn radius_mm(&self) -> f64 {
+        self.shape.radius
+    }
+
+    /// Bounding box `[min_x, min_y, max_x, max_y]` at the reference pose, mm from the centroid.
+    pub fn bbox_mm(&self) -> [f64; 4] {
+        self.shape.bbox
+    }
+}
+
+fn part(name: &'static str, is_template: bool, symmetry: u32, rings: Vec<Vec<P>>) -> PartSpec {
+    PartSpec { name, is_template, symmetry, shape: Shape::new(rings) }
+}
+
+/// Spur gear outline: trapezoidal teeth between root and tip circle, centred round bore.
+fn gear(z: u32) -> Vec<Vec<P>> {
+    let (r_tip, r_root, r_bore) = (58.0, 46.0, 16.0);
+    let pitch = TAU / f64::from(z);
+    let (tip, root) = (0.20 * pitch, 0.32 * pitch);
+    let mut p = Path::new();
+    for k in 0..z {
+        let phi = f64::from(k) * pitch;
+        p.arc([0.0, 0.0], r_root, phi - pitch / 2.0, phi - root);
+        p.arc([0.0, 0.0], r_tip, phi - tip, phi + tip);
+        p.arc([0.0, 0.0], r_root, phi + root, phi + pitch / 2.0);
+    }
+    vec![p.finish(), circle([0.0, 0.0], r_bore)]
+}
+
+fn l_bracket() -> Vec<Vec<P>> {
+    let outline = rounded_polygon(&[
+        ([0.0, 0.0], 6.0),
+        ([110.0, 0.0], 6.0),
+        ([110.0, 34.0], 6.0),
+        ([34.0, 34.0], 8.0),
+        ([34.0, 100.0], 6.0),
+        ([0.0, 100.0], 6.0),
+    ]);
+    vec![outline, circle([90.0, 17.0], 6.0), circle([17.0, 80.0], 6.0)]
+}
+
+fn t_bracket() -> Vec<Vec<P>> {
+    let outline = rounded_polygon(&[
+        ([-65.0, 0.0], 5.0),
+        ([65.0, 0.0], 5.0),
+        ([65.0, 32.0], 5.0),
+        ([17.0, 32.0], 8.0),
+        ([17.0, 112.0], 5.0),
+        ([-17.0, 112.0], 5.0),
+        ([-17.0, 32.0], 8.0),
+        ([-65.0, 32.0], 5.0),
+    ]);
+    vec![outline, circle([-48.0, 16.0], 5.5), circle([48.0, 16.0], 5.5), circle([0.0, 92.0], 5.5)]
+}
+
+fn hex_nut() -> Vec<Vec<P>> {
+    let r = 40.0 / (PI / 6.0).cos(); // 80 mm across flats
+    let corners: Vec<(P, f64)> = (0..6).map(|k| (polar([0.0, 0.0], r, f64::from(k) * PI / 3.0), 3.0)).collect();
+    vec![rounded_polygon(&corners), circle([0.0, 0.0], 22.0)]
+}
+
+fn washer() -> Vec<Vec<P>> {
+    vec![circle([0.0, 0.0], 44.0), circle([0.0, 0.0], 20.0)]
+}
+
+/// Oval two-bolt flange: hull of the hub disc and two bolt lugs, bore and two bolt holes.
+fn flange_oval() -> Vec<Vec<P>> {
+    let mut pts = circle([0.0, 0.0], 34.0);
+    pts.extend(circle([54.0, 0.0], 15.0));
+    pts.extend(circle([-54.0, 0.0], 15.0));
+    vec![
+        convex_hull(pts),
+        circle([0.0, 0.0], 18.0),
+        circle([54.0, 0.0], 6.5),
+        circle([-54.0, 0.0], 6.5),
+    ]
+}
+
+/// Square four-bolt flange with rounded corners and a centre bore.
+fn flange_square() -> Vec<Vec<P>> {
+    let s = 50.0;
+    let outline = rounded_polygon(&[([-s, -s], 14.0), ([s, -s], 14.0), ([s, s], 14.0), ([-s, s], 14.0)]);
+    let mut rings = vec![outline, circle([0.0, 0.0], 24.0)];
+    for (x, y) in [(-32.0, -32.0), (32.0, -32.0), (32.0, 32.0), (-32.0, 32.0)] {
+        rings.push(circle([x, y], 6.5));
+    }
+    rings
+}
+
+/// Parallel shaft key with rounded ends and a notch on one long side, off centre.
+fn shaft_key() -> Vec<Vec<P>> {
+    vec![rounded_polygon(&[
+        ([-65.0, -18.0], 16.0),
+        ([14.0, -18.0], 1.5),
+        ([14.0, -9.0], 2.0),
+        ([32.0, -9.0], 2.0),
+        ([32.0, -18.0], 1.5),
+        ([65.0, -18.0], 16.0),
+        ([65.0, 18.0], 16.0),
+        ([-65.0, 18.0], 16.0),
+    ])]
+}
+
+/// Open-end wrench: round head with a jaw slot at 15° to the handle, handle with a round end.
+fn wrench() -> Vec<Vec<P>> {
+    let (r_head, h, w, s0, len) = (28.0_f64, 9.0_f64, 12.0, -3.0, 95.0);
+    let ja = 15.0_f64.to_radians();
+    let d = [ja.cos(), ja.sin()];
+    let n = [-ja.sin(), ja.cos()];
+    let o = [0.0, 0.0];
+    let xj = -(r_head * r_head - h * h).sqrt();
+    let a_junction = h.atan2(xj);
+    let half = (w / r_head).asin();
+    let q = mul(d, s0);
+    let mut p = Path::new();
+    p.to([-len, h]);
+    p.to([xj, h]);
+    p.arc(o, r_head, a_junction, ja + half);
+    p.to(add(q, mul(n, w)));
+    p.arc(q, w, ja + PI / 2.0, ja + 1.5 * PI);
+    p.arc(o, r_head, ja - half, -a_junction);
+    p.to([-len, -h]);
+    p.arc([-len, 0.0], h, -PI / 2.0, -1.5 * PI);
+    vec![p.finish()]
+}
+
+/// Eccentric cam: hull of the base circle and the lobe circle, bore on the base circle's axis.
+fn cam() -> Vec<Vec<P>> {
+    let mut pts = circle([0.0, 0.0], 36.0);
+    pts.extend(circle([38.0, 0.0], 16.0));
+    vec![convex_hull(pts), circle([0.0, 0.0], 11.0)]
+}
+
+/// Rectangular plate with a centred long slot.
+fn slotted_plate() -> Vec<Vec<P>> {
+    let outline = rounded_polygon(&[
+        ([-60.0, -28.0], 6.0),
+        ([60.0, -28.0], 6.0),
+        ([60.0, 28.0], 6.0),
+        ([-60.0, 28.0], 6.0),
+    ]);
+    let mut slot = Path::new();
+    slot.arc([32.0, 0.0], 8.0, -PI / 2.0, PI / 2.0);
+    slot.arc([-32.0, 0.0], 8.0, PI / 2.0, 1.5 * PI);
+    vec![outline, slot.finish()]
+}
+
+/// U bracket (clevis): base and two arms with a hole near each arm's end.
+fn u_bracket() -> Vec<Vec<P>> {
+    let outline = rounded_polygon(&[
+        ([0.0, 0.0], 6.0),
+        ([100.0, 0.0], 6.0),
+        ([100.0, 90.0], 4.0),
+        ([74.0, 90.0], 4.0),
+        ([74.0, 28.0], 6.0),
+        ([26.0, 28.0], 6.0),
+        ([26.0, 90.0], 4.0),
+        ([0.0, 90.0], 4.0),
+    ]);
+    vec![outline, circle([13.0, 72.0], 6.0), circle([87.0, 72.0], 6.0)]
+}
+
+/// Distractor: five-pointed star.
+fn star() -> Vec<Vec<P>> {
+    let pts = (0..10)
+        .map(|k| {
+            let r = if k % 2 == 0 { 60.0 } else { 25.0 };
+            polar([0.0, 0.0], r, f64::from(k) * PI / 5.0 - PI / 2.0)
+        })
+        .collect();
+    vec![pts]
+}
+
+/// Distractor: crescent, a disc minus an offset disc.
+fn crescent() -> Vec<Vec<P>> {
+    let (big, c, small) = (48.0_f64, 22.0, 40.0);
+    let x = (big * big - small * small + c * c) / (2.0 * c);
+    let y = (big * big - x * x).sqrt();
+    let a_out = y.atan2(x);
+    let a_in = y.atan2(x - c);
+    let mut p = Path::new();
+    p.arc([0.0, 0.0], big, a_out, TAU - a_out);
+    p.arc([c, 0.0], small, -a_in, -TAU + a_in);
+    vec![p.finish()]
+}
+
+/// Distractor: an irregular smooth blob (fixed low-order Fourier outline).
+fn blob() -> Vec<Vec<P>> {
+    let n = 900;
+    let pts = (0..n)
+        .map(|i| {
+            let t = TAU * f64::from(i) / f64::from(n);
+            let r = 48.0
+                * (1.0 + 0.13 * (2.0 * t + 0.4).cos() + 0.09 * (3.0 * t + 1.9).cos() + 0.06 * (5.0 * t + 0.7).cos()
+                    - 0.04 * (7.0 * t + 2.3).cos());
+            polar([0.0, 0.0], r, t)
+        })
+        .collect();
+    vec![pts]
+}
+
+/// The parts: templates first (in a fixed order), then the distractors.
+///
+/// Sizes are 88–138 mm across, drawn at 1 px/mm by default (0.4 px/mm in the `small` variant).
+pub fn catalogue() -> Vec<PartSpec> {
+    vec![
+        part("gear_z10", true, 10, gear(10)),
+        part("gear_z12", true, 12, gear(12)),
+        part("l_bracket", true, 1, l_bracket()),
+        part("t_bracket", true, 1, t_bracket()),
+        part("hex_nut", true, 6, hex_nut()),
+        part("washer", true, 0, washer()),
+        part("flange_oval", true, 2, flange_oval()),
+        part("flange_square", true, 4, flange_square()),
+        part("shaft_key", true, 1, shaft_key()),
+        part("wrench", true, 1, wrench()),
+        part("cam", true, 1, cam()),
+        part("slotted_plate", true, 2, slotted_plate()),
+        part("u_bracket", true, 1, u_bracket()),
+        part("star", false, 5, star()),
+        part("crescent", false, 1, crescent()),
+        part("blob", false, 1, blob()),
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Rotates a point by `a` radians about the origin (any sense: only used for symmetry tests).
+    fn rot(p: P, a: f64) -> P {
+        let (s, c) = a.sin_cos();
+        [c * p[0] - s * p[1], s * p[0] + c * p[1]]
+    }
+
+    #[test]
+    fn gen_catalogue_is_well_formed() {
+        let cat = catalogue();
+        assert!(cat.iter().filter(|p| p.is_template).count() >= 10);
+        assert!(cat.iter().filter(|p| !p.is_template).count() >= 2);
+        let mut names: Vec<&str> = cat.iter().map(|p| p.name).collect();
+        names.sort_unstable();
+        names.dedup();
+        assert_eq!(names.len(), cat.len(), "class names are unique");
+        for p in &cat {
+            let across = (p.bbox_mm()[2] - p.bbox_mm()[0]).max(p.bbox_mm()[3] - p.bbox_mm()[1]);
+            assert!((75.0..=150.0).contains(&across), "{}: {across} mm across", p.name);
+            // Centroid at the origin, to rounding.
+            let (mut a, mut mx, mut my) = (0.0, 0.0, 0.0);
+            for r in p.rings() {
+                let (ra, rc) = ring_moments(r);
+                a += ra;
+                mx += ra * rc[0];
+                my += ra * rc[1];
+            }
+            assert!(a > 0.0 && (a - p.area_mm2()).abs() < 1e-9 * a, "{}", p.name);
+            assert!((mx / a).abs() < 1e-9 && (my / a).abs() < 1e-9, "{}: centroid off", p.name);
+            // Exactly one outer ring (one connected silhouette).
+            assert_eq!(p.rings().iter().filter(|r| ring_moments(r).0 > 0.0).count(), 1, "{}", p.name);
+        }
+    }
+
+    #[test]
+    fn gen_symmetries_hold_on_sampled_points() {
+        for p in catalogue() {
+            let n = p.symmetry;
+            let (r, b) = (p.radius_mm(), p.bbox_mm());
+            // Points of a grid (offset so they avoid the vertices), away from the border by 0.05 mm.
+            let near_border = |q: P| {
+                p.rings().iter().any(|ring| {
+                    ring.iter().enumerate().any(|(i, a)| {
+                        let c = ring[(i + 1) % ring.len()];
+                        let ab = sub(c, *a);
+                        let t = (dot(sub(q, *a), ab) / dot(ab, ab)).clamp(0.0, 1.0);
+                        norm(sub(q, add(*a, mul(ab, t)))) < 0.05
+                    })
+                })
+            };
+            let mut mismatches_at_other_angles = 0;
+            let mut tested = 0;
+            let steps = 41;
+            for i in 0..steps {
+                for j in 0..steps {
+                    let q = [
+                        b[0] + (b[2] - b[0]) * (f64::from(i) + 0.37) / f64::from(steps),
+                        b[1] + (b[3] - b[1]) * (f64::from(j) + 0.61) / f64::from(steps),
+                    ];
+                    if norm(q) > r || near_border(q) {
+                        continue;
+                    }
+                    let here = p.coverage(q[0], q[1]);
+                    if n >= 2 {
+                        let s = rot(q, TAU / f64::from(n));
+                        if !near_border(s) {
+                            assert_eq!(here, p.coverage(s[0], s[1]), "{}: not {n}-fold symmetric", p.name);
+                        }
+                    }
+                    // No finer symmetry than claimed: some point changes under a rotation by 360/(2n)
+                    // (or 90° for symmetry 1).
+                    let other = if n == 0 {
+                        0.7
+                    } else if n == 1 {
+                        PI / 2.0
+                    } else {
+                        PI / f64::from(n)
+                    };
+                    let s = rot(q, other);
+                    if !near_border(s) {
+                        tested += 1;
+                        if here != p.coverage(s[0], s[1]) {
+                            mismatches_at_other_angles += 1;
+                        }
+                    }
+                }
+            }
+            if n == 0 {
+                assert_eq!(mismatches_at_other_angles, 0, "{}: a ring is rotation invariant", p.name);
+            } else {
+                assert!(mismatches_at_other_angles > 0, "{} of {tested}: looks more symmetric than {n}", p.name);
+            }
+        }
+    }
+
+    #[test]
+    fn gen_holes_are_outside() {
+        let cat = catalogue();
+        let washer = cat.iter().find(|p| p.name == "washer").expect("washer");
+        assert!(!washer.coverage(0.0, 0.0));
+        assert!(washer.coverage(30.0, 0.0));
+        assert!(!washer.coverage(50.0, 0.0));
+        let area = PI * (44.0_f64.powi(2) - 20.0_f64.powi(2));
+        assert!((washer.area_mm2() - area).abs() / area < 1e-3);
+    }
+}
