@@ -38,18 +38,23 @@
 #![deny(rustdoc::broken_intra_doc_links)]
 
 pub mod background;
+pub mod budget;
+pub mod calibrate;
 pub mod contour;
 pub mod descriptor;
 pub mod enhance;
 pub mod error;
 pub mod frame;
+pub mod library;
 pub mod mask;
 pub mod matching;
 pub mod math;
 pub mod params;
 pub mod pose;
 pub mod recognizer;
+pub mod refine;
 pub mod resample;
+pub mod stereo;
 pub mod template;
 
 pub use background::Background;

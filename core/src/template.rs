@@ -106,6 +106,72 @@ impl<const M: usize> Template<M> {
         Self::from_border(store.points(best), holes, params)
     }
 
+    /// A template from its stored parts (as [`crate::library`] reads them): the `m` resampled
+    /// points, their `m` descriptor values, the points' mean `C'`, the area centroid and the area.
+    ///
+    /// ```
+    /// use vorl_core::Template;
+    /// let pts = [[0.0f32, 0.0], [4.0, 0.0], [4.0, 2.0], [0.0, 2.0]];
+    /// let t = Template::<8>::from_parts(pts, [1.0; 4], [2.0, 1.0], [2.0, 1.0], 8.0).unwrap();
+    /// assert_eq!((t.len(), t.centroid()), (4, [2.0, 1.0]));
+    /// assert!(Template::<3>::from_parts(pts, [1.0; 4], [2.0, 1.0], [2.0, 1.0], 8.0).is_err());
+    /// ```
+    ///
+    /// # Errors
+    /// [`Error::Capacity`] for more than `M` points or descriptor values,
+    /// [`Error::DegenerateContour`] for fewer than 3 points, and [`Error::Corrupt`] when the
+    /// counts differ or a value is not finite.
+    pub fn from_parts(
+        points: impl IntoIterator<Item = [f32; 2]>,
+        descriptor: impl IntoIterator<Item = f32>,
+        centroid: [f32; 2],
+        area_centroid: [f32; 2],
+        area: f32,
+    ) -> Result<Self> {
+        let mut t = Self::empty();
+        let full = |requested| Error::Capacity {
+            what: "template points M",
+            capacity: M,
+            requested,
+        };
+        let mut m = 0;
+        for p in points {
+            *t.points.get_mut(m).ok_or(full(m + 1))? = p;
+            m += 1;
+        }
+        let mut count = 0;
+        for c in descriptor {
+            *t.descriptor.get_mut(count).ok_or(full(count + 1))? = c;
+            count += 1;
+        }
+        if m < 3 {
+            return Err(Error::DegenerateContour { points: m });
+        }
+        if count != m {
+            return Err(Error::Corrupt {
+                what: "template points and descriptor differ in length",
+            });
+        }
+        let scalars = centroid.into_iter().chain(area_centroid).chain([area]);
+        let mut values = t
+            .points
+            .iter()
+            .flatten()
+            .chain(&t.descriptor)
+            .copied()
+            .chain(scalars);
+        if !values.all(f32::is_finite) {
+            return Err(Error::Corrupt {
+                what: "template value is not finite",
+            });
+        }
+        t.m = m;
+        t.centroid = centroid;
+        t.area_centroid = area_centroid;
+        t.area = area;
+        Ok(t)
+    }
+
     /// Number of resampled points `m`.
     pub fn len(&self) -> usize {
         self.m

@@ -1,11 +1,13 @@
 //! The `vorl` command line: one module per subcommand.
 
+pub mod budget;
 pub mod config;
 pub mod detect;
 pub mod eval;
 pub mod params;
 pub mod similarity;
 pub mod teach;
+pub mod templates;
 
 use clap::{Parser, Subcommand};
 
@@ -32,6 +34,10 @@ pub enum Command {
     Similarity(similarity::SimilarityArgs),
     /// Take the part in a frame as a new template.
     Teach(teach::TeachArgs),
+    /// Write or check the binary template library a camera loads.
+    Templates(templates::TemplatesArgs),
+    /// The RAM a configuration needs on the camera, buffer by buffer.
+    Budget(budget::BudgetArgs),
     /// Print the pipeline parameters.
     Config(config::ConfigArgs),
 }
@@ -43,6 +49,8 @@ pub fn run(cli: Cli) -> std::process::ExitCode {
         Command::Eval(a) => eval::run(a),
         Command::Similarity(a) => similarity::run(a),
         Command::Teach(a) => teach::run(a),
+        Command::Templates(a) => templates::run(a),
+        Command::Budget(a) => budget::run(a),
         Command::Config(a) => config::run(a),
     };
     match result {

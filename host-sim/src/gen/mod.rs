@@ -1,1 +1,842 @@
-//! placeholder
+//! Deterministic synthetic fixture sets (DESIGN.md, "Contracts"): the empty platform with smooth
+//! uneven lighting, industrial parts at random poses with partial-volume edges, optical blur and
+//! sensor noise, the template silhouettes, and the exact truth.
+//!
+//! # What a set holds
+//!
+//! ```text
+//! background.png              the empty platform (lighting + blur + fresh sensor noise)
+//! backgrounds/bg_00..07.png   8 more captures of it (same lighting, fresh noise)
+//! templates/<class>.png       silhouette at angle 0, pixel-centre rule, 255 on 0, ≥ 10 px margin
+//! frames/f000.png …           2–5 non-overlapping parts on the platform per frame
+//! truth.json                  {"frames": {"f000.png": [{"class", "x", "y", "angle_deg", "symmetry",
+//!                             "scale", "contrast", "texture", "shape", …}]}}
+//! parts.json                  the catalogue: class, symmetry, area, template file and where the
+//!                             centroid lies in it, px per mm
+//! ```
+//!
+//! Stereo sets write `frames/left_f000.png` and `frames/right_f000.png`, `background_left.png`
+//! (the same image as `background.png`), `background_right.png`, `backgrounds_right/`, and
+//! `camera.json`; truth is keyed by `f000.png`, positions in the left image, plus `z_mm` and
+//! `disparity_px`.
+//!
+//! # Truth
+//!
+//! Parts are polygons in their own millimetre frame (see [`catalogue`]) with the area centroid
+//! of the silhouette (holes removed) at the origin; a part is drawn by the similarity
+//! `p = (x, y) + k·(dx·cosθ + dy·sinθ, −dx·sinθ + dy·cosθ)` (θ counter-clockwise on screen, y down,
+//! k = px per mm × scale), so the truth position is exactly the drawn centroid and `angle_deg` is
+//! exactly θ. Each pixel's coverage is exact along x and sampled on 16 lines along y, which puts
+//! the coverage centroid within ~0.005 px of the truth.
+//!
+//! # Determinism
+//!
+//! Every random choice comes from a stream keyed by (seed, purpose, index) — one per frame for the
+//! layout, one per image for the noise — so frames may be made in parallel and the same options
+//! give byte-identical files. Nothing depends on time or on hash-map order.
+
+mod output;
+mod raster;
+mod render;
+mod rng;
+mod scene;
+mod shapes;
+
+pub use shapes::{catalogue, PartSpec};
+
+use std::collections::BTreeMap;
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+
+use rayon::prelude::*;
+use serde_json::json;
+
+use crate::truth::{FramesJson, PartJson};
+use render::{add_drift, blur, capture, draw_part, template, Lighting, BLUR_SIGMA};
+use rng::{purpose, Rng};
+use scene::{plan, Placed, SceneConfig, StereoRig};
+
+/// Nominal scale of parts and templates, px per mm (all variants but `small`).
+pub const PX_PER_MM: f64 = 1.0;
+/// Nominal scale of the `small` variant, px per mm (parts 35–55 px across).
+pub const SMALL_PX_PER_MM: f64 = 0.4;
+/// Stereo focal length, px.
+pub const STEREO_F_PX: f64 = 800.0;
+/// Stereo baseline (right camera at +baseline along x), mm.
+pub const STEREO_BASELINE_MM: f64 = 60.0;
+/// Depth of the platform plane in stereo sets, mm (f/Z0 = 1 px per mm, the templates' scale).
+pub const STEREO_PLATFORM_Z_MM: f64 = 800.0;
+/// Extra captures of the empty platform in `backgrounds/`.
+pub const BACKGROUND_CAPTURES: usize = 8;
+
+/// The kind of set.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Variant {
+    /// σ = 2 noise, contrast 40–90 levels, parts 88–138 px across.
+    Default,
+    /// σ = 5 noise, lighting drift up to ±8 levels per frame, contrast 30–70 levels.
+    Noisy,
+    /// Parts and templates at 0.4 px per mm: 35–55 px across.
+    Small,
+    /// About 40 % of the parts cut by the frame border (`"partial": true`).
+    Border,
+    /// A rectified stereo pair per frame; parts 5–60 mm above the platform.
+    Stereo,
+}
+
+impl Variant {
+    /// All variants, in the order of their names.
+    pub const ALL: [Variant; 5] = [
+        Variant::Default,
+        Variant::Noisy,
+        Variant::Small,
+        Variant::Border,
+        Variant::Stereo,
+    ];
+
+    /// The command-line name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Variant::Default => "default",
+            Variant::Noisy => "noisy",
+            Variant::Small => "small",
+            Variant::Border => "border",
+            Variant::Stereo => "stereo",
+        }
+    }
+}
+
+impl fmt::Display for Variant {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for Variant {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        Variant::ALL
+            .into_iter()
+            .find(|v| v.name().eq_ignore_ascii_case(s.trim()))
+            .ok_or_else(|| {
+                let names: Vec<&str> = Variant::ALL.iter().map(|v| v.name()).collect();
+                format!("unknown variant '{s}' (valid: {})", names.join(", "))
+            })
+    }
+}
+
+/// What to generate.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GenOptions {
+    /// Seed of every random choice.
+    pub seed: u64,
+    /// Number of frames (stereo: pairs).
+    pub frames: usize,
+    /// Kind of set.
+    pub variant: Variant,
+    /// Frame width, px (32–16384).
+    pub width: u32,
+    /// Frame height, px (32–16384).
+    pub height: u32,
+}
+
+impl Default for GenOptions {
+    fn default() -> Self {
+        GenOptions {
+            seed: 1,
+            frames: 60,
+            variant: Variant::Default,
+            width: 640,
+            height: 480,
+        }
+    }
+}
+
+/// What was generated.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct GenSummary {
+    /// Frames written (stereo: pairs).
+    pub frames: usize,
+    /// Parts over all frames.
+    pub parts: usize,
+    /// Parts whose class is a template.
+    pub known_parts: usize,
+    /// Distractors (class `null`).
+    pub unknown_parts: usize,
+    /// Parts cut by the frame border.
+    pub partial_parts: usize,
+    /// Template classes, in catalogue order.
+    pub classes: Vec<String>,
+}
+
+/// Why a set could not be written.
+#[derive(Debug)]
+pub enum GenError {
+    /// A folder or file could not be created or written.
+    Io {
+        /// The file or folder.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// An image could not be encoded or written.
+    Image {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: image::ImageError,
+    },
+    /// A JSON file could not be encoded.
+    Json {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: serde_json::Error,
+    },
+    /// The options are out of range.
+    Options(String),
+}
+
+impl fmt::Display for GenError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            GenError::Io { path, source } => write!(f, "{}: {}", path.display(), source),
+            GenError::Image { path, source } => {
+                write!(f, "{}: cannot write image ({})", path.display(), source)
+            }
+            GenError::Json { path, source } => {
+                write!(f, "{}: cannot encode JSON ({})", path.display(), source)
+            }
+            GenError::Options(msg) => f.write_str(msg),
+        }
+    }
+}
+
+impl std::error::Error for GenError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            GenError::Io { source, .. } => Some(source),
+            GenError::Image { source, .. } => Some(source),
+            GenError::Json { source, .. } => Some(source),
+            GenError::Options(_) => None,
+        }
+    }
+}
+
+/// Everything a frame needs that is fixed for the set.
+struct SetPlan {
+    seed: u64,
+    w: usize,
+    h: usize,
+    scene: SceneConfig,
+    noise_sigma: f64,
+    drift_max: f64,
+    /// Lighting of the (left) camera, before blur.
+    light: Vec<f64>,
+    /// Lighting of the right camera (stereo), before blur.
+    light_right: Option<Vec<f64>>,
+}
+
+impl SetPlan {
+    fn new(opts: &GenOptions) -> Self {
+        let (w, h) = (opts.width as usize, opts.height as usize);
+        let mut rng = Rng::stream(opts.seed, purpose::SET, 0);
+        let base = rng.range(120.0, 140.0);
+        let amplitude = rng.range(10.0, 15.0);
+        let lighting = Lighting::random(&mut rng, w, h, base, amplitude);
+        let v = opts.variant;
+        let stereo = (v == Variant::Stereo).then_some(StereoRig {
+            f_px: STEREO_F_PX,
+            baseline_mm: STEREO_BASELINE_MM,
+            platform_z_mm: STEREO_PLATFORM_Z_MM,
+        });
+        let px_per_mm = match v {
+            Variant::Small => SMALL_PX_PER_MM,
+            Variant::Stereo => STEREO_F_PX / STEREO_PLATFORM_Z_MM,
+            _ => PX_PER_MM,
+        };
+        let (contrast, min_contrast) = if v == Variant::Noisy {
+            ((30.0, 70.0), 22.0)
+        } else {
+            ((40.0, 90.0), 30.0)
+        };
+        // The right camera sees the platform point that the left one sees at x + f·B/Z0.
+        let light_right =
+            stereo.map(|s| lighting.field(w, h, s.f_px * s.baseline_mm / s.platform_z_mm));
+        SetPlan {
+            seed: opts.seed,
+            w,
+            h,
+            scene: SceneConfig {
+                w,
+                h,
+                px_per_mm,
+                contrast,
+                min_contrast,
+                border: v == Variant::Border,
+                stereo,
+            },
+            noise_sigma: if v == Variant::Noisy { 5.0 } else { 2.0 },
+            drift_max: if v == Variant::Noisy { 8.0 } else { 1.5 },
+            light: lighting.field(w, h, 0.0),
+            light_right,
+        }
+    }
+
+    /// A capture of the empty platform: lighting, blur, noise from stream `index`.
+    fn background(&self, right: bool, index: u64) -> image::GrayImage {
+        let mut img = if right {
+            self.light_right.clone().unwrap_or_default()
+        } else {
+            self.light.clone()
+        };
+        blur(&mut img, self.w, self.h, BLUR_SIGMA);
+        let mut rng = Rng::stream(
+            self.seed,
+            purpose::BACKGROUND,
+            index + if right { 1000 } else { 0 },
+        );
+        capture(&img, self.w, self.h, self.noise_sigma, &mut rng)
+    }
+
+    /// One camera's view of the placed parts before noise: lighting, drift, parts, blur (the
+    /// right view shifts each part by its disparity).
+    fn compose(
+        &self,
+        cat: &[PartSpec],
+        parts: &[Placed],
+        right: bool,
+        drift: &mut Rng,
+    ) -> Vec<f64> {
+        let (w, h) = (self.w, self.h);
+        let mut img = if right {
+            self.light_right.clone().unwrap_or_default()
+        } else {
+            self.light.clone()
+        };
+        add_drift(&mut img, w, h, drift, self.drift_max);
+        for p in parts {
+            let pose = if right {
+                p.pose.shifted(-p.depth.map_or(0.0, |d| d.1))
+            } else {
+                p.pose
+            };
+            draw_part(&mut img, w, h, &cat[p.spec], &pose, &p.look);
+        }
+        blur(&mut img, w, h, BLUR_SIGMA);
+        img
+    }
+
+    /// One camera's view with sensor noise from the frame's stream.
+    fn view(
+        &self,
+        cat: &[PartSpec],
+        parts: &[Placed],
+        right: bool,
+        index: u64,
+        drift: &mut Rng,
+    ) -> image::GrayImage {
+        let img = self.compose(cat, parts, right, drift);
+        let stream = if right {
+            purpose::NOISE_RIGHT
+        } else {
+            purpose::NOISE_LEFT
+        };
+        capture(
+            &img,
+            self.w,
+            self.h,
+            self.noise_sigma,
+            &mut Rng::stream(self.seed, stream, index),
+        )
+    }
+
+    /// Plans, renders and writes frame `index`; its truth.
+    fn frame(
+        &self,
+        cat: &[PartSpec],
+        frames_dir: &Path,
+        index: usize,
+        name: &str,
+    ) -> Result<Vec<PartJson>, GenError> {
+        let mut rng = Rng::stream(self.seed, purpose::LAYOUT, index as u64);
+        let parts = plan(&mut rng, cat, &self.scene);
+        if self.scene.stereo.is_some() {
+            let left = self.view(cat, &parts, false, index as u64, &mut rng);
+            let right = self.view(cat, &parts, true, index as u64, &mut rng);
+            output::write_png(&frames_dir.join(format!("left_{name}")), &left)?;
+            output::write_png(&frames_dir.join(format!("right_{name}")), &right)?;
+        } else {
+            let img = self.view(cat, &parts, false, index as u64, &mut rng);
+            output::write_png(&frames_dir.join(name), &img)?;
+        }
+        Ok(parts.iter().map(|p| truth_entry(&cat[p.spec], p)).collect())
+    }
+}
+
+/// The truth record of a placed part.
+fn truth_entry(spec: &PartSpec, p: &Placed) -> PartJson {
+    let mut extra = BTreeMap::new();
+    extra.insert("scale".to_string(), json!(p.scale));
+    extra.insert("contrast".to_string(), json!(p.look.contrast));
+    extra.insert("texture".to_string(), json!(p.look.texture.name()));
+    extra.insert("shape".to_string(), json!(spec.name));
+    if p.partial {
+        extra.insert("visible_fraction".to_string(), json!(p.visible));
+    }
+    if let Some((z, d)) = p.depth {
+        extra.insert("z_mm".to_string(), json!(z));
+        extra.insert("disparity_px".to_string(), json!(d));
+    }
+    // The shape's centroid is its origin, so the drawn centroid is the pose's centre.
+    let c = p.pose.apply([0.0, 0.0]);
+    PartJson {
+        class: spec.is_template.then(|| spec.name.to_string()),
+        x: c[0],
+        y: c[1],
+        angle_deg: p.angle_deg,
+        symmetry: Some(spec.symmetry),
+        score: None,
+        partial: p.partial.then_some(true),
+        extra,
+    }
+}
+
+/// Frame file names: `f000.png`, … (wider when there are more than 1000).
+fn frame_name(index: usize, count: usize) -> String {
+    let digits = count.saturating_sub(1).to_string().len().max(3);
+    format!("f{index:0digits$}.png")
+}
+
+/// Writes a fixture set to `out` (created with its subfolders when missing; files already there
+/// are overwritten, others are left alone).
+///
+/// # Errors
+/// Options out of range, or a folder or file that cannot be written ([`GenError`] names it).
+pub fn generate(out: &Path, opts: &GenOptions) -> Result<GenSummary, GenError> {
+    for (what, v) in [("width", opts.width), ("height", opts.height)] {
+        if !(32..=16384).contains(&v) {
+            return Err(GenError::Options(format!(
+                "{what} {v} px is out of range (32–16384)"
+            )));
+        }
+    }
+    let cat = catalogue();
+    let set = SetPlan::new(opts);
+    let stereo = opts.variant == Variant::Stereo;
+    let frames_dir = out.join("frames");
+    let templates_dir = out.join("templates");
+    for d in [out, &frames_dir, &templates_dir, &out.join("backgrounds")] {
+        output::create_dir(d)?;
+    }
+    if stereo {
+        output::create_dir(&out.join("backgrounds_right"))?;
+    }
+
+    // Templates and the catalogue.
+    let mut parts_json = Vec::new();
+    for spec in &cat {
+        let mut entry = json!({
+            "class": spec.name,
+            "template": spec.is_template,
+            "symmetry": spec.symmetry,
+            "area_mm2": spec.area_mm2(),
+        });
+        if spec.is_template {
+            let (img, c) = template(spec, set.scene.px_per_mm);
+            let file = format!("templates/{}.png", spec.name);
+            output::write_png(&out.join(&file), &img)?;
+            entry["file"] = json!(file);
+            entry["centroid_px"] = json!(c);
+        }
+        parts_json.push(entry);
+    }
+    output::write_json(
+        &out.join("parts.json"),
+        &json!({ "px_per_mm": set.scene.px_per_mm, "parts": parts_json }),
+    )?;
+
+    // The empty platform.
+    let mut jobs: Vec<(PathBuf, bool, u64)> = vec![(out.join("background.png"), false, 0)];
+    if stereo {
+        jobs.push((out.join("background_left.png"), false, 0));
+        jobs.push((out.join("background_right.png"), true, 0));
+    }
+    for k in 0..BACKGROUND_CAPTURES {
+        let file = format!("bg_{k:02}.png");
+        jobs.push((out.join("backgrounds").join(&file), false, k as u64 + 1));
+        if stereo {
+            jobs.push((
+                out.join("backgrounds_right").join(&file),
+                true,
+                k as u64 + 1,
+            ));
+        }
+    }
+    jobs.par_iter().try_for_each(|(path, right, index)| {
+        output::write_png(path, &set.background(*right, *index))
+    })?;
+
+    // Frames.
+    let truths: Vec<Vec<PartJson>> = (0..opts.frames)
+        .into_par_iter()
+        .map(|i| set.frame(&cat, &frames_dir, i, &frame_name(i, opts.frames)))
+        .collect::<Result<_, _>>()?;
+    let mut summary = GenSummary {
+        frames: opts.frames,
+        parts: 0,
+        known_parts: 0,
+        unknown_parts: 0,
+        partial_parts: 0,
+        classes: cat
+            .iter()
+            .filter(|s| s.is_template)
+            .map(|s| s.name.to_string())
+            .collect(),
+    };
+    let mut truth = FramesJson::default();
+    for (i, parts) in truths.into_iter().enumerate() {
+        summary.parts += parts.len();
+        summary.known_parts += parts.iter().filter(|p| p.class.is_some()).count();
+        summary.unknown_parts += parts.iter().filter(|p| p.class.is_none()).count();
+        summary.partial_parts += parts.iter().filter(|p| p.partial == Some(true)).count();
+        truth.frames.insert(frame_name(i, opts.frames), parts);
+    }
+    output::write_json(&out.join("truth.json"), &truth)?;
+    if stereo {
+        output::write_json(
+            &out.join("camera.json"),
+            &json!({
+                "f_px": STEREO_F_PX,
+                "baseline_mm": STEREO_BASELINE_MM,
+                "cx": (f64::from(opts.width) - 1.0) / 2.0,
+                "cy": (f64::from(opts.height) - 1.0) / 2.0,
+                "platform_z_mm": STEREO_PLATFORM_Z_MM,
+                "platform_disparity_px": STEREO_F_PX * STEREO_BASELINE_MM / STEREO_PLATFORM_Z_MM,
+            }),
+        )?;
+    }
+    Ok(summary)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A fresh scratch folder under the system temp folder.
+    fn scratch(name: &str) -> PathBuf {
+        let p = std::env::temp_dir().join(format!("vorl-gen-test-{}-{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&p);
+        p
+    }
+
+    /// All files under `root`, relative, sorted, with their bytes.
+    fn files(root: &Path) -> Vec<(PathBuf, Vec<u8>)> {
+        let mut out = Vec::new();
+        let mut stack = vec![root.to_path_buf()];
+        while let Some(d) = stack.pop() {
+            for e in std::fs::read_dir(&d).expect("read dir") {
+                let p = e.expect("entry").path();
+                if p.is_dir() {
+                    stack.push(p);
+                } else {
+                    let bytes = std::fs::read(&p).expect("read");
+                    out.push((p.strip_prefix(root).expect("prefix").to_path_buf(), bytes));
+                }
+            }
+        }
+        out.sort();
+        out
+    }
+
+    fn gray(path: &Path) -> image::GrayImage {
+        image::open(path).expect("open png").to_luma8()
+    }
+
+    /// Compares each part's silhouette in a frame (|frame − background| over a threshold) with
+    /// the part drawn from its truth (shape, x, y, angle, scale) inside its bounding circle + 3 px,
+    /// leaving out pixels within ¾ px of the border; the worst share of pixels that disagree.
+    fn worst_disagreement(
+        frame: &image::GrayImage,
+        bg: &image::GrayImage,
+        parts: &[PartJson],
+        right: bool,
+    ) -> f64 {
+        let cat = catalogue();
+        let mut worst: f64 = 0.0;
+        for p in parts {
+            let shape = p.extra["shape"].as_str().expect("shape");
+            let spec = cat
+                .iter()
+                .find(|s| s.name == shape)
+                .expect("shape in catalogue");
+            assert_eq!(p.class.is_some(), spec.is_template);
+            let scale = p.extra["scale"].as_f64().expect("scale");
+            // Half the contrast, at most 15 (labels and shading stay ≥ 30 from the platform).
+            let threshold = (p.extra["contrast"].as_f64().expect("contrast").abs() / 2.0).min(15.0);
+            let shift = if right {
+                p.extra["disparity_px"].as_f64().expect("disparity")
+            } else {
+                0.0
+            };
+            let pose = raster::Pose::new(p.x - shift, p.y, p.angle_deg, scale);
+            let r = spec.radius_mm() * scale + 3.0;
+            let (mut n, mut bad) = (0usize, 0usize);
+            for y in (p.y - r).floor() as i64..=(p.y + r).ceil() as i64 {
+                for x in (pose.cx - r).floor() as i64..=(pose.cx + r).ceil() as i64 {
+                    let outside_circle = (x as f64 - pose.cx).hypot(y as f64 - pose.cy) > r;
+                    if outside_circle
+                        || x < 0
+                        || y < 0
+                        || x >= i64::from(frame.width())
+                        || y >= i64::from(frame.height())
+                    {
+                        continue;
+                    }
+                    let inside = |ox: f64, oy: f64| {
+                        let q = pose.invert([x as f64 + ox, y as f64 + oy]);
+                        spec.coverage(q[0], q[1])
+                    };
+                    let want = inside(0.0, 0.0);
+                    if [(-0.75, -0.75), (0.75, -0.75), (-0.75, 0.75), (0.75, 0.75)]
+                        .iter()
+                        .any(|&(a, b)| inside(a, b) != want)
+                    {
+                        continue;
+                    }
+                    let diff = (f64::from(frame.get_pixel(x as u32, y as u32).0[0])
+                        - f64::from(bg.get_pixel(x as u32, y as u32).0[0]))
+                    .abs();
+                    let got = diff > threshold;
+                    if want || got {
+                        n += 1;
+                        bad += usize::from(want != got);
+                    }
+                }
+            }
+            worst = worst.max(bad as f64 / n as f64);
+        }
+        worst
+    }
+
+    #[test]
+    fn gen_partial_volume_centroid_of_a_clean_frame_matches_truth() {
+        // A frame without noise or drift: the centroid of (image − platform) / contrast over a
+        // plain part's neighbourhood is the truth centroid (blur keeps centroids).
+        let opts = GenOptions {
+            seed: 21,
+            ..GenOptions::default()
+        };
+        let mut set = SetPlan::new(&opts);
+        set.drift_max = 0.0;
+        let cat = catalogue();
+        let mut light = set.light.clone();
+        blur(&mut light, set.w, set.h, BLUR_SIGMA);
+        let mut checked = 0;
+        for index in 0..12 {
+            let mut rng = Rng::stream(opts.seed, purpose::LAYOUT, index);
+            let parts = plan(&mut rng, &cat, &set.scene);
+            let img = set.compose(&cat, &parts, false, &mut rng);
+            for p in parts
+                .iter()
+                .filter(|p| p.look.texture == render::Texture::Plain)
+            {
+                // Inside the bounding circle + 4 px: all of this part's blurred edge, none of another part.
+                let r = cat[p.spec].radius_mm() * p.pose.k + 4.0;
+                let (mut s, mut sx, mut sy) = (0.0, 0.0, 0.0);
+                let (y0, y1) = (
+                    (p.pose.cy - r).floor().max(0.0) as usize,
+                    ((p.pose.cy + r).ceil() as usize).min(set.h - 1),
+                );
+                let (x0, x1) = (
+                    (p.pose.cx - r).floor().max(0.0) as usize,
+                    ((p.pose.cx + r).ceil() as usize).min(set.w - 1),
+                );
+                for y in y0..=y1 {
+                    for x in x0..=x1 {
+                        if (x as f64 - p.pose.cx).hypot(y as f64 - p.pose.cy) > r {
+                            continue;
+                        }
+                        let i = y * set.w + x;
+                        let v = (img[i] - light[i]) / p.look.contrast;
+                        s += v;
+                        sx += v * x as f64;
+                        sy += v * y as f64;
+                    }
+                }
+                let t = truth_entry(&cat[p.spec], p);
+                let err = (sx / s - t.x).hypot(sy / s - t.y);
+                assert!(err < 0.02, "{}: {err} px", cat[p.spec].name);
+                checked += 1;
+            }
+        }
+        assert!(checked >= 5);
+    }
+
+    #[test]
+    fn gen_variant_names_parse() {
+        for v in Variant::ALL {
+            assert_eq!(v.name().parse::<Variant>(), Ok(v));
+            assert_eq!(v.to_string(), v.name());
+        }
+        let e = "fancy".parse::<Variant>().unwrap_err();
+        assert!(e.contains("default, noisy, small, border, stereo"), "{e}");
+    }
+
+    #[test]
+    fn gen_same_seed_same_bytes() {
+        let opts = GenOptions {
+            seed: 9,
+            frames: 2,
+            variant: Variant::Small,
+            width: 160,
+            height: 120,
+        };
+        let (a, b, c) = (scratch("det-a"), scratch("det-b"), scratch("det-c"));
+        let sa = generate(&a, &opts).expect("generate a");
+        let sb = generate(&b, &opts).expect("generate b");
+        generate(
+            &c,
+            &GenOptions {
+                seed: 10,
+                ..opts.clone()
+            },
+        )
+        .expect("generate c");
+        assert_eq!(sa, sb);
+        assert!(sa.parts >= 2, "{sa:?}");
+        let (fa, fb, fc) = (files(&a), files(&b), files(&c));
+        assert!(fa.len() >= 2 + 1 + BACKGROUND_CAPTURES + 13 + 2);
+        assert_eq!(fa, fb);
+        let truth = |f: &[(PathBuf, Vec<u8>)]| {
+            f.iter()
+                .find(|(p, _)| p == Path::new("truth.json"))
+                .expect("truth")
+                .1
+                .clone()
+        };
+        assert_ne!(truth(&fa), truth(&fc));
+        for d in [a, b, c] {
+            let _ = std::fs::remove_dir_all(d);
+        }
+    }
+
+    #[test]
+    fn gen_default_set_matches_its_truth() {
+        let dir = scratch("default");
+        let opts = GenOptions {
+            seed: 3,
+            frames: 4,
+            ..GenOptions::default()
+        };
+        let s = generate(&dir, &opts).expect("generate");
+        assert_eq!(s.frames, 4);
+        assert_eq!(s.known_parts + s.unknown_parts, s.parts);
+        assert_eq!(s.partial_parts, 0);
+        let truth = FramesJson::load(&dir.join("truth.json")).expect("truth loads");
+        assert_eq!(
+            truth.frames.keys().cloned().collect::<Vec<_>>(),
+            vec!["f000.png", "f001.png", "f002.png", "f003.png"]
+        );
+        let bg = gray(&dir.join("background.png"));
+        assert_eq!(bg.dimensions(), (640, 480));
+        let mean = bg.pixels().map(|p| f64::from(p.0[0])).sum::<f64>() / (640.0 * 480.0);
+        assert!((110.0..=150.0).contains(&mean), "{mean}");
+        for (name, parts) in &truth.frames {
+            assert!((2..=5).contains(&parts.len()));
+            for p in parts {
+                assert!((0.0..360.0).contains(&p.angle_deg));
+                assert!(p.partial.is_none());
+            }
+            let frame = gray(&dir.join("frames").join(name));
+            let worst = worst_disagreement(&frame, &bg, parts, false);
+            assert!(worst < 0.005, "{name}: {worst}");
+        }
+        let t = gray(&dir.join("templates").join("gear_z12.png"));
+        assert!(t.pixels().all(|p| p.0[0] == 0 || p.0[0] == 255));
+        let _ = std::fs::remove_dir_all(dir);
+    }
+
+    #[test]
+    fn gen_border_variant_marks_partial_parts() {
+        let dir = scratch("border");
+        let opts = GenOptions {
+            seed: 5,
+            frames: 8,
+            variant: Variant::Border,
+            ..GenOptions::default()
+        };
+        let s = generate(&dir, &opts).expect("generate");
+        assert!(s.partial_parts >= 3, "{s:?}");
+        let truth = FramesJson::load(&dir.join("truth.json")).expect("truth loads");
+        let cat = catalogue();
+        let mut partial = 0;
+        for parts in truth.frames.values() {
+            for p in parts {
+                // "partial" is written only when true.
+                assert_ne!(p.partial, Some(false));
+                let is_partial = p.partial == Some(true);
+                partial += usize::from(is_partial);
+                assert_eq!(p.extra.contains_key("visible_fraction"), is_partial);
+                if let Some(class) = &p.class {
+                    let spec = cat.iter().find(|s| s.name == class).expect("class");
+                    let scale = p.extra["scale"].as_f64().expect("scale");
+                    let pose = raster::Pose::new(p.x, p.y, p.angle_deg, scale);
+                    let b = raster::bounds(&pose.rings(spec.rings()));
+                    let cut = b[0] < -0.5 || b[1] < -0.5 || b[2] > 639.5 || b[3] > 479.5;
+                    assert_eq!(cut, is_partial);
+                }
+            }
+        }
+        assert_eq!(partial, s.partial_parts);
+        let _ = std::fs::remove_dir_all(dir);
+    }
+
+    #[test]
+    fn gen_stereo_disparity_is_f_b_over_z() {
+        let dir = scratch("stereo");
+        let opts = GenOptions {
+            seed: 11,
+            frames: 3,
+            variant: Variant::Stereo,
+            ..GenOptions::default()
+        };
+        generate(&dir, &opts).expect("generate");
+        let cam: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(dir.join("camera.json")).expect("camera"),
+        )
+        .expect("json");
+        let (f, b) = (
+            cam["f_px"].as_f64().expect("f"),
+            cam["baseline_mm"].as_f64().expect("b"),
+        );
+        assert_eq!(
+            (f, b, cam["cx"].as_f64(), cam["cy"].as_f64()),
+            (800.0, 60.0, Some(319.5), Some(239.5))
+        );
+        let z0 = cam["platform_z_mm"].as_f64().expect("z0");
+        let truth = FramesJson::load(&dir.join("truth.json")).expect("truth loads");
+        let bg_l = gray(&dir.join("background_left.png"));
+        let bg_r = gray(&dir.join("background_right.png"));
+        assert_eq!(
+            std::fs::read(dir.join("background.png")).ok(),
+            std::fs::read(dir.join("background_left.png")).ok()
+        );
+        for (name, parts) in &truth.frames {
+            for p in parts {
+                let z = p.extra["z_mm"].as_f64().expect("z");
+                let d = p.extra["disparity_px"].as_f64().expect("d");
+                assert!((z0 - 60.0..=z0 - 5.0).contains(&z));
+                assert!((d - f * b / z).abs() < 1e-9);
+                assert!((p.extra["scale"].as_f64().expect("scale") - z0 / z).abs() < 1e-12);
+            }
+            let left = gray(&dir.join("frames").join(format!("left_{name}")));
+            let right = gray(&dir.join("frames").join(format!("right_{name}")));
+            assert!(worst_disagreement(&left, &bg_l, parts, false) < 0.005);
+            assert!(worst_disagreement(&right, &bg_r, parts, true) < 0.005);
+        }
+        let _ = std::fs::remove_dir_all(dir);
+    }
+}

@@ -97,7 +97,8 @@ impl Path {
     }
 
     fn finish(mut self) -> Vec<P> {
-        while self.0.len() > 1 && norm(sub(self.0[0], *self.0.last().unwrap_or(&[0.0; 2]))) <= 1e-9 {
+        while self.0.len() > 1 && norm(sub(self.0[0], *self.0.last().unwrap_or(&[0.0; 2]))) <= 1e-9
+        {
             self.0.pop();
         }
         self.0
@@ -156,7 +157,9 @@ fn convex_hull(mut pts: Vec<P>) -> Vec<P> {
             Box::new(pts.iter().rev())
         };
         for &p in iter {
-            while hull.len() >= start + 2 && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0 {
+            while hull.len() >= start + 2
+                && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0
+            {
                 hull.pop();
             }
             hull.push(p);
@@ -217,10 +220,20 @@ impl Shape {
         let mut bbox = [f64::MAX, f64::MAX, f64::MIN, f64::MIN];
         let mut radius: f64 = 0.0;
         for p in rings.iter().flatten() {
-            bbox = [bbox[0].min(p[0]), bbox[1].min(p[1]), bbox[2].max(p[0]), bbox[3].max(p[1])];
+            bbox = [
+                bbox[0].min(p[0]),
+                bbox[1].min(p[1]),
+                bbox[2].max(p[0]),
+                bbox[3].max(p[1]),
+            ];
             radius = radius.max(norm(*p));
         }
-        Shape { rings, area, radius, bbox }
+        Shape {
+            rings,
+            area,
+            radius,
+            bbox,
+        }
     }
 }
 
@@ -266,7 +279,12 @@ impl PartSpec {
 }
 
 fn part(name: &'static str, is_template: bool, symmetry: u32, rings: Vec<Vec<P>>) -> PartSpec {
-    PartSpec { name, is_template, symmetry, shape: Shape::new(rings) }
+    PartSpec {
+        name,
+        is_template,
+        symmetry,
+        shape: Shape::new(rings),
+    }
 }
 
 /// Spur gear outline: trapezoidal teeth between root and tip circle, centred round bore.
@@ -293,7 +311,11 @@ fn l_bracket() -> Vec<Vec<P>> {
         ([34.0, 100.0], 6.0),
         ([0.0, 100.0], 6.0),
     ]);
-    vec![outline, circle([90.0, 17.0], 6.0), circle([17.0, 80.0], 6.0)]
+    vec![
+        outline,
+        circle([90.0, 17.0], 6.0),
+        circle([17.0, 80.0], 6.0),
+    ]
 }
 
 fn t_bracket() -> Vec<Vec<P>> {
@@ -307,12 +329,19 @@ fn t_bracket() -> Vec<Vec<P>> {
         ([-17.0, 32.0], 8.0),
         ([-65.0, 32.0], 5.0),
     ]);
-    vec![outline, circle([-48.0, 16.0], 5.5), circle([48.0, 16.0], 5.5), circle([0.0, 92.0], 5.5)]
+    vec![
+        outline,
+        circle([-48.0, 16.0], 5.5),
+        circle([48.0, 16.0], 5.5),
+        circle([0.0, 92.0], 5.5),
+    ]
 }
 
 fn hex_nut() -> Vec<Vec<P>> {
     let r = 40.0 / (PI / 6.0).cos(); // 80 mm across flats
-    let corners: Vec<(P, f64)> = (0..6).map(|k| (polar([0.0, 0.0], r, f64::from(k) * PI / 3.0), 3.0)).collect();
+    let corners: Vec<(P, f64)> = (0..6)
+        .map(|k| (polar([0.0, 0.0], r, f64::from(k) * PI / 3.0), 3.0))
+        .collect();
     vec![rounded_polygon(&corners), circle([0.0, 0.0], 22.0)]
 }
 
@@ -336,7 +365,12 @@ fn flange_oval() -> Vec<Vec<P>> {
 /// Square four-bolt flange with rounded corners and a centre bore.
 fn flange_square() -> Vec<Vec<P>> {
     let s = 50.0;
-    let outline = rounded_polygon(&[([-s, -s], 14.0), ([s, -s], 14.0), ([s, s], 14.0), ([-s, s], 14.0)]);
+    let outline = rounded_polygon(&[
+        ([-s, -s], 14.0),
+        ([s, -s], 14.0),
+        ([s, s], 14.0),
+        ([-s, s], 14.0),
+    ]);
     let mut rings = vec![outline, circle([0.0, 0.0], 24.0)];
     for (x, y) in [(-32.0, -32.0), (32.0, -32.0), (32.0, 32.0), (-32.0, 32.0)] {
         rings.push(circle([x, y], 6.5));
@@ -414,7 +448,11 @@ fn u_bracket() -> Vec<Vec<P>> {
         ([26.0, 90.0], 4.0),
         ([0.0, 90.0], 4.0),
     ]);
-    vec![outline, circle([13.0, 72.0], 6.0), circle([87.0, 72.0], 6.0)]
+    vec![
+        outline,
+        circle([13.0, 72.0], 6.0),
+        circle([87.0, 72.0], 6.0),
+    ]
 }
 
 /// Distractor: five-pointed star.
@@ -448,7 +486,10 @@ fn blob() -> Vec<Vec<P>> {
         .map(|i| {
             let t = TAU * f64::from(i) / f64::from(n);
             let r = 48.0
-                * (1.0 + 0.13 * (2.0 * t + 0.4).cos() + 0.09 * (3.0 * t + 1.9).cos() + 0.06 * (5.0 * t + 0.7).cos()
+                * (1.0
+                    + 0.13 * (2.0 * t + 0.4).cos()
+                    + 0.09 * (3.0 * t + 1.9).cos()
+                    + 0.06 * (5.0 * t + 0.7).cos()
                     - 0.04 * (7.0 * t + 2.3).cos());
             polar([0.0, 0.0], r, t)
         })
@@ -501,7 +542,11 @@ mod tests {
         assert_eq!(names.len(), cat.len(), "class names are unique");
         for p in &cat {
             let across = (p.bbox_mm()[2] - p.bbox_mm()[0]).max(p.bbox_mm()[3] - p.bbox_mm()[1]);
-            assert!((75.0..=150.0).contains(&across), "{}: {across} mm across", p.name);
+            assert!(
+                (75.0..=150.0).contains(&across),
+                "{}: {across} mm across",
+                p.name
+            );
             // Centroid at the origin, to rounding.
             let (mut a, mut mx, mut my) = (0.0, 0.0, 0.0);
             for r in p.rings() {
@@ -511,9 +556,18 @@ mod tests {
                 my += ra * rc[1];
             }
             assert!(a > 0.0 && (a - p.area_mm2()).abs() < 1e-9 * a, "{}", p.name);
-            assert!((mx / a).abs() < 1e-9 && (my / a).abs() < 1e-9, "{}: centroid off", p.name);
+            assert!(
+                (mx / a).abs() < 1e-9 && (my / a).abs() < 1e-9,
+                "{}: centroid off",
+                p.name
+            );
             // Exactly one outer ring (one connected silhouette).
-            assert_eq!(p.rings().iter().filter(|r| ring_moments(r).0 > 0.0).count(), 1, "{}", p.name);
+            assert_eq!(
+                p.rings().iter().filter(|r| ring_moments(r).0 > 0.0).count(),
+                1,
+                "{}",
+                p.name
+            );
         }
     }
 
@@ -549,7 +603,12 @@ mod tests {
                     if n >= 2 {
                         let s = rot(q, TAU / f64::from(n));
                         if !near_border(s) {
-                            assert_eq!(here, p.coverage(s[0], s[1]), "{}: not {n}-fold symmetric", p.name);
+                            assert_eq!(
+                                here,
+                                p.coverage(s[0], s[1]),
+                                "{}: not {n}-fold symmetric",
+                                p.name
+                            );
                         }
                     }
                     // No finer symmetry than claimed: some point changes under a rotation by 360/(2n)
@@ -571,9 +630,17 @@ mod tests {
                 }
             }
             if n == 0 {
-                assert_eq!(mismatches_at_other_angles, 0, "{}: a ring is rotation invariant", p.name);
+                assert_eq!(
+                    mismatches_at_other_angles, 0,
+                    "{}: a ring is rotation invariant",
+                    p.name
+                );
             } else {
-                assert!(mismatches_at_other_angles > 0, "{} of {tested}: looks more symmetric than {n}", p.name);
+                assert!(
+                    mismatches_at_other_angles > 0,
+                    "{} of {tested}: looks more symmetric than {n}",
+                    p.name
+                );
             }
         }
     }

@@ -1,0 +1,52 @@
+//! DP optimality: for every n ≤ 7 and n ≤ m ≤ min(10, 2n − 1), the core's cyclic DP finds the
+//! same optimum as a brute force over every cyclic order-preserving injective assignment (the
+//! reference's `brute_force_cyclic`, which shares no code with either DP), and its own
+//! assignment is valid and has that cost.
+
+use proptest::prelude::*;
+use vorl_core::matching::{match_with_assignment, table_cells};
+use vorl_host_sim::reference::brute_force_cyclic;
+
+fn check(part: &[f32], tpl: &[f32]) -> Result<(), TestCaseError> {
+    let (n, m) = (part.len(), tpl.len());
+    let mut table = vec![0.0f32; table_cells(n, m)];
+    let mut asg = vec![0u16; n];
+    let got = match_with_assignment(part, tpl, &mut table, &mut asg).unwrap();
+    let p64: Vec<f64> = part.iter().map(|&v| v as f64).collect();
+    let t64: Vec<f64> = tpl.iter().map(|&v| v as f64).collect();
+    let want = brute_force_cyclic(&p64, &t64).unwrap();
+    prop_assert!((got.cost as f64 - want).abs() <= 1e-4 * want.max(1.0), "n {n} m {m}: DP {} brute force {want}", got.cost);
+    // The assignment: injective, cyclic order kept (offsets from j(0) strictly increasing), cost.
+    let offs: Vec<usize> = asg.iter().map(|&j| (j as usize + m - asg[0] as usize) % m).collect();
+    prop_assert!(offs.windows(2).all(|w| w[0] < w[1]), "not cyclic order-preserving: {asg:?}");
+    let cost: f32 = part.iter().zip(&asg).map(|(a, &j)| (a - tpl[j as usize]).abs()).sum();
+    prop_assert!((cost - got.cost).abs() <= 1e-4 * cost.max(1.0));
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 600, .. ProptestConfig::default() })]
+
+    #[test]
+    fn dp_equals_brute_force(n in 1usize..=7, extra in 0usize..=3, seed in any::<u64>(), ties in any::<bool>()) {
+        let m = (n + extra).min(10).min(2 * n - 1).max(n);
+        let mut x = seed | 1;
+        let mut next = || { x ^= x << 13; x ^= x >> 7; x ^= x << 17; x };
+        // With `ties`, values on a coarse grid so that many assignments cost the same.
+        let val = |r: u64| if ties { (r % 4) as f32 * 0.5 } else { (r % 10_000) as f32 / 5_000.0 };
+        let part: Vec<f32> = (0..n).map(|_| val(next())).collect();
+        let tpl: Vec<f32> = (0..m).map(|_| val(next())).collect();
+        check(&part, &tpl)?;
+    }
+}
+
+#[test]
+fn every_size_pair_once() {
+    for n in 1..=7usize {
+        for m in n..=10usize.min(2 * n - 1) {
+            let part: Vec<f32> = (0..n).map(|i| ((i * 7 + 3) % 5) as f32 * 0.3).collect();
+            let tpl: Vec<f32> = (0..m).map(|j| ((j * 3 + 1) % 7) as f32 * 0.2).collect();
+            check(&part, &tpl).unwrap();
+        }
+    }
+}
