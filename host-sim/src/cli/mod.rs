@@ -1,9 +1,11 @@
 //! The `vorl` command line: one module per subcommand.
 
 pub mod budget;
+pub mod check;
 pub mod config;
 pub mod detect;
 pub mod eval;
+pub mod gen;
 pub mod params;
 pub mod similarity;
 pub mod teach;
@@ -26,8 +28,12 @@ pub struct Cli {
 /// Subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// Write a deterministic synthetic fixture set (frames, templates, truth).
+    Gen(gen::GenArgs),
     /// Find the parts in frames: class (or unknown), position, angle.
     Detect(detect::DetectArgs),
+    /// Hold the core against the independent std reference on every frame of a set.
+    Check(check::CheckArgs),
     /// Score detect against a set's truth.json.
     Eval(eval::EvalArgs),
     /// The all-pairs f' matrix of silhouettes: which parts will be confused.
@@ -45,8 +51,10 @@ pub enum Command {
 /// Runs the parsed command; the exit code.
 pub fn run(cli: Cli) -> std::process::ExitCode {
     let result = match cli.command {
+        Command::Gen(a) => gen::run(a),
         Command::Detect(a) => detect::run(a),
         Command::Eval(a) => eval::run(a),
+        Command::Check(a) => check::run(a),
         Command::Similarity(a) => similarity::run(a),
         Command::Teach(a) => teach::run(a),
         Command::Templates(a) => templates::run(a),

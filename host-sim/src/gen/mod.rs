@@ -27,7 +27,7 @@
 //! `p = (x, y) + k·(dx·cosθ + dy·sinθ, −dx·sinθ + dy·cosθ)` (θ counter-clockwise on screen, y down,
 //! k = px per mm × scale), so the truth position is exactly the drawn centroid and `angle_deg` is
 //! exactly θ. Each pixel's coverage is exact along x and sampled on 16 lines along y, which puts
-//! the coverage centroid within ~0.005 px of the truth.
+//! the coverage centroid within 0.003 px of the truth for every catalogue part (tested at 0.02).
 //!
 //! # Determinism
 //!

@@ -203,9 +203,9 @@ fn appearance(rng: &mut Rng, spec: &PartSpec, k: f64, cfg: &SceneConfig) -> Appe
 }
 
 /// A label rectangle (solid or 2–4 bars) that fits inside the silhouette with
-/// [`LABEL_MARGIN_PX`] to spare, or `None` when 60 tries find no room: a random interior point,
-/// a rectangle about it as large as its clearance allows (at most 45 % of the part's extent),
-/// shrunk until it fits.
+/// [`LABEL_MARGIN_PX`] to spare, or `None` when 60 tries find no room. A try: a random interior
+/// point, a rectangle about it as large as its clearance allows (at most 45 % of the part's
+/// extent), shrunk until it fits. The largest of the first 6 that fit is kept.
 fn label(
     rng: &mut Rng,
     spec: &PartSpec,
@@ -218,6 +218,8 @@ fn label(
     let (min_long, min_short) = (8.0 / k, 5.0 / k);
     let b = spec.bbox_mm();
     let max_long = 0.45 * (b[2] - b[0]).max(b[3] - b[1]);
+    let mut best: Option<([f64; 4], bool)> = None;
+    let mut found = 0;
     for _ in 0..60 {
         let (cx, cy) = (rng.range(b[0], b[2]), rng.range(b[1], b[3]));
         let aspect = rng.range(1.4, 3.0);
@@ -229,7 +231,7 @@ fn label(
         if room <= 0.0 {
             continue;
         }
-        let mut short = 2.0 * 1.5 * room / (1.0 + aspect * aspect).sqrt();
+        let mut short = 2.0 * 2.0 * room / (1.0 + aspect * aspect).sqrt();
         let mut long = (aspect * short).min(max_long);
         short = short.min(long / 1.4);
         while long >= min_long && short >= min_short {
@@ -240,21 +242,21 @@ fn label(
             };
             let rect = [cx - hw, cy - hh, cx + hw, cy + hh];
             if rect_clear(spec.rings(), rect, margin) {
-                return Some(label_texture(
-                    rng,
-                    rect,
-                    along_x,
-                    k,
-                    sign,
-                    mag,
-                    min_contrast,
-                ));
+                let area = |r: &[f64; 4]| (r[2] - r[0]) * (r[3] - r[1]);
+                if best.map_or(true, |(r, _)| area(&rect) > area(&r)) {
+                    best = Some((rect, along_x));
+                }
+                found += 1;
+                break;
             }
-            long *= 0.85;
-            short *= 0.85;
+            long *= 0.9;
+            short *= 0.9;
+        }
+        if found == 6 {
+            break;
         }
     }
-    None
+    best.map(|(rect, along_x)| label_texture(rng, rect, along_x, k, sign, mag, min_contrast))
 }
 
 /// A solid label or 2–4 bars in `rect`, of a level 15–35 away from the part's (never closer

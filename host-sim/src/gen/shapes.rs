@@ -81,7 +81,7 @@ impl Path {
 
     /// Appends a point (a straight segment from the previous one); drops exact repeats.
     fn to(&mut self, p: P) {
-        if self.0.last().is_none_or(|l| norm(sub(*l, p)) > 1e-9) {
+        if self.0.last().map_or(true, |l| norm(sub(*l, p)) > 1e-9) {
             self.0.push(p);
         }
     }
