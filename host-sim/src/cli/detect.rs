@@ -17,18 +17,16 @@ use crate::truth::{FramesJson, PartJson};
     vorl detect examples/plant --overlay out/overlays\n  \
     vorl detect --background bg.png --templates templates/ frame1.png frame2.png")]
 pub struct DetectArgs {
-    /// A fixture set folder (background.png, templates/, frames/).
-    #[arg(value_name = "SET", required_unless_present = "background")]
-    pub set: Option<PathBuf>,
-    /// Background image (instead of a set).
+    /// A fixture set folder (background.png, templates/, frames/) — or, with --background and
+    /// --templates, the frame files to run.
+    #[arg(value_name = "SET | FRAME…", required = true)]
+    pub inputs: Vec<PathBuf>,
+    /// Background image (then the inputs are frames, not a set).
     #[arg(long, value_name = "BG", requires = "templates")]
     pub background: Option<PathBuf>,
-    /// Template folder (instead of a set).
-    #[arg(long, value_name = "DIR")]
+    /// Template folder (with --background).
+    #[arg(long, value_name = "DIR", requires = "background")]
     pub templates: Option<PathBuf>,
-    /// Frames (instead of a set's frames/).
-    #[arg(value_name = "FRAME", conflicts_with = "set", last = false)]
-    pub frames: Vec<PathBuf>,
     /// Print the predictions as JSON (the truth.json shape).
     #[arg(long)]
     pub json: bool,
@@ -142,13 +140,14 @@ fn round6(v: f64) -> f64 {
 /// Set-up problems (background, templates, parameters); frame problems are reported per frame
 /// and make the exit code 1.
 pub fn run(args: DetectArgs) -> Result<ExitCode, String> {
-    let mut inputs = prepare(
-        args.set.as_deref(),
-        args.background.as_deref(),
-        args.templates.as_deref(),
-        &args.frames,
-        &args.params,
-    )?;
+    let (set, frames) = match (&args.background, args.inputs.as_slice()) {
+        (Some(_), frames) => (None, frames.to_vec()),
+        (None, [set]) => (Some(set.clone()), Vec::new()),
+        (None, _) => {
+            return Err("give one SET folder, or --background BG --templates DIR and the frame files".into())
+        }
+    };
+    let mut inputs = prepare(set.as_deref(), args.background.as_deref(), args.templates.as_deref(), &frames, &args.params)?;
     if inputs.frames.is_empty() {
         return Err("no frames to process".into());
     }
