@@ -60,6 +60,6 @@ pub mod template;
 pub use background::Background;
 pub use error::{Error, Result};
 pub use frame::{Frame, FrameBuffer};
-pub use params::{AngleEstimator, Params};
+pub use params::{AngleEstimator, Params, Position, Refine};
 pub use recognizer::{Detection, Recognizer, Report};
 pub use template::Template;

@@ -17,6 +17,29 @@ pub enum AngleEstimator {
     Paper,
 }
 
+/// What follows the DP match (DESIGN.md, "Beyond the paper").
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Refine {
+    /// The paper's path: best DP template, `f' < ε`, pose from the correspondences.
+    Off,
+    /// The paper's decision, with the pose aligned on the frame ([`crate::refine::align`]).
+    Pose,
+    /// The DP's best candidates each aligned and verified; the lowest verification score wins,
+    /// unknown above [`Params::verify_threshold`] (default).
+    Verify,
+}
+
+/// How a part's position is measured.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Position {
+    /// The paper's: area centroid of the border polygon through pixel centres.
+    Polygon,
+    /// Partial-volume area centroid of the part's pixels ([`crate::refine::partial_volume_centroid`]).
+    PartialVolume,
+    /// The template's silhouette centroid carried into the frame by the aligned pose.
+    Pose,
+}
+
 /// Pipeline parameters. [`Params::DEFAULT`] is a good start for parts of 40–200 px.
 ///
 /// ```
@@ -49,15 +72,23 @@ pub struct Params {
     pub omega: f32,
     /// Decision threshold `ε` on `f'` (eq. 5.2): known part iff `f' < ε`.
     pub epsilon: f32,
-    /// Rotation estimator for the reported angle.
+    /// Rotation estimator for the reported angle when the pose is not refined.
     pub angle: AngleEstimator,
+    /// What follows the DP match.
+    pub refine: Refine,
+    /// DP candidates verified per part (1..=8).
+    pub candidates: usize,
+    /// Verification threshold, px: a part whose best score is at or above it is unknown.
+    pub verify_threshold: f32,
+    /// How the position is measured.
+    pub position: Position,
 }
 
 impl Params {
     /// The defaults.
     pub const DEFAULT: Params = Params {
         alpha: 1.0,
-        threshold: Threshold::Fixed(30),
+        threshold: Threshold::Fixed(15),
         cleanup: true,
         min_points: 16,
         min_area: 64.0,
@@ -67,6 +98,10 @@ impl Params {
         omega: 0.5,
         epsilon: 0.08,
         angle: AngleEstimator::Signed,
+        refine: Refine::Verify,
+        candidates: 3,
+        verify_threshold: 0.6,
+        position: Position::PartialVolume,
     };
 
     /// Checks every range.
@@ -87,6 +122,12 @@ impl Params {
             return Err(Error::Parameter { name: "min_area", value: self.min_area });
         }
         check_counts(self.n, self.m)?;
+        if self.candidates == 0 || self.candidates > crate::recognizer::MAX_CANDIDATES {
+            return Err(Error::Parameter { name: "candidates", value: self.candidates as f32 });
+        }
+        if !(self.verify_threshold > 0.0) || !self.verify_threshold.is_finite() {
+            return Err(Error::Parameter { name: "verify_threshold", value: self.verify_threshold });
+        }
         if self.n < 8 {
             return Err(Error::Parameter { name: "n", value: self.n as f32 });
         }

@@ -26,13 +26,17 @@ use crate::error::{Error, Result};
 use crate::frame::Frame;
 use crate::mask::{foreground_mask, MaskStats};
 use crate::matching::{best_cost, match_with_assignment, table_cells};
-use crate::params::{AngleEstimator, Params};
+use crate::math;
+use crate::params::{AngleEstimator, Params, Position, Refine};
+use crate::refine::{align, mean_distance_to_outline, partial_volume_centroid, Alignment, Difference, Pose, Rect, RefineParams};
 use crate::pose::{angle_paper, angle_signed_refined, area_centroid};
 use crate::resample::resample;
 use crate::template::Template;
 
 /// Most detections reported for one frame.
 pub const MAX_DETECTIONS: usize = 32;
+/// Most DP candidates a part is verified against ([`Params::candidates`]).
+pub const MAX_CANDIDATES: usize = 8;
 /// Most skips reported for one frame (more are counted in [`Report::skips_lost`]).
 pub const MAX_SKIPS: usize = 16;
 
@@ -45,15 +49,23 @@ pub struct Detection {
     pub best_template: Option<u16>,
     /// `f'` against the best template (eq. 5.1); infinite without templates.
     pub score: f32,
-    /// Area centroid, x (px).
+    /// Position x (px), by [`Params::position`].
     pub x: f32,
-    /// Area centroid, y (px).
+    /// Position y (px), by [`Params::position`].
     pub y: f32,
+    /// The paper's position: the area centroid of the border polygon (holes subtracted).
+    pub polygon_centroid: [f32; 2],
     /// Rotation from the template's reference pose, degrees counter-clockwise on screen,
     /// `[0, 360)`, by [`Params::angle`].
     pub angle_deg: f32,
     /// The paper's unsigned estimate (eq. 6.4), degrees in `[0, 180]`.
     pub angle_paper_deg: f32,
+    /// The signed estimate over the DP correspondences (before alignment), degrees.
+    pub angle_dp_deg: f32,
+    /// Verification score of the chosen template, px (infinite when not verified).
+    pub verify: f32,
+    /// Scale of the part against its template (1 when not aligned).
+    pub scale: f32,
     /// Index of the part's border in the recognizer's contour store.
     pub contour: u16,
     /// Polygon area of the border, px².
@@ -149,6 +161,8 @@ pub struct Recognizer<const T: usize, const M: usize, const P: usize, const C: u
     descriptor: [f32; M],
     assignment: [u16; M],
     table: [f32; D],
+    part_edges: [[f32; 2]; M],
+    cands: [(usize, f32); MAX_CANDIDATES],
 }
 
 impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: usize> Default for Recognizer<T, M, P, C, D> {
@@ -168,6 +182,8 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             descriptor: [0.0; M],
             assignment: [0; M],
             table: [0.0; D],
+            part_edges: [[0.0; 2]; M],
+            cands: [(0, 0.0); MAX_CANDIDATES],
         }
     }
 
@@ -269,82 +285,229 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let trace = trace_borders(labels, frame.width(), frame.height(), params.filter(), &mut self.store)?;
         observe(Stage::Borders);
         let mut report = Report { mask, trace, ..Report::default() };
-        let n = params.n;
+        // From here on the label plane is the plain 0/1 mask (the refine stage uses bits 1–5).
+        for v in labels.iter_mut() {
+            *v = (*v != 0) as u8;
+        }
         for index in 0..self.store.contours().len() {
             let Some(contour) = self.store.contours().get(index).copied() else { continue };
             if contour.kind != BorderKind::Outer {
                 continue;
             }
-            let border = self.store.points(index);
-            let holes = self.store.holes_of(index).map(|i| self.store.points(i));
-            let Some([x, y]) = area_centroid(border, holes) else {
-                report.skip(index, SkipReason::NoArea);
-                continue;
-            };
-            let points = self.points.get_mut(..n).unwrap_or(&mut []);
-            let descriptor = self.descriptor.get_mut(..n).unwrap_or(&mut []);
-            let centroid = match resample(border, points).and_then(|_| describe(points, params.descriptor(n), descriptor)) {
-                Ok(c) => c,
-                Err(_) => {
-                    report.skip(index, SkipReason::Degenerate);
-                    continue;
-                }
-            };
-            let mut detection = Detection {
-                template: None,
-                best_template: None,
-                score: f32::INFINITY,
-                x,
-                y,
-                angle_deg: 0.0,
-                angle_paper_deg: 0.0,
-                contour: index as u16,
-                area: contour.area(),
-                touches_edge: contour.touches_edge,
-            };
-            if let Some((ti, _)) = self.best_template(n) {
-                if let Some(t) = self.templates.get(ti) {
-                    let part_desc = self.descriptor.get(..n).unwrap_or(&[]);
-                    let assignment = self.assignment.get_mut(..n).unwrap_or(&mut []);
-                    if let Ok(m) = match_with_assignment(part_desc, t.descriptor(), &mut self.table, assignment) {
-                        let part_pts = self.points.get(..n).unwrap_or(&[]);
-                        let assignment = self.assignment.get(..n).unwrap_or(&[]);
-                        let signed = angle_signed_refined(part_pts, centroid, t.points(), t.centroid(), assignment);
-                        let paper = angle_paper(part_pts, centroid, t.points(), t.centroid(), assignment);
-                        detection.best_template = Some(ti as u16);
-                        detection.score = m.normalized;
-                        detection.angle_paper_deg = paper.unwrap_or(0.0);
-                        detection.angle_deg = match params.angle {
-                            AngleEstimator::Signed => signed.unwrap_or(0.0),
-                            AngleEstimator::Paper => paper.unwrap_or(0.0),
-                        };
-                        if m.normalized < params.epsilon {
-                            detection.template = Some(ti as u16);
-                        }
+            match self.part(index, frame, background.plane(), labels) {
+                Ok(detection) => {
+                    if report.detections.push(detection).is_err() {
+                        report.skip(index, SkipReason::TooManyParts);
                     }
                 }
-            }
-            if report.detections.push(detection).is_err() {
-                report.skip(index, SkipReason::TooManyParts);
+                Err(reason) => report.skip(index, reason),
             }
         }
         observe(Stage::Parts);
         Ok(report)
     }
 
-    /// The template with the lowest `f'` for the described part in `self.descriptor[..n]`,
-    /// each template's DP bounded by the best cost so far (early rejection, exact).
-    fn best_template(&mut self, n: usize) -> Option<(usize, f32)> {
-        let part = self.descriptor.get(..n)?;
-        let mut best: Option<(usize, f32)> = None;
-        for (ti, t) in self.templates.iter().enumerate() {
-            let bound = best.map_or(f32::INFINITY, |(_, c)| c);
-            if let Ok(Some(m)) = best_cost(part, t.descriptor(), bound, &mut self.table) {
-                if m.cost < bound {
-                    best = Some((ti, m.cost));
+    /// One outer border (store index `index`) through resampling, description, matching,
+    /// alignment, verification and position.
+    fn part<B: AsRef<[u8]>>(&mut self, index: usize, frame: &Frame<B>, background: &[u8], mask: &mut [u8]) -> core::result::Result<Detection, SkipReason> {
+        let params = self.params;
+        let n = params.n;
+        let contour = self.store.contours().get(index).copied().ok_or(SkipReason::Degenerate)?;
+        let border = self.store.points(index);
+        let holes = self.store.holes_of(index).map(|i| self.store.points(i));
+        let [x, y] = area_centroid(border, holes).ok_or(SkipReason::NoArea)?;
+        let (mut x0, mut y0, mut x1, mut y1) = (usize::MAX, usize::MAX, 0usize, 0usize);
+        for p in border {
+            (x0, y0, x1, y1) = (x0.min(p.x as usize), y0.min(p.y as usize), x1.max(p.x as usize + 1), y1.max(p.y as usize + 1));
+        }
+        let bbox = Rect { x0, y0, x1, y1 };
+        let seed_pixel = border.first().map(|p| (p.x as usize, p.y as usize));
+        let points = self.points.get_mut(..n).unwrap_or(&mut []);
+        let descriptor = self.descriptor.get_mut(..n).unwrap_or(&mut []);
+        let centroid = resample(border, points)
+            .and_then(|_| describe(points, params.descriptor(n), descriptor))
+            .map_err(|_| SkipReason::Degenerate)?;
+        let mut detection = Detection {
+            template: None,
+            best_template: None,
+            score: f32::INFINITY,
+            x,
+            y,
+            polygon_centroid: [x, y],
+            angle_deg: 0.0,
+            angle_paper_deg: 0.0,
+            angle_dp_deg: 0.0,
+            verify: f32::INFINITY,
+            scale: 1.0,
+            contour: index as u16,
+            area: contour.area(),
+            touches_edge: contour.touches_edge,
+        };
+        let count = self.candidates(n, params.candidates.clamp(1, MAX_CANDIDATES));
+        let diff = Difference::new(frame, background, params.alpha());
+        if params.refine != Refine::Off && count > 0 {
+            self.part_edge(n, contour.area2 < 0, &diff);
+        }
+        let refine_params = RefineParams::DEFAULT;
+        let mut best_verify = f32::INFINITY;
+        let mut best_pose: Option<(usize, Pose)> = None;
+        for c in 0..count {
+            let Some((ti, _)) = self.cands.get(c).copied() else { continue };
+            let Some(t) = self.templates.get(ti) else { continue };
+            let part_desc = self.descriptor.get(..n).unwrap_or(&[]);
+            let assignment = self.assignment.get_mut(..n).unwrap_or(&mut []);
+            let Ok(m) = match_with_assignment(part_desc, t.descriptor(), &mut self.table, assignment) else { continue };
+            let part_pts = self.points.get(..n).unwrap_or(&[]);
+            let assignment = self.assignment.get(..n).unwrap_or(&[]);
+            let signed = angle_signed_refined(part_pts, centroid, t.points(), t.centroid(), assignment).unwrap_or(0.0);
+            let paper = angle_paper(part_pts, centroid, t.points(), t.centroid(), assignment).unwrap_or(0.0);
+            if c == 0 {
+                // The paper's path: the best DP candidate, f' < ε.
+                detection.best_template = Some(ti as u16);
+                detection.score = m.normalized;
+                detection.angle_paper_deg = paper;
+                detection.angle_dp_deg = signed;
+                detection.angle_deg = match params.angle {
+                    AngleEstimator::Signed => signed,
+                    AngleEstimator::Paper => paper,
+                };
+                if m.normalized < params.epsilon {
+                    detection.template = Some(ti as u16);
+                }
+            }
+            if params.refine == Refine::Off {
+                break;
+            }
+            let seed = Pose {
+                x,
+                y,
+                angle: math::radians(signed),
+                scale: if t.area() > 0.0 { math::sqrt(contour.area() / t.area()) } else { 1.0 },
+            };
+            let aligned = align(&diff, t.edge(), t.normals(), seed, &refine_params);
+            let verify = verify_score(&aligned, t, self.part_edges.get(..n).unwrap_or(&[]), &refine_params);
+            if params.refine == Refine::Pose {
+                // Refined pose of the paper's choice only.
+                best_pose = Some((ti, aligned.pose));
+                detection.verify = verify;
+                break;
+            }
+            if verify < best_verify {
+                best_verify = verify;
+                best_pose = Some((ti, aligned.pose));
+                detection.best_template = Some(ti as u16);
+                detection.score = m.normalized;
+                detection.angle_paper_deg = paper;
+                detection.angle_dp_deg = signed;
+            }
+        }
+        if let Some((ti, pose)) = best_pose {
+            detection.angle_deg = math::wrap_degrees(math::degrees(pose.angle));
+            detection.scale = pose.scale;
+            if params.refine == Refine::Verify {
+                detection.verify = best_verify;
+                detection.template = (best_verify < params.verify_threshold).then_some(ti as u16);
+            }
+            if params.position == Position::Pose {
+                if let Some(t) = self.templates.get(ti) {
+                    let [px, py] = pose.apply(t.position_offset());
+                    detection.x = px;
+                    detection.y = py;
                 }
             }
         }
-        best
+        if params.position == Position::PartialVolume {
+            if let Some(seed) = seed_pixel {
+                if let Some([px, py]) = partial_volume_centroid(&diff, mask, seed, bbox) {
+                    detection.x = px;
+                    detection.y = py;
+                }
+            }
+        }
+        Ok(detection)
     }
+
+    /// The part's sub-pixel edge at each resampled point (NaN where none is found).
+    fn part_edge<B: AsRef<[u8]>>(&mut self, n: usize, counter_clockwise: bool, diff: &Difference<'_, B>) {
+        let params = RefineParams::DEFAULT;
+        for k in 0..n {
+            let (Some(prev), Some(next), Some(p)) =
+                (self.points.get((k + n - 1) % n), self.points.get((k + 1) % n), self.points.get(k))
+            else {
+                continue;
+            };
+            let (tx, ty) = (next[0] - prev[0], next[1] - prev[1]);
+            let len = math::hypot(tx, ty);
+            let e = if len > 0.0 {
+                let nrm = if counter_clockwise { [-ty / len, tx / len] } else { [ty / len, -tx / len] };
+                diff.edge_offset(*p, nrm, &params).map(|u| [p[0] + u * nrm[0], p[1] + u * nrm[1]])
+            } else {
+                None
+            };
+            if let Some(slot) = self.part_edges.get_mut(k) {
+                *slot = e.unwrap_or([f32::NAN; 2]);
+            }
+        }
+    }
+
+    /// Fills `self.cands` with the `k` templates of lowest DP cost, best first (each DP bounded
+    /// by the k-th best so far: exact early rejection); returns how many.
+    fn candidates(&mut self, n: usize, k: usize) -> usize {
+        let Some(part) = self.descriptor.get(..n) else { return 0 };
+        let mut count = 0usize;
+        for (ti, t) in self.templates.iter().enumerate() {
+            let bound = if count == k { self.cands.get(k - 1).map_or(f32::INFINITY, |c| c.1) } else { f32::INFINITY };
+            let Ok(Some(m)) = best_cost(part, t.descriptor(), bound, &mut self.table) else { continue };
+            // Insert in order.
+            let mut pos = count.min(k);
+            while pos > 0 && self.cands.get(pos - 1).is_some_and(|c| c.1 > m.cost) {
+                pos -= 1;
+            }
+            if pos >= k {
+                continue;
+            }
+            let mut i = count.min(k - 1);
+            while i > pos {
+                if let Some(prev) = self.cands.get(i - 1).copied() {
+                    if let Some(slot) = self.cands.get_mut(i) {
+                        *slot = prev;
+                    }
+                }
+                i -= 1;
+            }
+            if let Some(slot) = self.cands.get_mut(pos) {
+                *slot = (ti, m.cost);
+            }
+            count = (count + 1).min(k);
+        }
+        count
+    }
+}
+
+/// Verification score of an alignment, px: the mean of the template → part and part → template
+/// distances (capped) plus a penalty for a scale far from 1.
+fn verify_score<const M: usize>(a: &Alignment, t: &Template<M>, part_edges: &[[f32; 2]], params: &RefineParams) -> f32 {
+    let edge = t.edge();
+    let pose = a.pose;
+    let valid = part_edges.iter().filter(|e| e[0].is_finite()).count();
+    let back = if valid == 0 {
+        params.cap
+    } else {
+        let mut sum = 0.0f32;
+        for e in part_edges {
+            if !e[0].is_finite() {
+                sum += params.cap;
+                continue;
+            }
+            sum += mean_distance_to_outline(core::slice::from_ref(e), |i| pose.apply(edge.get(i).copied().unwrap_or([0.0; 2])), edge.len(), params.cap);
+        }
+        sum / part_edges.len().max(1) as f32
+    };
+    let log_scale = if pose.scale > 0.0 { libm::logf(pose.scale) } else { 10.0 };
+    0.5 * (a.distance + back) + params.scale_penalty * log_scale.abs()
+}
+
+impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: usize> Recognizer<T, M, P, C, D> {
+    /// Candidates kept per part (capacity of the list).
+    pub const MAX_CANDIDATES: usize = MAX_CANDIDATES;
 }

@@ -20,8 +20,9 @@
 //!   threshold the part is unknown.
 //! - **Partial-volume centroid** ([`partial_volume_centroid`]): the part's area centroid with its
 //!   edge pixels counted by coverage: pixels well inside count 1, pixels in a 2-px band around
-//!   the mask's edge count `D / C` clipped to `[0, 1]`, where `C` is the median difference of a
-//!   ring 3–4 px inside the edge (the part's local contrast). With blur symmetric about the edge,
+//!   the mask's edge count `D / C` clipped to `[0, 1]`, where `C` is the local contrast: the mean
+//!   difference of the ring pixels 3–4 px inside the edge within 4 px of the band pixel (so
+//!   shading across the part does not tilt the weights), or the ring's median where none is near. With blur symmetric about the edge,
 //!   that is the centroid of the true silhouette to a few hundredths of a pixel.
 //!
 //! Guards: a profile with less contrast than `min_contrast` between its ends has no edge; a pose
@@ -435,7 +436,10 @@ pub fn partial_volume_centroid<B: AsRef<[u8]>>(
                 let weight = if v & SHRUNK != 0 {
                     1.0
                 } else if v & GROWN != 0 {
-                    (diff.at(x as isize, y as isize) / contrast).clamp(0.0, 1.0)
+                    // The local contrast: mean D of the ring pixels within 4 px (shading across the
+                    // part changes it from one side to the other), else the part's median.
+                    let local = local_ring_mean(diff, mask, w, r, x, y).filter(|c| c.abs() >= 1.0 && c.signum() == contrast.signum());
+                    (diff.at(x as isize, y as isize) / local.unwrap_or(contrast)).clamp(0.0, 1.0)
                 } else {
                     0.0
                 };
@@ -456,6 +460,22 @@ pub fn partial_volume_centroid<B: AsRef<[u8]>>(
         }
     }
     (sw > 0.0).then(|| [(sx / sw) as f32, (sy / sw) as f32])
+}
+
+/// Mean `D` of the ring pixels (bit `SCRATCH` set, `RING` clear) within 4 px of `(x, y)`.
+fn local_ring_mean<B: AsRef<[u8]>>(diff: &Difference<'_, B>, mask: &[u8], w: usize, r: Rect, x: usize, y: usize) -> Option<f32> {
+    const RADIUS: usize = 4;
+    let (mut sum, mut count) = (0.0f32, 0usize);
+    for yy in y.saturating_sub(RADIUS).max(r.y0)..(y + RADIUS + 1).min(r.y1) {
+        for xx in x.saturating_sub(RADIUS).max(r.x0)..(x + RADIUS + 1).min(r.x1) {
+            let v = mask.get(yy * w + xx).copied().unwrap_or(0);
+            if v & SCRATCH != 0 && v & RING == 0 {
+                sum += diff.at(xx as isize, yy as isize);
+                count += 1;
+            }
+        }
+    }
+    (count > 0).then(|| sum / count as f32)
 }
 
 fn any_neighbour(mask: &[u8], w: usize, r: Rect, x: usize, y: usize, bit: u8) -> bool {

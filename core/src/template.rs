@@ -6,7 +6,7 @@
 //! [`Template::from_silhouette`] takes the largest outer border of a silhouette image (part 255,
 //! rest 0; `docs/pipeline-spec.md` §9).
 //!
-//! Memory: `12·M + 32` bytes per template of capacity `M`.
+//! Memory: `28·M + 40` bytes per template of capacity `M` (see `vorl budget`).
 
 use crate::contour::{trace_borders, BorderFilter, BorderKind, ContourStore, Point};
 use crate::descriptor::describe;
@@ -16,7 +16,8 @@ use crate::params::Params;
 use crate::pose::area_centroid;
 use crate::resample::resample;
 
-/// One taught part: `m` resampled border points, their descriptor and centroids.
+/// One taught part: `m` resampled border points, their descriptor and centroids, and the
+/// sub-pixel edge the refine stage aligns.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Template<const M: usize> {
     m: usize,
@@ -25,12 +26,29 @@ pub struct Template<const M: usize> {
     centroid: [f32; 2],
     area_centroid: [f32; 2],
     area: f32,
+    /// Sub-pixel edge points, offsets from `area_centroid`.
+    edge: [[f32; 2]; M],
+    /// Unit outward normals at the edge points.
+    normals: [[f32; 2]; M],
+    /// The silhouette's own centroid (mean of its pixels) as an offset from `area_centroid`:
+    /// where the part's position is, in template coordinates.
+    position: [f32; 2],
 }
 
 impl<const M: usize> Template<M> {
     /// An empty template (`const`, for `static` storage).
     pub const fn empty() -> Self {
-        Template { m: 0, points: [[0.0; 2]; M], descriptor: [0.0; M], centroid: [0.0; 2], area_centroid: [0.0; 2], area: 0.0 }
+        Template {
+            m: 0,
+            points: [[0.0; 2]; M],
+            descriptor: [0.0; M],
+            centroid: [0.0; 2],
+            area_centroid: [0.0; 2],
+            area: 0.0,
+            edge: [[0.0; 2]; M],
+            normals: [[0.0; 2]; M],
+            position: [0.0; 2],
+        }
     }
 
     /// A template from an outer border (and its holes, for the area centroid).
@@ -55,7 +73,40 @@ impl<const M: usize> Template<M> {
             a2 += p.x as i64 * q.y as i64 - q.x as i64 * p.y as i64;
         }
         t.area = a2.unsigned_abs() as f32 * 0.5;
+        t.derive_edge(a2 < 0, |_, _| None);
         Ok(t)
+    }
+
+    /// Computes the outward normals of the resampled outline and the sub-pixel edge points:
+    /// where `crossing(point, normal)` finds the edge (an offset along the normal), there;
+    /// otherwise half a pixel out from the pixel-centre outline, where a binary silhouette's edge
+    /// lies on average.
+    fn derive_edge(&mut self, counter_clockwise_on_screen: bool, crossing: impl Fn([f32; 2], [f32; 2]) -> Option<f32>) {
+        let m = self.m;
+        let ac = self.area_centroid;
+        for k in 0..m {
+            let (Some(prev), Some(next), Some(p)) =
+                (self.points.get((k + m - 1) % m), self.points.get((k + 1) % m), self.points.get(k))
+            else {
+                continue;
+            };
+            let (tx, ty) = (next[0] - prev[0], next[1] - prev[1]);
+            let len = crate::math::hypot(tx, ty);
+            let n = if len > 0.0 {
+                if counter_clockwise_on_screen {
+                    [-ty / len, tx / len]
+                } else {
+                    [ty / len, -tx / len]
+                }
+            } else {
+                [0.0, 0.0]
+            };
+            let u = crossing(*p, n).unwrap_or(0.5);
+            if let (Some(e), Some(nn)) = (self.edge.get_mut(k), self.normals.get_mut(k)) {
+                *e = [p[0] + u * n[0] - ac[0], p[1] + u * n[1] - ac[1]];
+                *nn = n;
+            }
+        }
     }
 
     /// A template from a silhouette image (part > 127): its largest outer border.
@@ -103,7 +154,41 @@ impl<const M: usize> Template<M> {
             .map(|(i, _)| i)
             .ok_or(Error::NoPart)?;
         let holes = store.holes_of(best).map(|i| store.points(i));
-        Self::from_border(store.points(best), holes, params)
+        let mut t = Self::from_border(store.points(best), holes, params)?;
+        // The silhouette's edge: where the bilinear image crosses half level along each normal.
+        let ccw = store.contours().get(best).is_some_and(|c| c.area2 < 0);
+        t.derive_edge(ccw, |p, n| silhouette_crossing(silhouette, p, n));
+        // The silhouette's pixel centroid, relative to the area centroid.
+        let (mut sx, mut sy, mut count) = (0.0f32, 0.0f32, 0usize);
+        for y in 0..h {
+            for (x, &v) in silhouette.row(y).iter().enumerate() {
+                if v > 127 {
+                    sx += x as f32;
+                    sy += y as f32;
+                    count += 1;
+                }
+            }
+        }
+        if count > 0 {
+            t.position = [sx / count as f32 - t.area_centroid[0], sy / count as f32 - t.area_centroid[1]];
+        }
+        Ok(t)
+    }
+
+    /// Sub-pixel edge points (offsets from [`Self::area_centroid`]), one per resampled point.
+    pub fn edge(&self) -> &[[f32; 2]] {
+        self.edge.get(..self.m).unwrap_or(&[])
+    }
+
+    /// Unit outward normals at [`Self::edge`].
+    pub fn normals(&self) -> &[[f32; 2]] {
+        self.normals.get(..self.m).unwrap_or(&[])
+    }
+
+    /// The part's position (the silhouette's pixel centroid) as an offset from
+    /// [`Self::area_centroid`].
+    pub fn position_offset(&self) -> [f32; 2] {
+        self.position
     }
 
     /// A template from its stored parts (as [`crate::library`] reads them): the `m` resampled
@@ -169,7 +254,38 @@ impl<const M: usize> Template<M> {
         t.centroid = centroid;
         t.area_centroid = area_centroid;
         t.area = area;
+        // The edge: half a pixel out from the stored outline (no silhouette to look at here).
+        let mut a2 = 0.0f32;
+        for k in 0..m {
+            if let (Some(a), Some(b)) = (t.points.get(k), t.points.get((k + 1) % m)) {
+                a2 += a[0] * b[1] - b[0] * a[1];
+            }
+        }
+        t.derive_edge(a2 < 0.0, |_, _| None);
+        t.position = [0.0; 2];
         Ok(t)
+    }
+
+    /// Replaces the sub-pixel edge (offsets from the area centroid), its normals and the
+    /// position offset, as stored by a template library.
+    ///
+    /// # Errors
+    /// [`Error::Corrupt`] when the lengths differ from `m` or a value is not finite.
+    pub fn set_edge(&mut self, edge: &[[f32; 2]], normals: &[[f32; 2]], position: [f32; 2]) -> Result<()> {
+        if edge.len() != self.m || normals.len() != self.m {
+            return Err(Error::Corrupt { what: "template edge length differs from m" });
+        }
+        if !edge.iter().chain(normals).flatten().chain(&position).all(|v| v.is_finite()) {
+            return Err(Error::Corrupt { what: "template edge value is not finite" });
+        }
+        for (d, s) in self.edge.iter_mut().zip(edge) {
+            *d = *s;
+        }
+        for (d, s) in self.normals.iter_mut().zip(normals) {
+            *d = *s;
+        }
+        self.position = position;
+        Ok(())
     }
 
     /// Number of resampled points `m`.
@@ -206,4 +322,33 @@ impl<const M: usize> Template<M> {
     pub fn area(&self) -> f32 {
         self.area
     }
+}
+
+/// Offset along `n` from `p` where the silhouette's bilinear interpolation crosses 127.5,
+/// searched within ±1.5 px (the nearest crossing), or `None`.
+fn silhouette_crossing<B: AsRef<[u8]>>(img: &Frame<B>, p: [f32; 2], n: [f32; 2]) -> Option<f32> {
+    let sample = |u: f32| {
+        let (x, y) = (p[0] + u * n[0], p[1] + u * n[1]);
+        let (fx, fy) = (crate::math::floor(x), crate::math::floor(y));
+        let (tx, ty) = (x - fx, y - fy);
+        let at = |dx: isize, dy: isize| img.get_clamped(fx as isize + dx, fy as isize + dy) as f32;
+        (at(0, 0) * (1.0 - tx) + at(1, 0) * tx) * (1.0 - ty) + (at(0, 1) * (1.0 - tx) + at(1, 1) * tx) * ty
+    };
+    let mut best: Option<f32> = None;
+    let steps = 12;
+    let step = 1.5 / steps as f32;
+    let mut prev = sample(-1.5) - 127.5;
+    for k in (-steps + 1)..=steps {
+        let u = k as f32 * step;
+        let cur = sample(u) - 127.5;
+        if prev > 0.0 && cur <= 0.0 {
+            let t = prev / (prev - cur);
+            let c = u - step + t * step;
+            if best.is_none_or(|b| c.abs() < b.abs()) {
+                best = Some(c);
+            }
+        }
+        prev = cur;
+    }
+    best
 }

@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 use vorl_core::mask::Threshold;
-use vorl_core::{AngleEstimator, Params};
+use vorl_core::{AngleEstimator, Params, Position, Refine};
 
 /// The parameters as they appear in a TOML config file. Every field is optional in the file;
 /// missing ones keep their defaults.
@@ -29,8 +29,41 @@ pub struct Config {
     pub omega: f32,
     /// Decision threshold ε: a part is known iff f' < ε (eq. 5.2).
     pub epsilon: f32,
-    /// Rotation estimator: "signed" (full circle) or "paper" (eq. 6.4, unsigned).
+    /// Rotation estimator when the pose is not refined: "signed" (full circle) or "paper".
     pub angle: AngleSetting,
+    /// After the DP: "off" (the paper's path), "pose" (align the pose only), "verify" (align and
+    /// verify the best candidates; default).
+    pub refine: RefineSetting,
+    /// DP candidates verified per part, 1..8.
+    pub candidates: usize,
+    /// Verification threshold in px: unknown at or above it.
+    pub verify_threshold: f32,
+    /// Position: "polygon" (the paper's border centroid), "partial-volume", or "pose".
+    pub position: PositionSetting,
+}
+
+/// `refine` as written in a config file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum RefineSetting {
+    /// The paper's path.
+    Off,
+    /// Aligned pose, the paper's decision.
+    Pose,
+    /// Aligned and verified candidates.
+    Verify,
+}
+
+/// `position` as written in a config file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum PositionSetting {
+    /// Border polygon centroid (the paper's).
+    Polygon,
+    /// Partial-volume centroid.
+    PartialVolume,
+    /// Template centroid through the aligned pose.
+    Pose,
 }
 
 /// Threshold as written in a config file.
@@ -88,6 +121,18 @@ impl Config {
                 AngleEstimator::Signed => AngleSetting::Signed,
                 AngleEstimator::Paper => AngleSetting::Paper,
             },
+            refine: match p.refine {
+                Refine::Off => RefineSetting::Off,
+                Refine::Pose => RefineSetting::Pose,
+                Refine::Verify => RefineSetting::Verify,
+            },
+            candidates: p.candidates,
+            verify_threshold: p.verify_threshold,
+            position: match p.position {
+                Position::Polygon => PositionSetting::Polygon,
+                Position::PartialVolume => PositionSetting::PartialVolume,
+                Position::Pose => PositionSetting::Pose,
+            },
         }
     }
 
@@ -113,6 +158,18 @@ impl Config {
             angle: match self.angle {
                 AngleSetting::Signed => AngleEstimator::Signed,
                 AngleSetting::Paper => AngleEstimator::Paper,
+            },
+            refine: match self.refine {
+                RefineSetting::Off => Refine::Off,
+                RefineSetting::Pose => Refine::Pose,
+                RefineSetting::Verify => Refine::Verify,
+            },
+            candidates: self.candidates,
+            verify_threshold: self.verify_threshold,
+            position: match self.position {
+                PositionSetting::Polygon => Position::Polygon,
+                PositionSetting::PartialVolume => Position::PartialVolume,
+                PositionSetting::Pose => Position::Pose,
             },
         };
         p.validate().map_err(|e| format!("invalid parameters: {e}"))?;
@@ -164,11 +221,26 @@ impl Config {
              omega = {:?}\n\
              # Decision threshold ε: a part is known iff f' = f_min/n < ε (eqs. 5.1–5.2).\n\
              epsilon = {:?}\n\
-             # Rotation estimator: \"signed\" (least squares, 0–360°) or \"paper\" (eq. 6.4, unsigned 0–180°).\n\
-             angle = \"{}\"\n",
-            d.alpha, thr, d.cleanup, d.min_points, d.min_area, d.n, d.m, d.k, d.omega, d.epsilon, angle
+             # Rotation estimator when the pose is not refined: \"signed\" (least squares, 0–360°) or \"paper\" (eq. 6.4, unsigned 0–180°).\n\
+             angle = \"{}\"\n\
+             # After the DP: \"off\" (the paper's path: best f', f' < ε), \"pose\" (the paper's decision, pose aligned on the frame),\n\
+             # \"verify\" (the best candidates aligned and verified; lowest score wins, unknown at or above verify_threshold).\n\
+             refine = \"{}\"\n\
+             # DP candidates verified per part (1..8).\n\
+             candidates = {}\n\
+             # Verification threshold, px (mean distance between the aligned outlines, both ways, plus a scale penalty).\n\
+             verify_threshold = {:?}\n\
+             # Position: \"polygon\" (the paper's border centroid), \"partial-volume\" (edge pixels by coverage), \"pose\" (template centroid through the aligned pose).\n\
+             position = \"{}\"\n",
+            d.alpha, thr, d.cleanup, d.min_points, d.min_area, d.n, d.m, d.k, d.omega, d.epsilon, angle,
+            setting_name(&d.refine), d.candidates, d.verify_threshold, setting_name(&d.position)
         )
     }
+}
+
+/// The kebab-case name of a setting, as serde writes it.
+fn setting_name<T: Serialize>(v: &T) -> String {
+    serde_json::to_value(v).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default()
 }
 
 #[cfg(test)]

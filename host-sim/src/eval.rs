@@ -3,7 +3,8 @@
 //! Parts are paired per frame greedily by centroid distance (closest pair first, at most
 //! [`MATCH_RADIUS_PX`] apart). Then:
 //! - detection recall: paired truth parts / truth parts; precision: paired predictions /
-//!   predictions (parts cut by the frame border count only when paired, never against recall);
+//!   predictions (parts cut by the frame border count only when paired, never against recall,
+//!   and a prediction touching the frame's edge that pairs with nothing is left out);
 //! - classification accuracy: paired known truth parts (not partial) whose class is right;
 //! - unknown rejection: paired truth parts that are not templates and were called unknown;
 //! - angle error: correctly classified known parts, taken modulo `360/symmetry` (symmetry 0 —
@@ -120,9 +121,17 @@ pub fn score(truth: &FramesJson, pred: &FramesJson) -> Scores {
     for (name, truth_parts) in &truth.frames {
         let preds = pred.frames.get(name).unwrap_or(&empty);
         s.frames += 1;
-        s.predictions += preds.len();
+        let pairs = pair(truth_parts, preds);
+        // A prediction touching the frame's edge that pairs with nothing is a cut part whose
+        // visible piece lies far from the full part's truth centroid: not counted against
+        // precision.
+        s.predictions += preds
+            .iter()
+            .enumerate()
+            .filter(|(pi, p)| p.partial != Some(true) || pairs.iter().any(|&(_, q)| q == *pi))
+            .count();
         s.truth_parts += truth_parts.iter().filter(|t| t.partial != Some(true)).count();
-        for (ti, pi) in pair(truth_parts, preds) {
+        for (ti, pi) in pairs {
             let (t, p) = (&truth_parts[ti], &preds[pi]);
             s.true_predictions += 1;
             if t.partial == Some(true) {

@@ -113,6 +113,15 @@ pub fn to_json(result: &FrameResult) -> Vec<PartJson> {
         .map(|d| {
             let mut extra = std::collections::BTreeMap::new();
             extra.insert("angle_paper_deg".into(), serde_json::json!(round6(d.core.angle_paper_deg as f64)));
+            extra.insert("angle_dp_deg".into(), serde_json::json!(round6(d.core.angle_dp_deg as f64)));
+            extra.insert(
+                "polygon_centroid".into(),
+                serde_json::json!([round6(d.core.polygon_centroid[0] as f64), round6(d.core.polygon_centroid[1] as f64)]),
+            );
+            if d.core.verify.is_finite() {
+                extra.insert("verify_px".into(), serde_json::json!(round6(d.core.verify as f64)));
+                extra.insert("scale".into(), serde_json::json!(round6(d.core.scale as f64)));
+            }
             if let Some(b) = &d.best_class {
                 extra.insert("best_class".into(), serde_json::json!(b));
             }

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use vorl_core::Params;
 
-use crate::config::{AngleSetting, Config, ThresholdName, ThresholdSetting};
+use crate::config::{AngleSetting, Config, PositionSetting, RefineSetting, ThresholdName, ThresholdSetting};
 
 /// Pipeline parameters: a config file, then single flags on top.
 #[derive(Debug, Clone, Default, clap::Args)]
@@ -33,9 +33,21 @@ pub struct ParamArgs {
     /// Decision threshold ε on f'.
     #[arg(long)]
     pub epsilon: Option<f32>,
-    /// Rotation estimator.
+    /// Rotation estimator when the pose is not refined.
     #[arg(long, value_enum)]
     pub angle: Option<AngleSetting>,
+    /// After the DP: off (the paper's path), pose, verify.
+    #[arg(long, value_enum)]
+    pub refine: Option<RefineSetting>,
+    /// DP candidates verified per part.
+    #[arg(long)]
+    pub candidates: Option<usize>,
+    /// Verification threshold, px.
+    #[arg(long)]
+    pub verify_threshold: Option<f32>,
+    /// Position estimator.
+    #[arg(long, value_enum)]
+    pub position: Option<PositionSetting>,
 }
 
 impl ParamArgs {
@@ -60,7 +72,7 @@ impl ParamArgs {
         macro_rules! set {
             ($($f:ident),*) => { $( if let Some(v) = self.$f { c.$f = v; } )* };
         }
-        set!(alpha, n, m, k, omega, epsilon, angle);
+        set!(alpha, n, m, k, omega, epsilon, angle, refine, candidates, verify_threshold, position);
         Ok(c)
     }
 
