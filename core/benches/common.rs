@@ -59,6 +59,14 @@ pub fn descriptors(n: usize, m: usize) -> (Vec<f32>, Vec<f32>) {
     let mut part = vec![0.0; n];
     let mut tpl = vec![0.0; m];
     describe(&part_pts, DescriptorParams { k, omega: 0.5 }, &mut part).expect("part descriptor");
-    describe(&tpl_pts, DescriptorParams { k: scaled_k(k, n, m), omega: 0.5 }, &mut tpl).expect("template descriptor");
+    describe(
+        &tpl_pts,
+        DescriptorParams {
+            k: scaled_k(k, n, m),
+            omega: 0.5,
+        },
+        &mut tpl,
+    )
+    .expect("template descriptor");
     (part, tpl)
 }

@@ -21,8 +21,7 @@ fn dp(c: &mut Criterion) {
         let mut assignment = vec![0u16; n];
         g.bench_with_input(BenchmarkId::new("core", format!("{n}x{m}")), &(n, m), |b, _| {
             b.iter(|| {
-                match_with_assignment(black_box(&part), black_box(&tpl), &mut table, &mut assignment)
-                    .expect("core DP")
+                match_with_assignment(black_box(&part), black_box(&tpl), &mut table, &mut assignment).expect("core DP")
             })
         });
         let part64: Vec<f64> = part.iter().map(|&v| v as f64).collect();

@@ -57,17 +57,25 @@ fn pipeline(c: &mut Criterion) {
         let poly: Vec<[f32; 2]> = common::outline(0.0).iter().map(|p| [p[0], p[1] * stretch]).collect();
         let mut sil = vec![0u8; W * H];
         draw(&mut sil, &poly, 320.0, 240.0, 255);
-        rec.teach(&Frame::new_checked(&sil[..], W, H).expect("frame"), &mut labels).expect("teach");
+        rec.teach(&Frame::new_checked(&sil[..], W, H).expect("frame"), &mut labels)
+            .expect("teach");
     }
     let bg_px = platform();
     let mut bg = Background::new(vec![0u8; W * H], W, H).expect("background");
-    bg.set_from_frame(&Frame::new_checked(&bg_px[..], W, H).expect("frame"), params.alpha()).expect("bg");
+    bg.set_from_frame(&Frame::new_checked(&bg_px[..], W, H).expect("frame"), params.alpha())
+        .expect("bg");
     // Six parts at different poses.
     let mut scene = bg_px.clone();
-    for (i, (cx, cy, a, s)) in
-        [(120.0, 110.0, 20.0, 1.0), (330.0, 100.0, 95.0, 1.4), (520.0, 120.0, 200.0, 0.7), (130.0, 340.0, 300.0, 1.8), (340.0, 350.0, 45.0, 1.0), (530.0, 360.0, 160.0, 1.4)]
-            .into_iter()
-            .enumerate()
+    for (i, (cx, cy, a, s)) in [
+        (120.0, 110.0, 20.0, 1.0),
+        (330.0, 100.0, 95.0, 1.4),
+        (520.0, 120.0, 200.0, 0.7),
+        (130.0, 340.0, 300.0, 1.8),
+        (340.0, 350.0, 45.0, 1.0),
+        (530.0, 360.0, 160.0, 1.4),
+    ]
+    .into_iter()
+    .enumerate()
     {
         let poly: Vec<[f32; 2]> = common::outline(0.0)
             .iter()

@@ -62,7 +62,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Background<S> {
         if got < needed {
             return Err(Error::BufferTooSmall { needed, got });
         }
-        Ok(Background { plane, width, height, learned: 0, ready: false, updates: 0 })
+        Ok(Background {
+            plane,
+            width,
+            height,
+            learned: 0,
+            ready: false,
+            updates: 0,
+        })
     }
 
     /// Width of the model.
@@ -114,7 +121,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Background<S> {
         self.check(frame)?;
         let n = self.width * self.height;
         if high.len() < n {
-            return Err(Error::BufferTooSmall { needed: n, got: high.len() });
+            return Err(Error::BufferTooSmall {
+                needed: n,
+                got: high.len(),
+            });
         }
         if self.ready || self.learned == 0 {
             self.plane.as_mut().iter_mut().take(n).for_each(|p| *p = 0);
@@ -127,7 +137,12 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Background<S> {
         }
         let w = self.width;
         let low = self.plane.as_mut();
-        for (y, (lo_row, hi_row)) in low.chunks_exact_mut(w).zip(high.chunks_exact_mut(w)).take(self.height).enumerate() {
+        for (y, (lo_row, hi_row)) in low
+            .chunks_exact_mut(w)
+            .zip(high.chunks_exact_mut(w))
+            .take(self.height)
+            .enumerate()
+        {
             let mut x0 = 0;
             for (lo_chunk, hi_chunk) in lo_row.chunks_mut(CHUNK).zip(hi_row.chunks_mut(CHUNK)) {
                 let mut enh = [0u8; CHUNK];
@@ -154,7 +169,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Background<S> {
         }
         let n = self.width * self.height;
         if high.len() < n {
-            return Err(Error::BufferTooSmall { needed: n, got: high.len() });
+            return Err(Error::BufferTooSmall {
+                needed: n,
+                got: high.len(),
+            });
         }
         let k = self.learned as u32;
         for (lo, &hi) in self.plane.as_mut().iter_mut().zip(high).take(n) {
@@ -192,7 +210,10 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Background<S> {
         self.check(frame)?;
         let n = self.width * self.height;
         if labels.len() < n {
-            return Err(Error::BufferTooSmall { needed: n, got: labels.len() });
+            return Err(Error::BufferTooSmall {
+                needed: n,
+                got: labels.len(),
+            });
         }
         self.updates = self.updates.wrapping_add(1);
         let period = 1u32 << shift.min(31);
@@ -200,7 +221,14 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Background<S> {
             return Ok(());
         }
         let w = self.width;
-        for (y, (brow, lrow)) in self.plane.as_mut().chunks_exact_mut(w).zip(labels.chunks_exact(w)).take(self.height).enumerate() {
+        for (y, (brow, lrow)) in self
+            .plane
+            .as_mut()
+            .chunks_exact_mut(w)
+            .zip(labels.chunks_exact(w))
+            .take(self.height)
+            .enumerate()
+        {
             let mut x0 = 0;
             for (bchunk, lchunk) in brow.chunks_mut(CHUNK).zip(lrow.chunks(CHUNK)) {
                 let mut enh = [0u8; CHUNK];
@@ -220,4 +248,3 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Background<S> {
         Ok(())
     }
 }
-

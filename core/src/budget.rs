@@ -14,10 +14,10 @@
 //! | label plane | `w·h` |
 //! | contour points | `4·P` |
 //! | contour records | `C·size_of::<Contour>()` + the vector's length word + the store's counter |
-//! | templates | `T·size_of::<Template<M>>()` + the vector's length word, `size_of::<Template<M>>() = word + 12·M + 20` rounded up to the word |
+//! | templates | `T·size_of::<Template<M>>()` + the vector's length word, `size_of::<Template<M>>() = word + 28·M + 28` rounded up to the word |
 //! | DP table | `4·D` (`D ≥ n·(m − n + 1)`) |
-//! | part buffers | `14·M`: points `8·M`, descriptor `4·M`, correspondence `2·M` |
-//! | parameters and padding | `size_of::<Params>()` and the rounding of the recognizer to its alignment |
+//! | part buffers | `22·M`: points `8·M`, descriptor `4·M`, correspondence `2·M`, sub-pixel edge `8·M` |
+//! | parameters, candidates, padding | `size_of::<Params>()`, the DP candidate list (`MAX_CANDIDATES` index–cost pairs) and the rounding of the recognizer to its alignment |
 //!
 //! The frame itself is not counted: in the firmware example it is in flash; on a camera it is the
 //! sensor's DMA buffer (`w·h` more bytes of RAM, [`Budget::frame`]). The stack is not counted
@@ -32,7 +32,7 @@
 //! assert_eq!(b.recognizer, core::mem::size_of::<Recognizer<8, 96, 4096, 64, 2112>>());
 //! assert_eq!(b.total, 2 * 320 * 240 + b.recognizer);
 //! // On a Cortex-M4 the same configuration fits in 256 KiB of RAM with room for the stack:
-//! assert!(budget(Layout::CORTEX_M, caps).total < 200 * 1024);
+//! assert!(budget(Layout::CORTEX_M, caps).total + 16 * 1024 <= 256 * 1024);
 //! ```
 
 use core::mem::{align_of, size_of};
@@ -40,6 +40,7 @@ use core::mem::{align_of, size_of};
 use crate::contour::Contour;
 use crate::matching::table_cells;
 use crate::params::Params;
+use crate::recognizer::MAX_CANDIDATES;
 
 /// The sizes and alignments that differ from one target to another.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -62,7 +63,7 @@ impl Layout {
     pub const CORTEX_M: Layout = Layout {
         name: "Cortex-M (32-bit)",
         word: 4,
-        params: 36,
+        params: 48,
         contour: 32,
         contour_align: 8,
     };
@@ -135,9 +136,10 @@ pub struct Budget {
     pub templates: usize,
     /// DP table, `4·D`.
     pub dp_table: usize,
-    /// Resampled points, descriptor and correspondence of the part being matched, `14·M`.
+    /// Resampled points, descriptor, correspondence and sub-pixel edge of the part being
+    /// matched, `22·M`.
     pub part_buffers: usize,
-    /// Parameters and alignment padding of the recognizer.
+    /// Parameters, the list of DP candidates and alignment padding of the recognizer.
     pub other: usize,
     /// The whole recognizer, `size_of::<Recognizer<T, M, P, C, D>>()`.
     pub recognizer: usize,
@@ -173,14 +175,12 @@ const fn vec_bytes(layout: Layout, size: usize, align: usize, cap: usize) -> usi
     )
 }
 
-/// `size_of::<Template<M>>()`: `m` (a word), `8·M` points, `4·M` descriptor, centroid (8), area
-/// centroid (8) and area (4), rounded up to the word.
+/// `size_of::<Template<M>>()`: `m` (a word); `8·M` points, `4·M` descriptor, `8·M` sub-pixel
+/// edge points and `8·M` normals; centroid (8), area centroid (8), area (4) and position offset
+/// (8); rounded up to the word.
 pub const fn template_bytes(layout: Layout, m: usize) -> usize {
     round_up(
-        layout
-            .word
-            .saturating_add(m.saturating_mul(12))
-            .saturating_add(20),
+        layout.word.saturating_add(m.saturating_mul(28)).saturating_add(28),
         max(layout.word, 4),
     )
 }
@@ -189,30 +189,32 @@ pub const fn template_bytes(layout: Layout, m: usize) -> usize {
 pub const fn contour_store_bytes(layout: Layout, p: usize, c: usize) -> usize {
     let records = vec_bytes(layout, layout.contour, layout.contour_align, c);
     round_up(
-        records
-            .saturating_add(layout.word)
-            .saturating_add(p.saturating_mul(4)),
+        records.saturating_add(layout.word).saturating_add(p.saturating_mul(4)),
         max(layout.contour_align, layout.word),
     )
 }
 
 /// `size_of::<Recognizer<T, M, P, C, D>>()`.
-pub const fn recognizer_bytes(
-    layout: Layout,
-    t: usize,
-    m: usize,
-    p: usize,
-    c: usize,
-    d: usize,
-) -> usize {
+pub const fn recognizer_bytes(layout: Layout, t: usize, m: usize, p: usize, c: usize, d: usize) -> usize {
     let templates = vec_bytes(layout, template_bytes(layout, m), max(layout.word, 4), t);
     let sum = layout
         .params
+        .saturating_add(candidates_bytes(layout))
         .saturating_add(templates)
         .saturating_add(contour_store_bytes(layout, p, c))
-        .saturating_add(m.saturating_mul(14))
+        .saturating_add(m.saturating_mul(PART_BYTES_PER_POINT))
         .saturating_add(d.saturating_mul(4));
     round_up(sum, max(layout.contour_align, layout.word))
+}
+
+/// Bytes per template point `M` of the part being matched: resampled points (8), descriptor (4),
+/// correspondence (2) and sub-pixel edge points (8).
+pub const PART_BYTES_PER_POINT: usize = 22;
+
+/// The recognizer's list of DP candidates: [`MAX_CANDIDATES`] pairs of an index (a word) and a
+/// cost (`f32`).
+pub const fn candidates_bytes(layout: Layout) -> usize {
+    MAX_CANDIDATES.saturating_mul(round_up(layout.word.saturating_add(4), max(layout.word, 4)))
 }
 
 /// The budget of a configuration on a target.
@@ -227,8 +229,7 @@ pub const fn budget(layout: Layout, caps: Capacities) -> Budget {
         caps.dp_cells,
     );
     let contour_points = caps.border_points.saturating_mul(4);
-    let contour_records = contour_store_bytes(layout, caps.border_points, caps.contours)
-        .saturating_sub(contour_points);
+    let contour_records = contour_store_bytes(layout, caps.border_points, caps.contours).saturating_sub(contour_points);
     let templates = vec_bytes(
         layout,
         template_bytes(layout, caps.template_points),
@@ -236,7 +237,7 @@ pub const fn budget(layout: Layout, caps: Capacities) -> Budget {
         caps.templates,
     );
     let dp_table = caps.dp_cells.saturating_mul(4);
-    let part_buffers = caps.template_points.saturating_mul(14);
+    let part_buffers = caps.template_points.saturating_mul(PART_BYTES_PER_POINT);
     let listed = contour_points
         .saturating_add(contour_records)
         .saturating_add(templates)
@@ -282,22 +283,10 @@ mod tests {
     #[test]
     fn template_formula_equals_size_of() {
         assert_eq!(template_bytes(Layout::NATIVE, 1), size_of::<Template<1>>());
-        assert_eq!(
-            template_bytes(Layout::NATIVE, 48),
-            size_of::<Template<48>>()
-        );
-        assert_eq!(
-            template_bytes(Layout::NATIVE, 96),
-            size_of::<Template<96>>()
-        );
-        assert_eq!(
-            template_bytes(Layout::NATIVE, 97),
-            size_of::<Template<97>>()
-        );
-        assert_eq!(
-            template_bytes(Layout::NATIVE, 384),
-            size_of::<Template<384>>()
-        );
+        assert_eq!(template_bytes(Layout::NATIVE, 48), size_of::<Template<48>>());
+        assert_eq!(template_bytes(Layout::NATIVE, 96), size_of::<Template<96>>());
+        assert_eq!(template_bytes(Layout::NATIVE, 97), size_of::<Template<97>>());
+        assert_eq!(template_bytes(Layout::NATIVE, 384), size_of::<Template<384>>());
     }
 
     #[test]
@@ -348,19 +337,15 @@ mod tests {
         assert_eq!(caps.dp_cells, 2112);
         for layout in [Layout::NATIVE, Layout::CORTEX_M] {
             let b = budget(layout, caps);
-            let parts = b.contour_points
-                + b.contour_records
-                + b.templates
-                + b.dp_table
-                + b.part_buffers
-                + b.other;
+            let parts = b.contour_points + b.contour_records + b.templates + b.dp_table + b.part_buffers + b.other;
             assert_eq!(parts, b.recognizer);
             assert_eq!(b.total, b.background + b.labels + b.recognizer);
             assert_eq!(b.frame, 76_800);
-            assert!(b.other >= layout.params && b.other < layout.params + 16);
+            let fixed = layout.params + candidates_bytes(layout);
+            assert!(b.other >= fixed && b.other < fixed + 16);
         }
-        // 32-bit: 8 templates of (4 + 12·96 + 20) bytes and the length word.
-        assert_eq!(budget(Layout::CORTEX_M, caps).templates, 4 + 8 * 1176);
+        // 32-bit: 8 templates of (4 + 28·96 + 28) bytes and the length word.
+        assert_eq!(budget(Layout::CORTEX_M, caps).templates, 4 + 8 * 2720);
     }
 
     #[test]

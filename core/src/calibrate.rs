@@ -115,16 +115,10 @@ fn check_finite<const A: usize, const B: usize>(
 ) -> Result<()> {
     for (a, b) in pairs {
         if let Some(&value) = a.iter().find(|v| !v.is_finite()) {
-            return Err(Error::Parameter {
-                name: name_a,
-                value,
-            });
+            return Err(Error::Parameter { name: name_a, value });
         }
         if let Some(&value) = b.iter().find(|v| !v.is_finite()) {
-            return Err(Error::Parameter {
-                name: name_b,
-                value,
-            });
+            return Err(Error::Parameter { name: name_b, value });
         }
     }
     Ok(())
@@ -142,9 +136,7 @@ fn to_f64<T: RealField + Copy>(v: T) -> f64 {
 
 /// Centroid and Hartley scale (`√2 /` mean distance from the centroid) of one side of the
 /// pairs; `DegeneratePoints` when the points coincide (to the rounding of `T`).
-fn normalisation<T: RealField + Copy>(
-    points: impl Iterator<Item = [f32; 2]> + Clone,
-) -> Result<(T, T, T)> {
+fn normalisation<T: RealField + Copy>(points: impl Iterator<Item = [f32; 2]> + Clone) -> Result<(T, T, T)> {
     let (mut sx, mut sy, mut n) = (T::zero(), T::zero(), T::zero());
     for p in points.clone() {
         sx += c::<T>(p[0] as f64);
@@ -178,9 +170,7 @@ fn dlt<T: RealField + Copy>(pairs: &[([f32; 2], [f32; 2])]) -> Result<[[f64; 3];
 
 /// [`dlt`] without the null-space check; also returns the ratio of the second smallest to the
 /// largest singular value of `A` that the check uses.
-fn dlt_unchecked<T: RealField + Copy>(
-    pairs: &[([f32; 2], [f32; 2])],
-) -> Result<([[f64; 3]; 3], f64)> {
+fn dlt_unchecked<T: RealField + Copy>(pairs: &[([f32; 2], [f32; 2])]) -> Result<([[f64; 3]; 3], f64)> {
     let (pcx, pcy, ps) = normalisation::<T>(pairs.iter().map(|p| p.0))?;
     let (rcx, rcy, rs) = normalisation::<T>(pairs.iter().map(|p| p.1))?;
     let mut ata = SMatrix::<T, 9, 9>::zeros();
@@ -203,13 +193,7 @@ fn dlt_unchecked<T: RealField + Copy>(
         .try_symmetric_eigen(T::default_epsilon(), MAX_ITERATIONS)
         .ok_or(Error::Singular)?;
     // Smallest, second smallest and largest eigenvalue of AᵀA (squared singular values of A).
-    let lam = |i: usize| {
-        eig.eigenvalues
-            .get(i)
-            .copied()
-            .unwrap_or(T::zero())
-            .max(T::zero())
-    };
+    let lam = |i: usize| eig.eigenvalues.get(i).copied().unwrap_or(T::zero()).max(T::zero());
     let (mut i0, mut i1) = (0usize, 1usize);
     if lam(i1) < lam(i0) {
         core::mem::swap(&mut i0, &mut i1);
@@ -466,16 +450,13 @@ impl Homography {
 /// homography do not lose it).
 fn det3(h: &[[f32; 3]; 3]) -> f64 {
     let g = |r: usize, k: usize| h.get(r).and_then(|row| row.get(k)).copied().unwrap_or(0.0) as f64;
-    g(0, 0) * (g(1, 1) * g(2, 2) - g(1, 2) * g(2, 1))
-        - g(0, 1) * (g(1, 0) * g(2, 2) - g(1, 2) * g(2, 0))
+    g(0, 0) * (g(1, 1) * g(2, 2) - g(1, 2) * g(2, 1)) - g(0, 1) * (g(1, 0) * g(2, 2) - g(1, 2) * g(2, 0))
         + g(0, 2) * (g(1, 0) * g(2, 1) - g(1, 1) * g(2, 0))
 }
 
 /// The Kabsch fit in the scalar type `T` (`f64` in [`RigidTransform::fit`]; `f32` only in the
 /// tests). Expects at least 3 pairs of finite points. Returns rotation and translation in `f64`.
-fn kabsch<T: RealField + Copy>(
-    pairs: &[([f32; 3], [f32; 3])],
-) -> Result<([[f64; 3]; 3], [f64; 3])> {
+fn kabsch<T: RealField + Copy>(pairs: &[([f32; 3], [f32; 3])]) -> Result<([[f64; 3]; 3], [f64; 3])> {
     let v = |p: &[f32; 3]| Vector3::<T>::new(c(p[0] as f64), c(p[1] as f64), c(p[2] as f64));
     let mut n = T::zero();
     let (mut pc, mut qc) = (Vector3::<T>::zeros(), Vector3::<T>::zeros());
@@ -500,8 +481,7 @@ fn kabsch<T: RealField + Copy>(
     let size_q = qc.amax().max(T::one());
     let rms_p = (spread_p / n).sqrt();
     let rms_q = (spread_q / n).sqrt();
-    if !rms_p.is_finite() || !rms_q.is_finite() || rms_p <= tiny * size_p || rms_q <= tiny * size_q
-    {
+    if !rms_p.is_finite() || !rms_q.is_finite() || rms_p <= tiny * size_p || rms_q <= tiny * size_q {
         return Err(Error::DegeneratePoints);
     }
     if cov.iter().any(|x| !x.is_finite()) {
@@ -514,13 +494,7 @@ fn kabsch<T: RealField + Copy>(
         (Some(u), Some(v_t)) => (u, v_t),
         _ => return Err(Error::Singular),
     };
-    let s = |i: usize| {
-        svd.singular_values
-            .get(i)
-            .copied()
-            .unwrap_or(T::zero())
-            .abs()
-    };
+    let s = |i: usize| svd.singular_values.get(i).copied().unwrap_or(T::zero()).abs();
     // Order the singular values: largest, middle, smallest.
     let mut idx = [0usize, 1, 2];
     for _ in 0..2 {
@@ -558,12 +532,7 @@ fn kabsch<T: RealField + Copy>(
         }
     }
     let tr = [to_f64(t[0]), to_f64(t[1]), to_f64(t[2])];
-    if rot
-        .iter()
-        .flatten()
-        .chain(tr.iter())
-        .any(|x| !x.is_finite())
-    {
+    if rot.iter().flatten().chain(tr.iter()).any(|x| !x.is_finite()) {
         return Err(Error::Singular);
     }
     Ok((rot, tr))
@@ -803,10 +772,7 @@ mod tests {
         // Camera axes in robot coordinates: looking down (camera z = −robot z), camera x =
         // robot x, camera y = −robot y; then turned about z by 20° and tilted a little.
         let base = [[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]]; // robot → camera
-        let r = mul3(
-            &rot(0, tilt_x),
-            &mul3(&rot(1, tilt_y), &mul3(&rot(2, 20.0), &base)),
-        );
+        let r = mul3(&rot(0, tilt_x), &mul3(&rot(1, tilt_y), &mul3(&rot(2, 20.0), &base)));
         let centre = [400.0, 250.0, 700.0];
         // t = −R·centre; plane z = 0: pixel ∝ K·[r1 r2 t]·(x, y, 1).
         let t: Vec<f64> = (0..3)
@@ -897,7 +863,10 @@ mod tests {
         let (h, rms) = Homography::fit(&cal).unwrap();
         let err = held_back_error(&h, &s, &held);
         let ext = extent(&held);
-        std::println!("noise-free: rms {rms:.3e} mm, held-back max {err:.3e} mm, extent {ext:.0} mm, relative {:.2e}", err / ext);
+        std::println!(
+            "noise-free: rms {rms:.3e} mm, held-back max {err:.3e} mm, extent {ext:.0} mm, relative {:.2e}",
+            err / ext
+        );
         assert!(ext > 400.0 && ext < 700.0, "{ext}");
         assert!(rms < 1e-3, "{rms}");
         assert!(err < 1e-3, "{err}");
@@ -922,8 +891,7 @@ mod tests {
     #[test]
     fn homography_f32_versus_f64() {
         let mut rng = Rng(2);
-        for (tilt_x, tilt_y, random) in [(3.0, -4.0, 0usize), (25.0, -10.0, 0), (25.0, -10.0, 400)]
-        {
+        for (tilt_x, tilt_y, random) in [(3.0, -4.0, 0usize), (25.0, -10.0, 0), (25.0, -10.0, 400)] {
             let s = scene_tilted(false, tilt_x, tilt_y);
             let cal = if random > 0 {
                 points(&s, &mut rng, random)
@@ -1013,10 +981,7 @@ mod tests {
             "0.5 px noise: {mm_per_px:.3} mm/px, rms {rms:.3} mm (expected ≈ {expected:.3}), held-back mean {mean_err:.3} mm, max {err:.3} mm"
         );
         let rms = rms as f64;
-        assert!(
-            rms > 0.6 * expected && rms < 1.5 * expected,
-            "{rms} vs {expected}"
-        );
+        assert!(rms > 0.6 * expected && rms < 1.5 * expected, "{rms} vs {expected}");
         // The fitted map is better than one noisy point: averaged over 35 points.
         assert!(mean_err < sigma * mm_per_px, "{mean_err}");
         assert!(err < 2.0 * sigma * mm_per_px, "{err}");
@@ -1036,10 +1001,7 @@ mod tests {
                 let (sn, cs) = (theta as f64).to_radians().sin_cos();
                 let p0 = apply(&s.h, [at[0] as f64, at[1] as f64]);
                 let p1 = apply(&s.h, [at[0] as f64 + cs, at[1] as f64 - sn]);
-                let want = (p1[1] - p0[1])
-                    .atan2(p1[0] - p0[0])
-                    .to_degrees()
-                    .rem_euclid(360.0);
+                let want = (p1[1] - p0[1]).atan2(p1[0] - p0[0]).to_degrees().rem_euclid(360.0);
                 let diff = ((a as f64 - want + 540.0).rem_euclid(360.0) - 180.0).abs();
                 assert!(diff < 2e-3, "mirror {mirror} θ {theta}: {a} vs {want}");
                 // The turn on screen shows as the same turn (or its mirror) for the robot, up to
@@ -1051,10 +1013,7 @@ mod tests {
                     theta as f64
                 };
                 let d = ((turn - want_turn + 540.0).rem_euclid(360.0) - 180.0).abs();
-                assert!(
-                    d < 2.0,
-                    "mirror {mirror} θ {theta}: turn {turn} vs {want_turn}"
-                );
+                assert!(d < 2.0, "mirror {mirror} θ {theta}: turn {turn} vs {want_turn}");
             }
         }
     }
@@ -1062,8 +1021,7 @@ mod tests {
     #[test]
     fn homography_map_to_infinity_and_non_finite() {
         // (x, y) ↦ (1, y) / x: the column x = 0 is the horizon.
-        let h =
-            Homography::from_matrix([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]]).unwrap();
+        let h = Homography::from_matrix([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]]).unwrap();
         assert_eq!(h.map([0.0, 5.0]), None);
         assert!(h.map([2.0, 4.0]).is_some());
         assert_eq!(h.map([f32::NAN, 1.0]), None);
@@ -1093,10 +1051,7 @@ mod tests {
             Homography::fit(&cal[..3]),
             Err(Error::TooFewPoints { needed: 4, got: 3 })
         );
-        assert_eq!(
-            Homography::fit(&[]),
-            Err(Error::TooFewPoints { needed: 4, got: 0 })
-        );
+        assert_eq!(Homography::fit(&[]), Err(Error::TooFewPoints { needed: 4, got: 0 }));
         // 4 (and 7) collinear points: along a line in both images.
         let line: Vec<_> = (0..7)
             .map(|i| {
@@ -1128,9 +1083,7 @@ mod tests {
         // Non-finite input.
         let mut bad = cal.clone();
         bad[5].0[1] = f32::NAN;
-        assert!(
-            matches!(Homography::fit(&bad), Err(Error::Parameter { name: "pixel", value }) if value.is_nan())
-        );
+        assert!(matches!(Homography::fit(&bad), Err(Error::Parameter { name: "pixel", value }) if value.is_nan()));
         let mut bad = cal.clone();
         bad[9].1[0] = f32::NEG_INFINITY;
         assert_eq!(
@@ -1187,10 +1140,7 @@ mod tests {
             .map(|(p, _)| {
                 let truth = rigid_apply(&r, &t, [p[0] as f64, p[1] as f64, p[2] as f64]);
                 let m = rt.map(*p);
-                (0..3)
-                    .map(|k| (m[k] as f64 - truth[k]).powi(2))
-                    .sum::<f64>()
-                    .sqrt()
+                (0..3).map(|k| (m[k] as f64 - truth[k]).powi(2)).sum::<f64>().sqrt()
             })
             .fold(0.0, f64::max)
     }
@@ -1248,24 +1198,12 @@ mod tests {
         let again = RigidTransform::from_parts(rt.rotation(), rt.translation()).unwrap();
         assert_eq!(again, rt);
         assert!(matches!(
-            RigidTransform::from_parts(
-                [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, -1.0]],
-                [0.0; 3]
-            ),
-            Err(Error::Parameter {
-                name: "rotation",
-                ..
-            })
+            RigidTransform::from_parts([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, -1.0]], [0.0; 3]),
+            Err(Error::Parameter { name: "rotation", .. })
         ));
         assert!(matches!(
-            RigidTransform::from_parts(
-                [[2.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
-                [0.0; 3]
-            ),
-            Err(Error::Parameter {
-                name: "rotation",
-                ..
-            })
+            RigidTransform::from_parts([[2.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], [0.0; 3]),
+            Err(Error::Parameter { name: "rotation", .. })
         ));
         assert!(matches!(
             RigidTransform::from_parts(
@@ -1291,34 +1229,21 @@ mod tests {
         let (r, t) = rigid_truth();
         let line: Vec<_> = (0..5)
             .map(|i| {
-                let p = [
-                    10.0 + 40.0 * i as f64,
-                    -20.0 + 15.0 * i as f64,
-                    700.0 + 25.0 * i as f64,
-                ];
+                let p = [10.0 + 40.0 * i as f64, -20.0 + 15.0 * i as f64, 700.0 + 25.0 * i as f64];
                 let p32 = p.map(|v| v as f32);
                 let q = rigid_apply(&r, &t, p32.map(|v| v as f64));
                 (p32, q.map(|v| v as f32))
             })
             .collect();
-        assert_eq!(
-            RigidTransform::fit(&line[..3]),
-            Err(Error::DegeneratePoints)
-        );
+        assert_eq!(RigidTransform::fit(&line[..3]), Err(Error::DegeneratePoints));
         assert_eq!(RigidTransform::fit(&line), Err(Error::DegeneratePoints));
         // Coincident.
-        assert_eq!(
-            RigidTransform::fit(&[cal[1]; 5]),
-            Err(Error::DegeneratePoints)
-        );
+        assert_eq!(RigidTransform::fit(&[cal[1]; 5]), Err(Error::DegeneratePoints));
         let mut robot_same = cal.clone();
         for p in robot_same.iter_mut() {
             p.1 = [1.0, 2.0, 3.0];
         }
-        assert_eq!(
-            RigidTransform::fit(&robot_same),
-            Err(Error::DegeneratePoints)
-        );
+        assert_eq!(RigidTransform::fit(&robot_same), Err(Error::DegeneratePoints));
         // Two distinct points, repeated: collinear.
         assert_eq!(
             RigidTransform::fit(&[cal[0], cal[1], cal[0], cal[1]]),
@@ -1327,9 +1252,7 @@ mod tests {
         // Non-finite.
         let mut bad = cal.clone();
         bad[2].0[2] = f32::NAN;
-        assert!(
-            matches!(RigidTransform::fit(&bad), Err(Error::Parameter { name: "camera", value }) if value.is_nan())
-        );
+        assert!(matches!(RigidTransform::fit(&bad), Err(Error::Parameter { name: "camera", value }) if value.is_nan()));
         let mut bad = cal.clone();
         bad[0].1[1] = f32::INFINITY;
         assert_eq!(

@@ -109,7 +109,11 @@ impl<const P: usize, const C: usize> Default for ContourStore<P, C> {
 impl<const P: usize, const C: usize> ContourStore<P, C> {
     /// An empty store (`const`, for `static` use).
     pub const fn new() -> Self {
-        ContourStore { points: [Point { x: 0, y: 0 }; P], contours: heapless::Vec::new(), used: 0 }
+        ContourStore {
+            points: [Point { x: 0, y: 0 }; P],
+            contours: heapless::Vec::new(),
+            used: 0,
+        }
     }
 
     /// Removes every border.
@@ -237,13 +241,24 @@ pub fn trace_borders<const P: usize, const C: usize>(
     }
     let n = width * height;
     if labels.len() < n {
-        return Err(Error::BufferTooSmall { needed: n, got: labels.len() });
+        return Err(Error::BufferTooSmall {
+            needed: n,
+            got: labels.len(),
+        });
     }
     store.clear();
-    let mut plane = Plane { px: &mut labels[..n], w: width, h: height };
+    let mut plane = Plane {
+        px: &mut labels[..n],
+        w: width,
+        h: height,
+    };
     let mut stats = TraceStats::default();
     // Index 1 is the frame (the background around everything).
-    let mut nbds = [Nbd { hole: true, parent: 0, stored: None }; MAX_NBD as usize + 1];
+    let mut nbds = [Nbd {
+        hole: true,
+        parent: 0,
+        stored: None,
+    }; MAX_NBD as usize + 1];
     let mut nbd: u8 = 1;
     for y in 0..height as i32 {
         let mut lnbd: u8 = 1;
@@ -288,7 +303,11 @@ pub fn trace_borders<const P: usize, const C: usize>(
                 let stored = follow(&mut plane, x, y, from, nbd, hole, parent, filter, store, &mut stats);
                 if !saturated {
                     if let Some(slot) = nbds.get_mut(nbd as usize) {
-                        *slot = Nbd { hole, parent: parent_nbd, stored };
+                        *slot = Nbd {
+                            hole,
+                            parent: parent_nbd,
+                            stored,
+                        };
                     }
                 }
             }
@@ -394,7 +413,10 @@ fn trace(
     let mut push = |x: i32, y: i32, len: &mut usize| {
         if *len % stride == 0 && stored < free {
             if let Some(p) = points.get_mut(offset + stored) {
-                *p = Point { x: x as u16, y: y as u16 };
+                *p = Point {
+                    x: x as u16,
+                    y: y as u16,
+                };
             }
             stored += 1;
         }
@@ -417,7 +439,11 @@ fn trace(
         // Isolated pixel.
         plane.set(x0, y0, NEG | nbd);
         push(x0, y0, &mut len);
-        return Some(TraceResult { len, area2: 0, touches_edge });
+        return Some(TraceResult {
+            len,
+            area2: 0,
+            touches_edge,
+        });
     };
     let (mut x2, mut y2) = (x1, y1);
     let (mut x3, mut y3) = (x0, y0);
@@ -459,7 +485,11 @@ fn trace(
         (x2, y2) = (x3, y3);
         (x3, y3) = (x4, y4);
     }
-    Some(TraceResult { len, area2, touches_edge })
+    Some(TraceResult {
+        len,
+        area2,
+        touches_edge,
+    })
 }
 
 /// Index in [`DIRS`] of a unit step (W for anything unexpected).

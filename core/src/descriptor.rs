@@ -60,10 +60,16 @@ pub fn describe(points: &[[f32; 2]], params: DescriptorParams, out: &mut [f32]) 
         return Err(Error::DegenerateContour { points: n });
     }
     if out.len() < n {
-        return Err(Error::BufferTooSmall { needed: n, got: out.len() });
+        return Err(Error::BufferTooSmall {
+            needed: n,
+            got: out.len(),
+        });
     }
     if !(0.0..=1.0).contains(&params.omega) {
-        return Err(Error::Parameter { name: "omega", value: params.omega });
+        return Err(Error::Parameter {
+            name: "omega",
+            value: params.omega,
+        });
     }
     let out = &mut out[..n];
     let c = centroid(points);
@@ -87,7 +93,11 @@ pub fn describe(points: &[[f32; 2]], params: DescriptorParams, out: &mut [f32]) 
     }
     let mut mean_cos = sum_cos / n as f32;
     if mean_cos.abs() < MEAN_COS_GUARD {
-        mean_cos = if mean_cos < 0.0 { -MEAN_COS_GUARD } else { MEAN_COS_GUARD };
+        mean_cos = if mean_cos < 0.0 {
+            -MEAN_COS_GUARD
+        } else {
+            MEAN_COS_GUARD
+        };
     }
     let w = params.omega;
     for (i, o) in out.iter_mut().enumerate() {

@@ -145,7 +145,12 @@ impl fmt::Display for Error {
             Error::Stride { width, stride } => {
                 write!(f, "stride {stride} is smaller than the width {width}")
             }
-            Error::FrameSize { expected_width, expected_height, width, height } => write!(
+            Error::FrameSize {
+                expected_width,
+                expected_height,
+                width,
+                height,
+            } => write!(
                 f,
                 "frame is {width}×{height} but {expected_width}×{expected_height} was expected"
             ),
@@ -154,7 +159,11 @@ impl fmt::Display for Error {
                 f,
                 "point counts n = {n}, m = {m} break n ≤ m < 2n (paper eq. 4.5) or a capacity"
             ),
-            Error::Capacity { what, capacity, requested } => {
+            Error::Capacity {
+                what,
+                capacity,
+                requested,
+            } => {
                 write!(f, "{what}: {requested} requested but the capacity is {capacity}")
             }
             Error::DegenerateContour { points } => {

@@ -48,12 +48,21 @@ impl<B: AsRef<[u8]>> Frame<B> {
         let needed = (height - 1)
             .checked_mul(stride)
             .and_then(|v| v.checked_add(width))
-            .ok_or(Error::Capacity { what: "frame size", capacity: usize::MAX, requested: width })?;
+            .ok_or(Error::Capacity {
+                what: "frame size",
+                capacity: usize::MAX,
+                requested: width,
+            })?;
         let got = data.as_ref().len();
         if got < needed {
             return Err(Error::BufferTooSmall { needed, got });
         }
-        Ok(Frame { data, width, height, stride })
+        Ok(Frame {
+            data,
+            width,
+            height,
+            stride,
+        })
     }
 
     /// Width in pixels.
@@ -146,9 +155,17 @@ impl<const N: usize> FrameBuffer<N> {
         }
         let requested = width.saturating_mul(height);
         if requested > N {
-            return Err(Error::Capacity { what: "frame buffer pixels", capacity: N, requested });
+            return Err(Error::Capacity {
+                what: "frame buffer pixels",
+                capacity: N,
+                requested,
+            });
         }
-        Ok(FrameBuffer { pixels: [0; N], width, height })
+        Ok(FrameBuffer {
+            pixels: [0; N],
+            width,
+            height,
+        })
     }
 
     /// The pixels in use, row by row.
@@ -163,6 +180,11 @@ impl<const N: usize> FrameBuffer<N> {
 
     /// A [`Frame`] view of the buffer.
     pub fn frame(&self) -> Frame<&[u8]> {
-        Frame { data: self.pixels(), width: self.width, height: self.height, stride: self.width }
+        Frame {
+            data: self.pixels(),
+            width: self.width,
+            height: self.height,
+            stride: self.width,
+        }
     }
 }

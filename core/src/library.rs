@@ -25,9 +25,9 @@
 //! | 20 | 2 | `k`, neighbourhood of the angle term for parts, `u16` (`1 ≤ k`, `2k < n`) |
 //! | 22 | 2 | `T`, number of templates, `u16` |
 //! | 24 | 4 | `ω`, weight of the angle term, `f32` in `[0, 1]` |
-//! | 28 | `T·(52 + 12·m)` | `T` template records, below |
+//! | 28 | `T·(60 + 28·m)` | `T` template records, below |
 //!
-//! One template record ([`record_len`]`(m) = 52 + 12·m` bytes, at
+//! One template record ([`record_len`]`(m) = 60 + 28·m` bytes, at
 //! `28 + i·record_len(m)`):
 //!
 //! | offset | bytes | field |
@@ -37,11 +37,15 @@
 //! | +32 | 8 | `C'`, mean of the resampled points: x, y |
 //! | +40 | 8 | area centroid of the silhouette: x, y |
 //! | +48 | 4 | polygon area of the border, px² |
-//! | +52 | `8·m` | the `m` resampled points: x₀, y₀, x₁, y₁, … |
-//! | +52 + 8·m | `4·m` | the `m` descriptor values `c'_j` |
+//! | +52 | 8 | the part's position (the silhouette's pixel centroid) as an offset from the area centroid: x, y |
+//! | +60 | `8·m` | the `m` resampled points: x₀, y₀, x₁, y₁, … |
+//! | +60 + 8·m | `4·m` | the `m` descriptor values `c'_j` |
+//! | +60 + 12·m | `8·m` | the `m` sub-pixel edge points, offsets from the area centroid: x, y, … |
+//! | +60 + 20·m | `8·m` | the `m` unit outward normals at the edge points: x, y, … |
 //!
-//! So `L = 12 + T·(52 + 12·m)` exactly, and the file is `16 + L` bytes ([`encoded_len`]); for
-//! 8 templates of `m = 96` points that is 9 660 bytes.
+//! So `L = 12 + T·(60 + 28·m)` exactly, and the file is `16 + L` bytes ([`encoded_len`]); for
+//! 8 templates of `m = 96` points that is 22 012 bytes. A template read back is equal, field for
+//! field, to the one that was written (`Template`'s `PartialEq`).
 //!
 //! # Checks, in order
 //!
@@ -52,7 +56,7 @@
 //! | version is not 1 | [`Error::UnsupportedVersion`] |
 //! | fewer than `16 + L` bytes | [`Error::Truncated`] |
 //! | CRC-32 of the payload differs from the stored one | [`Error::Checksum`] |
-//! | reserved field not 0, bytes after the payload, `L` not `12 + T·(52 + 12·m)`, parameters out of range, a name too long or not UTF-8, a value not finite | [`Error::Corrupt`] |
+//! | reserved field not 0, bytes after the payload, `L` not `12 + T·(60 + 28·m)`, parameters out of range, a name too long or not UTF-8, a value not finite | [`Error::Corrupt`] |
 //!
 //! ```
 //! use vorl_core::library::{encoded_len, write_library, Library};
@@ -93,17 +97,20 @@ pub const PARAMS_LEN: usize = 12;
 pub const NAME_FIELD_LEN: usize = 32;
 /// Longest class name in bytes.
 pub const MAX_NAME_LEN: usize = NAME_FIELD_LEN - 1;
-/// Bytes of a record before its points: name field, centroid, area centroid, area.
-const RECORD_HEAD_LEN: usize = NAME_FIELD_LEN + 20;
+/// Bytes of a record before its points: name field, centroid, area centroid, area, position.
+const RECORD_HEAD_LEN: usize = NAME_FIELD_LEN + 28;
 
-/// Bytes of one template record with `m` points: `52 + 12·m`.
+/// Bytes of one template record with `m` points: `60 + 28·m` (saturating at `usize::MAX`).
 pub const fn record_len(m: usize) -> usize {
-    RECORD_HEAD_LEN + 12 * m
+    m.saturating_mul(28).saturating_add(RECORD_HEAD_LEN)
 }
 
-/// Bytes of a whole library of `templates` templates of `m` points: `28 + T·(52 + 12·m)`.
+/// Bytes of a whole library of `templates` templates of `m` points: `28 + T·(60 + 28·m)`
+/// (saturating at `usize::MAX`).
 pub const fn encoded_len(templates: usize, m: usize) -> usize {
-    HEADER_LEN + PARAMS_LEN + templates * record_len(m)
+    templates
+        .saturating_mul(record_len(m))
+        .saturating_add(HEADER_LEN + PARAMS_LEN)
 }
 
 /// The CRC-32 lookup table (IEEE 802.3, reflected, polynomial `0xEDB88320`), made at compile time.
@@ -116,11 +123,7 @@ const fn crc_table() -> [u32; 256] {
         let mut c = i as u32;
         let mut bit = 0;
         while bit < 8 {
-            c = if c & 1 != 0 {
-                0xEDB8_8320 ^ (c >> 1)
-            } else {
-                c >> 1
-            };
+            c = if c & 1 != 0 { 0xEDB8_8320 ^ (c >> 1) } else { c >> 1 };
             bit += 1;
         }
         table[i] = c;
@@ -151,12 +154,7 @@ fn u16_at(bytes: &[u8], at: usize) -> Option<u16> {
 
 fn u32_at(bytes: &[u8], at: usize) -> Option<u32> {
     let b = bytes.get(at..at + 4)?;
-    Some(u32::from_le_bytes([
-        *b.first()?,
-        *b.get(1)?,
-        *b.get(2)?,
-        *b.get(3)?,
-    ]))
+    Some(u32::from_le_bytes([*b.first()?, *b.get(1)?, *b.get(2)?, *b.get(3)?]))
 }
 
 fn f32_at(bytes: &[u8], at: usize) -> Option<f32> {
@@ -201,9 +199,9 @@ impl<'a> Library<'a> {
         let reserved = u16_at(header, 6).ok_or(truncated(HEADER_LEN))?;
         let payload_len = u32_at(header, 8).ok_or(truncated(HEADER_LEN))? as usize;
         let stored = u32_at(header, 12).ok_or(truncated(HEADER_LEN))?;
-        let total = HEADER_LEN.checked_add(payload_len).ok_or(Error::Corrupt {
-            what: "payload length",
-        })?;
+        let total = HEADER_LEN
+            .checked_add(payload_len)
+            .ok_or(Error::Corrupt { what: "payload length" })?;
         let payload = bytes.get(HEADER_LEN..total).ok_or(truncated(total))?;
         let computed = crc32(payload);
         if computed != stored {
@@ -243,7 +241,7 @@ impl<'a> Library<'a> {
                 what: "ω out of [0, 1]",
             });
         }
-        if payload_len != encoded_len(count, m) - HEADER_LEN {
+        if HEADER_LEN.checked_add(payload_len) != Some(encoded_len(count, m)) {
             return Err(Error::Corrupt {
                 what: "payload length does not match the template count and m",
             });
@@ -314,7 +312,8 @@ impl<'a> Library<'a> {
             return None;
         }
         let len = record_len(self.m);
-        self.records.get(index * len..(index + 1) * len)
+        let start = index.checked_mul(len)?;
+        self.records.get(start..start.checked_add(len)?)
     }
 
     /// The class name of template `index` (`None` past the end).
@@ -330,7 +329,7 @@ impl<'a> Library<'a> {
         let record = self.record(index).ok_or(Error::Capacity {
             what: "library templates",
             capacity: self.count,
-            requested: index + 1,
+            requested: index.saturating_add(1),
         })?;
         if self.m > M {
             return Err(Error::Capacity {
@@ -340,10 +339,21 @@ impl<'a> Library<'a> {
             });
         }
         let f = |at: usize| f32_at(record, at).unwrap_or(f32::NAN);
+        let pair = |at: usize| [f(at), f(at + 4)];
         let m = self.m;
-        let points = (0..m).map(|j| [f(RECORD_HEAD_LEN + 8 * j), f(RECORD_HEAD_LEN + 8 * j + 4)]);
-        let descriptor = (0..m).map(|j| f(RECORD_HEAD_LEN + 8 * m + 4 * j));
-        Template::from_parts(points, descriptor, [f(32), f(36)], [f(40), f(44)], f(48))
+        let (points_at, descriptor_at) = (RECORD_HEAD_LEN, RECORD_HEAD_LEN + 8 * m);
+        let (edge_at, normals_at) = (RECORD_HEAD_LEN + 12 * m, RECORD_HEAD_LEN + 20 * m);
+        let points = (0..m).map(|j| pair(points_at + 8 * j));
+        let descriptor = (0..m).map(|j| f(descriptor_at + 4 * j));
+        let mut t = Template::from_parts(points, descriptor, pair(32), pair(40), f(48))?;
+        let mut edge = [[0.0f32; 2]; M];
+        let mut normals = [[0.0f32; 2]; M];
+        for (j, (e, n)) in edge.iter_mut().zip(normals.iter_mut()).take(m).enumerate() {
+            *e = pair(edge_at + 8 * j);
+            *n = pair(normals_at + 8 * j);
+        }
+        t.set_edge(edge.get(..m).unwrap_or(&[]), normals.get(..m).unwrap_or(&[]), pair(52))?;
+        Ok(t)
     }
 
     /// Replaces `recognizer`'s templates by the library's: its `n`, `m`, `k`, `ω` are set from the
@@ -353,13 +363,7 @@ impl<'a> Library<'a> {
     /// # Errors
     /// [`Recognizer::set_params`]'s errors (e.g. `m > M` or a DP table larger than `D`),
     /// [`Error::Capacity`] when the library holds more than `T` templates.
-    pub fn load_into<
-        const T: usize,
-        const M: usize,
-        const P: usize,
-        const C: usize,
-        const D: usize,
-    >(
+    pub fn load_into<const T: usize, const M: usize, const P: usize, const C: usize, const D: usize>(
         &self,
         recognizer: &mut Recognizer<T, M, P, C, D>,
     ) -> Result<usize> {
@@ -450,10 +454,8 @@ pub fn write_library<'t, const M: usize>(
             });
         }
         let got = out.len();
-        let record = out.get_mut(at..at + rlen).ok_or(Error::BufferTooSmall {
-            needed: at + rlen,
-            got,
-        })?;
+        let end = at.saturating_add(rlen);
+        let record = out.get_mut(at..end).ok_or(Error::BufferTooSmall { needed: end, got })?;
         record.fill(0);
         let mut w = Writer { buf: record, at: 0 };
         w.bytes(&[name.len() as u8]);
@@ -464,6 +466,7 @@ pub fn write_library<'t, const M: usize>(
             .into_iter()
             .chain(t.area_centroid())
             .chain([t.area()])
+            .chain(t.position_offset())
         {
             w.f32(v);
         }
@@ -474,8 +477,12 @@ pub fn write_library<'t, const M: usize>(
         for &c in t.descriptor() {
             w.f32(c);
         }
+        for p in t.edge().iter().chain(t.normals()) {
+            w.f32(p[0]);
+            w.f32(p[1]);
+        }
         count += 1;
-        at += rlen;
+        at = end;
     }
     let count16 = u16::try_from(count).map_err(|_| too_big("templates", count))?;
     let total = encoded_len(count, m);
@@ -483,11 +490,15 @@ pub fn write_library<'t, const M: usize>(
     let lib = out
         .get_mut(..total)
         .ok_or(Error::BufferTooSmall { needed: total, got })?;
-    let (header, payload) = lib.split_at_mut(HEADER_LEN);
-    let mut w = Writer {
-        buf: payload,
-        at: 0,
-    };
+    let payload_len = u32::try_from(total.saturating_sub(HEADER_LEN)).map_err(|_| Error::Capacity {
+        what: "library bytes",
+        capacity: u32::MAX as usize,
+        requested: total,
+    })?;
+    let (header, payload) = lib
+        .split_at_mut_checked(HEADER_LEN)
+        .ok_or(Error::BufferTooSmall { needed: total, got })?;
+    let mut w = Writer { buf: payload, at: 0 };
     w.bytes(&n16.to_le_bytes());
     w.bytes(&m16.to_le_bytes());
     w.bytes(&k16.to_le_bytes());
@@ -498,7 +509,7 @@ pub fn write_library<'t, const M: usize>(
     w.bytes(&MAGIC);
     w.bytes(&VERSION.to_le_bytes());
     w.bytes(&0u16.to_le_bytes());
-    w.bytes(&((total - HEADER_LEN) as u32).to_le_bytes());
+    w.bytes(&payload_len.to_le_bytes());
     w.bytes(&crc.to_le_bytes());
     Ok(total)
 }
@@ -549,9 +560,7 @@ mod tests {
             let (x1, y1) = corners[(i + 1) % corners.len()];
             let steps = x0.abs_diff(x1).max(y0.abs_diff(y1));
             for s in 0..steps {
-                let t = |a: u16, b: u16| {
-                    (a as i32 + (b as i32 - a as i32) * s as i32 / steps as i32) as u16
-                };
+                let t = |a: u16, b: u16| (a as i32 + (b as i32 - a as i32) * s as i32 / steps as i32) as u16;
                 b.push(Point {
                     x: t(x0, x1),
                     y: t(y0, y1),
@@ -568,8 +577,7 @@ mod tests {
             Template::<96>::from_border(&ell(), core::iter::empty(), &p).unwrap(),
         ];
         let mut bytes = vec![0u8; encoded_len(2, p.m)];
-        let len =
-            write_library(&mut bytes, &p, [("bar", &ts[0]), ("ell_bracket", &ts[1])]).unwrap();
+        let len = write_library(&mut bytes, &p, [("bar", &ts[0]), ("ell_bracket", &ts[1])]).unwrap();
         assert_eq!(len, bytes.len());
         (bytes, ts)
     }
@@ -584,22 +592,16 @@ mod tests {
     fn crc32_check_values() {
         assert_eq!(crc32(b""), 0);
         assert_eq!(crc32(b"123456789"), 0xCBF4_3926);
-        assert_eq!(
-            crc32(b"The quick brown fox jumps over the lazy dog"),
-            0x414F_A339
-        );
+        assert_eq!(crc32(b"The quick brown fox jumps over the lazy dog"), 0x414F_A339);
     }
 
     #[test]
     fn round_trip_is_exact() {
         let (bytes, ts) = library();
-        assert_eq!(bytes.len(), 16 + 12 + 2 * (52 + 12 * 96));
+        assert_eq!(bytes.len(), 16 + 12 + 2 * (60 + 28 * 96));
         assert_eq!(&bytes[..4], b"VRLT");
         let lib = Library::parse(&bytes).unwrap();
-        assert_eq!(
-            (lib.n(), lib.m(), lib.k(), lib.omega(), lib.len()),
-            (64, 96, 4, 0.5, 2)
-        );
+        assert_eq!((lib.n(), lib.m(), lib.k(), lib.omega(), lib.len()), (64, 96, 4, 0.5, 2));
         assert_eq!(lib.name(0), Some("bar"));
         assert_eq!(lib.name(1), Some("ell_bracket"));
         assert_eq!(lib.name(2), None);
@@ -623,12 +625,7 @@ mod tests {
         assert_eq!(lib.load_into(&mut rec).unwrap(), 2);
         assert_eq!(rec.templates(), &ts[..]);
         assert_eq!(
-            (
-                rec.params().n,
-                rec.params().m,
-                rec.params().k,
-                rec.params().epsilon
-            ),
+            (rec.params().n, rec.params().m, rec.params().k, rec.params().epsilon),
             (64, 96, 4, 0.05)
         );
         let mut small = Recognizer::<1, 96, 256, 4, 2112>::new();
@@ -640,10 +637,7 @@ mod tests {
             })
         ));
         let mut short = Recognizer::<4, 64, 256, 4, 2112>::new();
-        assert!(matches!(
-            lib.load_into(&mut short),
-            Err(Error::Capacity { .. })
-        ));
+        assert!(matches!(lib.load_into(&mut short), Err(Error::Capacity { .. })));
     }
 
     #[test]
@@ -660,10 +654,7 @@ mod tests {
         bytes[4..6].copy_from_slice(&2u16.to_le_bytes());
         assert_eq!(
             Library::parse(&bytes).unwrap_err(),
-            Error::UnsupportedVersion {
-                found: 2,
-                supported: 1
-            }
+            Error::UnsupportedVersion { found: 2, supported: 1 }
         );
     }
 
@@ -685,10 +676,7 @@ mod tests {
         for at in [16, 23, 30, 100, bytes.len() - 1, 12] {
             let mut b = bytes.clone();
             b[at] ^= 0x10;
-            assert!(
-                matches!(Library::parse(&b), Err(Error::Checksum { .. })),
-                "byte {at}"
-            );
+            assert!(matches!(Library::parse(&b), Err(Error::Checksum { .. })), "byte {at}");
         }
         let mut b = bytes.clone();
         b[200] ^= 1;
@@ -737,6 +725,15 @@ mod tests {
         assert!(matches!(corrupt(&|b| b[28] = 40), Error::Corrupt { .. }));
         // Name not UTF-8.
         assert!(matches!(corrupt(&|b| b[29] = 0xFF), Error::Corrupt { .. }));
+        // The largest counts the fields can hold: no overflow, just an inconsistent size.
+        assert!(matches!(
+            corrupt(&|b| {
+                for at in [16, 18, 22] {
+                    b[at..at + 2].copy_from_slice(&u16::MAX.to_le_bytes());
+                }
+            }),
+            Error::Corrupt { .. }
+        ));
         // Trailing bytes after a consistent payload.
         let mut b = bytes.clone();
         b.extend_from_slice(&[0; 4]);

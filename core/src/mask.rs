@@ -79,7 +79,10 @@ pub fn foreground_mask<B: AsRef<[u8]>, S: AsRef<[u8]> + AsMut<[u8]>>(
     }
     let n = w * h;
     if labels.len() < n {
-        return Err(Error::BufferTooSmall { needed: n, got: labels.len() });
+        return Err(Error::BufferTooSmall {
+            needed: n,
+            got: labels.len(),
+        });
     }
     let labels = &mut labels[..n];
     let bg = background.plane();
@@ -110,7 +113,10 @@ pub fn foreground_mask<B: AsRef<[u8]>, S: AsRef<[u8]> + AsMut<[u8]>>(
         erode(labels, w, h);
     }
     let foreground = labels.iter().filter(|&&v| v != 0).count();
-    Ok(MaskStats { threshold: tau, foreground })
+    Ok(MaskStats {
+        threshold: tau,
+        foreground,
+    })
 }
 
 /// Otsu's level of a 256-bin histogram: the `t` that maximises `w0·w1·(μ0 − μ1)²` with class 0
@@ -161,7 +167,11 @@ fn morph(plane: &mut [u8], w: usize, h: usize, erode: bool) {
         let len = row.len();
         for x in 0..len {
             let cur = row.get(x).map_or(0, |v| v & 1);
-            let next = if x + 1 < len { row.get(x + 1).map_or(0, |v| v & 1) } else { cur };
+            let next = if x + 1 < len {
+                row.get(x + 1).map_or(0, |v| v & 1)
+            } else {
+                cur
+            };
             let v = if erode { prev & cur & next } else { prev | cur | next };
             if let Some(p) = row.get_mut(x) {
                 *p = (*p & 1) | (v << 1);

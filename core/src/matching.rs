@@ -51,7 +51,10 @@ pub fn best_cost(part: &[f32], template: &[f32], bound: f32, row: &mut [f32]) ->
     check_counts(n, m)?;
     let width = m - n + 1;
     if row.len() < width {
-        return Err(Error::BufferTooSmall { needed: width, got: row.len() });
+        return Err(Error::BufferTooSmall {
+            needed: width,
+            got: row.len(),
+        });
     }
     let row = &mut row[..width];
     let mut best = bound;
@@ -64,7 +67,11 @@ pub fn best_cost(part: &[f32], template: &[f32], bound: f32, row: &mut [f32]) ->
             }
         }
     }
-    Ok(best_start.map(|start| Match { cost: best, normalized: best / n as f32, start }))
+    Ok(best_start.map(|start| Match {
+        cost: best,
+        normalized: best / n as f32,
+        start,
+    }))
 }
 
 /// One start's DP with a single row; `None` when pruned by `bound`.
@@ -139,10 +146,16 @@ pub fn match_with_assignment(
     let width = m - n + 1;
     let cells = table_cells(n, m);
     if table.len() < cells {
-        return Err(Error::BufferTooSmall { needed: cells, got: table.len() });
+        return Err(Error::BufferTooSmall {
+            needed: cells,
+            got: table.len(),
+        });
     }
     if assignment.len() < n {
-        return Err(Error::BufferTooSmall { needed: n, got: assignment.len() });
+        return Err(Error::BufferTooSmall {
+            needed: n,
+            got: assignment.len(),
+        });
     }
     let best = {
         let row = table.get_mut(..width).unwrap_or(&mut []);
@@ -162,7 +175,10 @@ fn fill_table(part: &[f32], template: &[f32], s: usize, table: &mut [f32], width
     let m = template.len();
     let mut rows = table.chunks_exact_mut(width);
     let Some(first) = rows.next() else { return };
-    let c0 = part.first().zip(template.get(s % m)).map_or(f32::INFINITY, |(&a, &b)| (a - b).abs());
+    let c0 = part
+        .first()
+        .zip(template.get(s % m))
+        .map_or(f32::INFINITY, |(&a, &b)| (a - b).abs());
     for (d, cell) in first.iter_mut().enumerate() {
         *cell = if d == 0 { c0 } else { f32::INFINITY };
     }

@@ -110,29 +110,53 @@ impl Params {
     /// [`Error::Parameter`] naming the first parameter out of range, or [`Error::PointCounts`].
     pub fn validate(&self) -> Result<()> {
         if Alpha::new(self.alpha).is_none() {
-            return Err(Error::Parameter { name: "alpha", value: self.alpha });
+            return Err(Error::Parameter {
+                name: "alpha",
+                value: self.alpha,
+            });
         }
         if !(0.0..=1.0).contains(&self.omega) {
-            return Err(Error::Parameter { name: "omega", value: self.omega });
+            return Err(Error::Parameter {
+                name: "omega",
+                value: self.omega,
+            });
         }
         if !(self.epsilon >= 0.0) || !self.epsilon.is_finite() {
-            return Err(Error::Parameter { name: "epsilon", value: self.epsilon });
+            return Err(Error::Parameter {
+                name: "epsilon",
+                value: self.epsilon,
+            });
         }
         if !(self.min_area >= 0.0) || !self.min_area.is_finite() {
-            return Err(Error::Parameter { name: "min_area", value: self.min_area });
+            return Err(Error::Parameter {
+                name: "min_area",
+                value: self.min_area,
+            });
         }
         check_counts(self.n, self.m)?;
         if self.candidates == 0 || self.candidates > crate::recognizer::MAX_CANDIDATES {
-            return Err(Error::Parameter { name: "candidates", value: self.candidates as f32 });
+            return Err(Error::Parameter {
+                name: "candidates",
+                value: self.candidates as f32,
+            });
         }
         if !(self.verify_threshold > 0.0) || !self.verify_threshold.is_finite() {
-            return Err(Error::Parameter { name: "verify_threshold", value: self.verify_threshold });
+            return Err(Error::Parameter {
+                name: "verify_threshold",
+                value: self.verify_threshold,
+            });
         }
         if self.n < 8 {
-            return Err(Error::Parameter { name: "n", value: self.n as f32 });
+            return Err(Error::Parameter {
+                name: "n",
+                value: self.n as f32,
+            });
         }
         if self.k == 0 || 2 * self.k >= self.n {
-            return Err(Error::Parameter { name: "k", value: self.k as f32 });
+            return Err(Error::Parameter {
+                name: "k",
+                value: self.k as f32,
+            });
         }
         Ok(())
     }
@@ -144,12 +168,18 @@ impl Params {
 
     /// The border size filter.
     pub fn filter(&self) -> BorderFilter {
-        BorderFilter { min_points: self.min_points, min_area: self.min_area }
+        BorderFilter {
+            min_points: self.min_points,
+            min_area: self.min_area,
+        }
     }
 
     /// Descriptor parameters for a contour of `points` points.
     pub fn descriptor(&self, points: usize) -> DescriptorParams {
-        DescriptorParams { k: crate::descriptor::scaled_k(self.k, self.n, points), omega: self.omega }
+        DescriptorParams {
+            k: crate::descriptor::scaled_k(self.k, self.n, points),
+            omega: self.omega,
+        }
     }
 }
 
@@ -158,4 +188,3 @@ impl Default for Params {
         Self::DEFAULT
     }
 }
-

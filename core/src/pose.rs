@@ -139,7 +139,10 @@ pub fn angle_signed_refined(
     let mean_radius = |pts: &[[f32; 2]], c: [f32; 2]| {
         pts.iter().map(|p| math::hypot(p[0] - c[0], p[1] - c[1])).sum::<f32>() / pts.len().max(1) as f32
     };
-    let (rp, rt) = (mean_radius(part, part_centroid), mean_radius(template, template_centroid));
+    let (rp, rt) = (
+        mean_radius(part, part_centroid),
+        mean_radius(template, template_centroid),
+    );
     if !(rp > 0.0) || !(rt > 0.0) || m < 2 {
         return Some(seed);
     }
@@ -150,7 +153,11 @@ pub fn angle_signed_refined(
         let (mut cross, mut dot, mut ww) = (0.0f32, 0.0f32, 0.0f32);
         for (p, &j) in part.iter().zip(assignment) {
             let j = j as usize;
-            let (Some(a), Some(b), Some(d)) = (template.get((j + m - 1) % m), template.get(j), template.get((j + 1) % m)) else {
+            let (Some(a), Some(b), Some(d)) = (
+                template.get((j + m - 1) % m),
+                template.get(j),
+                template.get((j + 1) % m),
+            ) else {
                 continue;
             };
             let (vx, vy) = (p[0] - part_centroid[0], p[1] - part_centroid[1]);

@@ -28,8 +28,10 @@ use crate::mask::{foreground_mask, MaskStats};
 use crate::matching::{best_cost, match_with_assignment, table_cells};
 use crate::math;
 use crate::params::{AngleEstimator, Params, Position, Refine};
-use crate::refine::{align, mean_distance_to_outline, partial_volume_centroid, Alignment, Difference, Pose, Rect, RefineParams};
 use crate::pose::{angle_paper, angle_signed_refined, area_centroid};
+use crate::refine::{
+    align, mean_distance_to_outline, partial_volume_centroid, Alignment, Difference, Pose, Rect, RefineParams,
+};
 use crate::resample::resample;
 use crate::template::Template;
 
@@ -124,7 +126,14 @@ pub struct Report {
 
 impl Report {
     fn skip(&mut self, contour: usize, reason: SkipReason) {
-        if self.skips.push(Skip { contour: contour as u16, reason }).is_err() {
+        if self
+            .skips
+            .push(Skip {
+                contour: contour as u16,
+                reason,
+            })
+            .is_err()
+        {
             self.skips_lost += 1;
         }
     }
@@ -165,7 +174,9 @@ pub struct Recognizer<const T: usize, const M: usize, const P: usize, const C: u
     cands: [(usize, f32); MAX_CANDIDATES],
 }
 
-impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: usize> Default for Recognizer<T, M, P, C, D> {
+impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: usize> Default
+    for Recognizer<T, M, P, C, D>
+{
     fn default() -> Self {
         Self::new()
     }
@@ -196,11 +207,19 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
     pub fn set_params(&mut self, params: Params) -> Result<()> {
         params.validate()?;
         if params.m > M {
-            return Err(Error::Capacity { what: "template points M", capacity: M, requested: params.m });
+            return Err(Error::Capacity {
+                what: "template points M",
+                capacity: M,
+                requested: params.m,
+            });
         }
         let cells = table_cells(params.n, params.m);
         if cells > D {
-            return Err(Error::Capacity { what: "DP table cells D", capacity: D, requested: cells });
+            return Err(Error::Capacity {
+                what: "DP table cells D",
+                capacity: D,
+                requested: cells,
+            });
         }
         let p = &self.params;
         if p.m != params.m || p.k != params.k || p.n != params.n || p.omega != params.omega {
@@ -221,9 +240,11 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
     /// [`Error::Capacity`] when `T` templates are held already.
     pub fn add_template(&mut self, template: Template<M>) -> Result<usize> {
         let index = self.templates.len();
-        self.templates
-            .push(template)
-            .map_err(|_| Error::Capacity { what: "templates T", capacity: T, requested: T + 1 })?;
+        self.templates.push(template).map_err(|_| Error::Capacity {
+            what: "templates T",
+            capacity: T,
+            requested: T + 1,
+        })?;
         Ok(index)
     }
 
@@ -280,17 +301,30 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         mut observe: F,
     ) -> Result<Report> {
         let params = self.params;
-        let mask = foreground_mask(frame, background, params.alpha(), params.threshold, params.cleanup, labels)?;
+        let mask = foreground_mask(
+            frame,
+            background,
+            params.alpha(),
+            params.threshold,
+            params.cleanup,
+            labels,
+        )?;
         observe(Stage::Mask);
         let trace = trace_borders(labels, frame.width(), frame.height(), params.filter(), &mut self.store)?;
         observe(Stage::Borders);
-        let mut report = Report { mask, trace, ..Report::default() };
+        let mut report = Report {
+            mask,
+            trace,
+            ..Report::default()
+        };
         // From here on the label plane is the plain 0/1 mask (the refine stage uses bits 1–5).
         for v in labels.iter_mut() {
             *v = (*v != 0) as u8;
         }
         for index in 0..self.store.contours().len() {
-            let Some(contour) = self.store.contours().get(index).copied() else { continue };
+            let Some(contour) = self.store.contours().get(index).copied() else {
+                continue;
+            };
             if contour.kind != BorderKind::Outer {
                 continue;
             }
@@ -309,16 +343,32 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
 
     /// One outer border (store index `index`) through resampling, description, matching,
     /// alignment, verification and position.
-    fn part<B: AsRef<[u8]>>(&mut self, index: usize, frame: &Frame<B>, background: &[u8], mask: &mut [u8]) -> core::result::Result<Detection, SkipReason> {
+    fn part<B: AsRef<[u8]>>(
+        &mut self,
+        index: usize,
+        frame: &Frame<B>,
+        background: &[u8],
+        mask: &mut [u8],
+    ) -> core::result::Result<Detection, SkipReason> {
         let params = self.params;
         let n = params.n;
-        let contour = self.store.contours().get(index).copied().ok_or(SkipReason::Degenerate)?;
+        let contour = self
+            .store
+            .contours()
+            .get(index)
+            .copied()
+            .ok_or(SkipReason::Degenerate)?;
         let border = self.store.points(index);
         let holes = self.store.holes_of(index).map(|i| self.store.points(i));
         let [x, y] = area_centroid(border, holes).ok_or(SkipReason::NoArea)?;
         let (mut x0, mut y0, mut x1, mut y1) = (usize::MAX, usize::MAX, 0usize, 0usize);
         for p in border {
-            (x0, y0, x1, y1) = (x0.min(p.x as usize), y0.min(p.y as usize), x1.max(p.x as usize + 1), y1.max(p.y as usize + 1));
+            (x0, y0, x1, y1) = (
+                x0.min(p.x as usize),
+                y0.min(p.y as usize),
+                x1.max(p.x as usize + 1),
+                y1.max(p.y as usize + 1),
+            );
         }
         let bbox = Rect { x0, y0, x1, y1 };
         let seed_pixel = border.first().map(|p| (p.x as usize, p.y as usize));
@@ -352,11 +402,15 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let mut best_verify = f32::INFINITY;
         let mut best_pose: Option<(usize, Pose)> = None;
         for c in 0..count {
-            let Some((ti, _)) = self.cands.get(c).copied() else { continue };
+            let Some((ti, _)) = self.cands.get(c).copied() else {
+                continue;
+            };
             let Some(t) = self.templates.get(ti) else { continue };
             let part_desc = self.descriptor.get(..n).unwrap_or(&[]);
             let assignment = self.assignment.get_mut(..n).unwrap_or(&mut []);
-            let Ok(m) = match_with_assignment(part_desc, t.descriptor(), &mut self.table, assignment) else { continue };
+            let Ok(m) = match_with_assignment(part_desc, t.descriptor(), &mut self.table, assignment) else {
+                continue;
+            };
             let part_pts = self.points.get(..n).unwrap_or(&[]);
             let assignment = self.assignment.get(..n).unwrap_or(&[]);
             let signed = angle_signed_refined(part_pts, centroid, t.points(), t.centroid(), assignment).unwrap_or(0.0);
@@ -382,7 +436,11 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 x,
                 y,
                 angle: math::radians(signed),
-                scale: if t.area() > 0.0 { math::sqrt(contour.area() / t.area()) } else { 1.0 },
+                scale: if t.area() > 0.0 {
+                    math::sqrt(contour.area() / t.area())
+                } else {
+                    1.0
+                },
             };
             let aligned = align(&diff, t.edge(), t.normals(), seed, &refine_params);
             let verify = verify_score(&aligned, t, self.part_edges.get(..n).unwrap_or(&[]), &refine_params);
@@ -431,16 +489,23 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
     fn part_edge<B: AsRef<[u8]>>(&mut self, n: usize, counter_clockwise: bool, diff: &Difference<'_, B>) {
         let params = RefineParams::DEFAULT;
         for k in 0..n {
-            let (Some(prev), Some(next), Some(p)) =
-                (self.points.get((k + n - 1) % n), self.points.get((k + 1) % n), self.points.get(k))
-            else {
+            let (Some(prev), Some(next), Some(p)) = (
+                self.points.get((k + n - 1) % n),
+                self.points.get((k + 1) % n),
+                self.points.get(k),
+            ) else {
                 continue;
             };
             let (tx, ty) = (next[0] - prev[0], next[1] - prev[1]);
             let len = math::hypot(tx, ty);
             let e = if len > 0.0 {
-                let nrm = if counter_clockwise { [-ty / len, tx / len] } else { [ty / len, -tx / len] };
-                diff.edge_offset(*p, nrm, &params).map(|u| [p[0] + u * nrm[0], p[1] + u * nrm[1]])
+                let nrm = if counter_clockwise {
+                    [-ty / len, tx / len]
+                } else {
+                    [ty / len, -tx / len]
+                };
+                diff.edge_offset(*p, nrm, &params)
+                    .map(|u| [p[0] + u * nrm[0], p[1] + u * nrm[1]])
             } else {
                 None
             };
@@ -456,8 +521,14 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let Some(part) = self.descriptor.get(..n) else { return 0 };
         let mut count = 0usize;
         for (ti, t) in self.templates.iter().enumerate() {
-            let bound = if count == k { self.cands.get(k - 1).map_or(f32::INFINITY, |c| c.1) } else { f32::INFINITY };
-            let Ok(Some(m)) = best_cost(part, t.descriptor(), bound, &mut self.table) else { continue };
+            let bound = if count == k {
+                self.cands.get(k - 1).map_or(f32::INFINITY, |c| c.1)
+            } else {
+                f32::INFINITY
+            };
+            let Ok(Some(m)) = best_cost(part, t.descriptor(), bound, &mut self.table) else {
+                continue;
+            };
             // Insert in order.
             let mut pos = count.min(k);
             while pos > 0 && self.cands.get(pos - 1).is_some_and(|c| c.1 > m.cost) {
@@ -499,7 +570,12 @@ fn verify_score<const M: usize>(a: &Alignment, t: &Template<M>, part_edges: &[[f
                 sum += params.cap;
                 continue;
             }
-            sum += mean_distance_to_outline(core::slice::from_ref(e), |i| pose.apply(edge.get(i).copied().unwrap_or([0.0; 2])), edge.len(), params.cap);
+            sum += mean_distance_to_outline(
+                core::slice::from_ref(e),
+                |i| pose.apply(edge.get(i).copied().unwrap_or([0.0; 2])),
+                edge.len(),
+                params.cap,
+            );
         }
         sum / part_edges.len().max(1) as f32
     };

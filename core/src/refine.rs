@@ -52,7 +52,10 @@ impl Pose {
     #[inline]
     pub fn apply(&self, t: [f32; 2]) -> [f32; 2] {
         let (s, c) = math::sin_cos(self.angle);
-        [self.x + self.scale * (t[0] * c + t[1] * s), self.y + self.scale * (-t[0] * s + t[1] * c)]
+        [
+            self.x + self.scale * (t[0] * c + t[1] * s),
+            self.y + self.scale * (-t[0] * s + t[1] * c),
+        ]
     }
 
     /// Rotates (and scales) a direction without translating it.
@@ -82,8 +85,14 @@ pub struct RefineParams {
 
 impl RefineParams {
     /// The defaults.
-    pub const DEFAULT: RefineParams =
-        RefineParams { iterations: 12, search: 3.0, step: 0.25, min_contrast: 8.0, cap: 2.0, scale_penalty: 4.0 };
+    pub const DEFAULT: RefineParams = RefineParams {
+        iterations: 12,
+        search: 3.0,
+        step: 0.25,
+        min_contrast: 8.0,
+        cap: 2.0,
+        scale_penalty: 4.0,
+    };
 }
 
 /// The signed difference image `D = I' − B` over a frame and a background plane.
@@ -98,7 +107,11 @@ impl<'a, B: AsRef<[u8]>> Difference<'a, B> {
     /// `D` of `frame` against a background plane of the frame's size (row-packed). A short plane
     /// reads as 0 where it ends.
     pub fn new(frame: &'a Frame<B>, background: &'a [u8], alpha: Alpha) -> Self {
-        Difference { frame, background, alpha }
+        Difference {
+            frame,
+            background,
+            alpha,
+        }
     }
 
     /// Width of the image.
@@ -207,12 +220,19 @@ pub fn align<B: AsRef<[u8]>>(
         for (t, n) in edge.iter().zip(normals) {
             let p = pose.apply(*t);
             let nf = pose.rotate(*n);
-            let Some(r) = diff.edge_offset(p, nf, params) else { continue };
+            let Some(r) = diff.edge_offset(p, nf, params) else {
+                continue;
+            };
             // ∂p/∂θ = s·R'(θ)·t with R'(θ)t = (−t_x sinθ + t_y cosθ, −t_x cosθ − t_y sinθ).
             let dth = [pose.scale * (-t[0] * s + t[1] * c), pose.scale * (-t[0] * c - t[1] * s)];
             // ∂p/∂s = R(θ)·t.
             let ds = [t[0] * c + t[1] * s, -t[0] * s + t[1] * c];
-            let j = [nf[0], nf[1], nf[0] * dth[0] + nf[1] * dth[1], nf[0] * ds[0] + nf[1] * ds[1]];
+            let j = [
+                nf[0],
+                nf[1],
+                nf[0] * dth[0] + nf[1] * dth[1],
+                nf[0] * ds[0] + nf[1] * ds[1],
+            ];
             for a in 0..4 {
                 for b in 0..4 {
                     ata[a][b] += j[a] * j[b];
@@ -231,7 +251,7 @@ pub fn align<B: AsRef<[u8]>>(
             angle: pose.angle + delta[2],
             scale: pose.scale + delta[3],
         };
-        if !(next.x.is_finite() && next.y.is_finite() && next.angle.is_finite()) || !(0.5..=2.0).contains(&next.scale) {
+        if !(next.x.is_finite() && next.y.is_finite() && next.angle.is_finite() && (0.5..=2.0).contains(&next.scale)) {
             break;
         }
         pose = next;
@@ -253,7 +273,11 @@ pub fn align<B: AsRef<[u8]>>(
         }
     }
     let count = edge.len().min(normals.len()).max(1) as f32;
-    Alignment { pose, distance: sum / count, coverage: found as f32 / count }
+    Alignment {
+        pose,
+        distance: sum / count,
+        coverage: found as f32 / count,
+    }
 }
 
 /// Solves a symmetric positive-definite 4×4 system by Gaussian elimination with partial pivoting;
@@ -271,10 +295,11 @@ fn solve4(mut a: [[f32; 4]; 4], mut b: [f32; 4]) -> Option<[f32; 4]> {
         }
         a.swap(col, piv);
         b.swap(col, piv);
+        let pivot_row = a[col];
         for r in col + 1..4 {
-            let f = a[r][col] / a[col][col];
-            for k in col..4 {
-                a[r][k] -= f * a[col][k];
+            let f = a[r][col] / pivot_row[col];
+            for (x, p) in a[r].iter_mut().zip(pivot_row.iter()).skip(col) {
+                *x -= f * p;
             }
             b[r] -= f * b[col];
         }
@@ -398,7 +423,7 @@ pub fn partial_volume_centroid<B: AsRef<[u8]>>(
     morph_bits(mask, w, r, SCRATCH, RING, true);
     // RING now = shrunk by 5; ring = shrunk by 3 (SCRATCH after one more) minus shrunk by 5.
     morph_bits(mask, w, r, SHRUNK, SCRATCH, true); // shrunk by 3
-    // Contrast: median of D over the ring (signed, from a histogram).
+                                                   // Contrast: median of D over the ring (signed, from a histogram).
     let mut hist = [0u16; 511];
     let mut ring_count = 0usize;
     for y in r.y0..r.y1 {
@@ -438,7 +463,8 @@ pub fn partial_volume_centroid<B: AsRef<[u8]>>(
                 } else if v & GROWN != 0 {
                     // The local contrast: mean D of the ring pixels within 4 px (shading across the
                     // part changes it from one side to the other), else the part's median.
-                    let local = local_ring_mean(diff, mask, w, r, x, y).filter(|c| c.abs() >= 1.0 && c.signum() == contrast.signum());
+                    let local = local_ring_mean(diff, mask, w, r, x, y)
+                        .filter(|c| c.abs() >= 1.0 && c.signum() == contrast.signum());
                     (diff.at(x as isize, y as isize) / local.unwrap_or(contrast)).clamp(0.0, 1.0)
                 } else {
                     0.0
@@ -463,7 +489,14 @@ pub fn partial_volume_centroid<B: AsRef<[u8]>>(
 }
 
 /// Mean `D` of the ring pixels (bit `SCRATCH` set, `RING` clear) within 4 px of `(x, y)`.
-fn local_ring_mean<B: AsRef<[u8]>>(diff: &Difference<'_, B>, mask: &[u8], w: usize, r: Rect, x: usize, y: usize) -> Option<f32> {
+fn local_ring_mean<B: AsRef<[u8]>>(
+    diff: &Difference<'_, B>,
+    mask: &[u8],
+    w: usize,
+    r: Rect,
+    x: usize,
+    y: usize,
+) -> Option<f32> {
     const RADIUS: usize = 4;
     let (mut sum, mut count) = (0.0f32, 0usize);
     for yy in y.saturating_sub(RADIUS).max(r.y0)..(y + RADIUS + 1).min(r.y1) {
@@ -520,7 +553,11 @@ fn move_bit(mask: &mut [u8], w: usize, r: Rect, from: u8, to: u8) {
     for y in r.y0..r.y1 {
         for x in r.x0..r.x1 {
             if let Some(v) = mask.get_mut(y * w + x) {
-                *v = if *v & from != 0 { (*v | to) & !from } else { *v & !(to | from) };
+                *v = if *v & from != 0 {
+                    (*v | to) & !from
+                } else {
+                    *v & !(to | from)
+                };
             }
         }
     }

@@ -53,7 +53,11 @@ pub fn resample(border: &[Point], out: &mut [[f32; 2]]) -> Result<()> {
             b = pt(edge + 1);
             edge_len = math::hypot(b[0] - a[0], b[1] - a[1]);
         }
-        let t = if edge_len > 0.0 { ((target - walked) / edge_len).clamp(0.0, 1.0) } else { 0.0 };
+        let t = if edge_len > 0.0 {
+            ((target - walked) / edge_len).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
         *q = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
     }
     Ok(())

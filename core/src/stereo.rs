@@ -289,11 +289,7 @@ impl PairOutcome {
 
 /// How far a right part gets through the checks for a left part; `Ok(d)` is a candidate at
 /// disparity `d`.
-fn check(
-    l: &StereoPart,
-    r: &StereoPart,
-    params: &PairParams,
-) -> core::result::Result<f32, Unpaired> {
+fn check(l: &StereoPart, r: &StereoPart, params: &PairParams) -> core::result::Result<f32, Unpaired> {
     if l.class != r.class {
         return Err(Unpaired::ClassMismatch);
     }
@@ -422,10 +418,7 @@ pub fn pair_parts(
         }
         let Some((_, d, i, j)) = best else { break };
         if let (Some(o), Some(t)) = (out.get_mut(i), taken.get_mut(j)) {
-            *o = PairOutcome::Paired {
-                right: j,
-                disparity: d,
-            };
+            *o = PairOutcome::Paired { right: j, disparity: d };
             *t = true;
             pairs += 1;
         } else {
@@ -512,14 +505,9 @@ mod tests {
         let rig = StereoRig::new(800.0, 60.0, 320.0, 240.0).unwrap();
         for d in [0.0f32, -3.0, f32::INFINITY, f32::MIN_POSITIVE / 1e6] {
             assert_eq!(rig.depth(d), Err(Error::Disparity { disparity: d }));
-            assert_eq!(
-                rig.point(1.0, 1.0, d),
-                Err(Error::Disparity { disparity: d })
-            );
+            assert_eq!(rig.point(1.0, 1.0, d), Err(Error::Disparity { disparity: d }));
         }
-        assert!(
-            matches!(rig.depth(f32::NAN), Err(Error::Disparity { disparity }) if disparity.is_nan())
-        );
+        assert!(matches!(rig.depth(f32::NAN), Err(Error::Disparity { disparity }) if disparity.is_nan()));
         assert!(matches!(
             rig.point(f32::NAN, 1.0, 4.0),
             Err(Error::Parameter { name: "x_left", .. })
@@ -530,23 +518,14 @@ mod tests {
         ));
         assert!(matches!(
             rig.disparity(0.0),
-            Err(Error::Parameter {
-                name: "depth_mm",
-                ..
-            })
+            Err(Error::Parameter { name: "depth_mm", .. })
         ));
         assert!(matches!(
             rig.disparity(f32::NAN),
-            Err(Error::Parameter {
-                name: "depth_mm",
-                ..
-            })
+            Err(Error::Parameter { name: "depth_mm", .. })
         ));
         // Large x with a tiny (but finite-depth) disparity overflows X.
-        assert_eq!(
-            rig.point(3e38, 1.0, 1e-3),
-            Err(Error::Disparity { disparity: 1e-3 })
-        );
+        assert_eq!(rig.point(3e38, 1.0, 1e-3), Err(Error::Disparity { disparity: 1e-3 }));
     }
 
     #[test]
@@ -580,10 +559,7 @@ mod tests {
             }
         );
         assert_eq!(out[1], PairOutcome::Unpaired(Unpaired::RowMismatch));
-        assert_eq!(
-            out[2],
-            PairOutcome::Unpaired(Unpaired::NonPositiveDisparity)
-        );
+        assert_eq!(out[2], PairOutcome::Unpaired(Unpaired::NonPositiveDisparity));
         assert_eq!(out[3], PairOutcome::Unpaired(Unpaired::DisparityTooLarge));
         assert_eq!(out[4], PairOutcome::Unpaired(Unpaired::ClassMismatch));
         assert_eq!(out[5].paired(), Some((4, 10.0)));
@@ -596,10 +572,7 @@ mod tests {
             &mut one,
         )
         .unwrap();
-        assert_eq!(
-            one[0],
-            PairOutcome::Unpaired(Unpaired::NonPositiveDisparity)
-        );
+        assert_eq!(one[0], PairOutcome::Unpaired(Unpaired::NonPositiveDisparity));
         // Exactly at the tolerances pairs.
         pair_parts(
             &[part(Some(0), 310.0, 2.0)],
@@ -624,10 +597,7 @@ mod tests {
         let left = [part(Some(0), 300.0, 101.0), part(Some(0), 320.0, 100.2)];
         let right = [part(Some(0), 280.0, 100.0)];
         let mut out = [NONE; 2];
-        assert_eq!(
-            pair_parts(&left, &right, &PairParams::DEFAULT, &mut out),
-            Ok(1)
-        );
+        assert_eq!(pair_parts(&left, &right, &PairParams::DEFAULT, &mut out), Ok(1));
         assert_eq!(out[0], PairOutcome::Unpaired(Unpaired::Taken));
         assert_eq!(
             out[1],
@@ -641,10 +611,7 @@ mod tests {
         let left = [part(Some(0), 300.0, 100.0), part(Some(0), 500.0, 100.0)];
         let right = [part(Some(0), 250.0, 100.0), part(Some(0), 480.0, 100.0)];
         let mut out = [NONE; 2];
-        assert_eq!(
-            pair_parts(&left, &right, &PairParams::DEFAULT, &mut out),
-            Ok(2)
-        );
+        assert_eq!(pair_parts(&left, &right, &PairParams::DEFAULT, &mut out), Ok(2));
         assert_eq!(
             out[0],
             PairOutcome::Paired {
@@ -663,12 +630,8 @@ mod tests {
         let left = [part(Some(0), 300.0, 100.0); 4];
         let right = [part(Some(0), 290.0, 100.0), part(Some(0), 280.0, 100.0)];
         let mut out = [NONE; 4];
-        assert_eq!(
-            pair_parts(&left, &right, &PairParams::DEFAULT, &mut out),
-            Ok(2)
-        );
-        let used: heapless::Vec<usize, 4> =
-            out.iter().filter_map(|o| o.paired().map(|p| p.0)).collect();
+        assert_eq!(pair_parts(&left, &right, &PairParams::DEFAULT, &mut out), Ok(2));
+        let used: heapless::Vec<usize, 4> = out.iter().filter_map(|o| o.paired().map(|p| p.0)).collect();
         assert_eq!(used.as_slice(), &[0, 1]);
         assert_eq!(out[2], PairOutcome::Unpaired(Unpaired::Taken));
         assert_eq!(out[3], PairOutcome::Unpaired(Unpaired::Taken));
@@ -681,10 +644,7 @@ mod tests {
             disparity: 1.0,
         }; 3];
         let left = [part(Some(0), 10.0, 10.0), part(Some(0), f32::NAN, 10.0)];
-        assert_eq!(
-            pair_parts(&left, &[], &PairParams::DEFAULT, &mut out),
-            Ok(0)
-        );
+        assert_eq!(pair_parts(&left, &[], &PairParams::DEFAULT, &mut out), Ok(0));
         assert_eq!(out[0], PairOutcome::Unpaired(Unpaired::NoRightParts));
         assert_eq!(out[1], PairOutcome::Unpaired(Unpaired::NonFinite));
         // Untouched past left.len().
@@ -697,10 +657,7 @@ mod tests {
         );
         // A right part with a NaN position is never a candidate.
         let right = [part(Some(0), f32::NAN, 10.0)];
-        assert_eq!(
-            pair_parts(&left[..1], &right, &PairParams::DEFAULT, &mut out),
-            Ok(0)
-        );
+        assert_eq!(pair_parts(&left[..1], &right, &PairParams::DEFAULT, &mut out), Ok(0));
         assert_eq!(out[0], PairOutcome::Unpaired(Unpaired::NoRightParts));
         // Output too short, too many right parts, bad parameters.
         assert_eq!(
@@ -739,10 +696,7 @@ mod tests {
             })
         );
         // Empty left: nothing to do.
-        assert_eq!(
-            pair_parts(&[], &many[..3], &PairParams::DEFAULT, &mut []),
-            Ok(0)
-        );
+        assert_eq!(pair_parts(&[], &many[..3], &PairParams::DEFAULT, &mut []), Ok(0));
     }
 
     #[test]
@@ -755,6 +709,10 @@ mod tests {
             y: 34.0,
             angle_deg: 56.0,
             angle_paper_deg: 56.0,
+            angle_dp_deg: 56.0,
+            polygon_centroid: [12.0, 34.0],
+            verify: 0.1,
+            scale: 1.0,
             contour: 0,
             area: 100.0,
             touches_edge: false,

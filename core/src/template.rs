@@ -56,7 +56,11 @@ impl<const M: usize> Template<M> {
     /// # Errors
     /// [`Error::PointCounts`] when `params.m > M`, [`Error::DegenerateContour`] for a border
     /// that cannot be resampled or described.
-    pub fn from_border<'a>(border: &[Point], holes: impl Iterator<Item = &'a [Point]>, params: &Params) -> Result<Self> {
+    pub fn from_border<'a>(
+        border: &[Point],
+        holes: impl Iterator<Item = &'a [Point]>,
+        params: &Params,
+    ) -> Result<Self> {
         let m = params.m;
         if m > M || m == 0 {
             return Err(Error::PointCounts { n: params.n, m });
@@ -85,9 +89,11 @@ impl<const M: usize> Template<M> {
         let m = self.m;
         let ac = self.area_centroid;
         for k in 0..m {
-            let (Some(prev), Some(next), Some(p)) =
-                (self.points.get((k + m - 1) % m), self.points.get((k + 1) % m), self.points.get(k))
-            else {
+            let (Some(prev), Some(next), Some(p)) = (
+                self.points.get((k + m - 1) % m),
+                self.points.get((k + 1) % m),
+                self.points.get(k),
+            ) else {
                 continue;
             };
             let (tx, ty) = (next[0] - prev[0], next[1] - prev[1]);
@@ -136,14 +142,20 @@ impl<const M: usize> Template<M> {
         let (w, h) = (silhouette.width(), silhouette.height());
         let n = w * h;
         if labels.len() < n {
-            return Err(Error::BufferTooSmall { needed: n, got: labels.len() });
+            return Err(Error::BufferTooSmall {
+                needed: n,
+                got: labels.len(),
+            });
         }
         for (y, row) in labels.chunks_exact_mut(w).take(h).enumerate() {
             for (l, &p) in row.iter_mut().zip(silhouette.row(y)) {
                 *l = (p > 127) as u8;
             }
         }
-        let filter = BorderFilter { min_points: 1, min_area: 0.0 };
+        let filter = BorderFilter {
+            min_points: 1,
+            min_area: 0.0,
+        };
         trace_borders(labels, w, h, filter, store)?;
         let best = store
             .contours()
@@ -170,7 +182,10 @@ impl<const M: usize> Template<M> {
             }
         }
         if count > 0 {
-            t.position = [sx / count as f32 - t.area_centroid[0], sy / count as f32 - t.area_centroid[1]];
+            t.position = [
+                sx / count as f32 - t.area_centroid[0],
+                sy / count as f32 - t.area_centroid[1],
+            ];
         }
         Ok(t)
     }
@@ -238,13 +253,7 @@ impl<const M: usize> Template<M> {
             });
         }
         let scalars = centroid.into_iter().chain(area_centroid).chain([area]);
-        let mut values = t
-            .points
-            .iter()
-            .flatten()
-            .chain(&t.descriptor)
-            .copied()
-            .chain(scalars);
+        let mut values = t.points.iter().flatten().chain(&t.descriptor).copied().chain(scalars);
         if !values.all(f32::is_finite) {
             return Err(Error::Corrupt {
                 what: "template value is not finite",
@@ -273,10 +282,20 @@ impl<const M: usize> Template<M> {
     /// [`Error::Corrupt`] when the lengths differ from `m` or a value is not finite.
     pub fn set_edge(&mut self, edge: &[[f32; 2]], normals: &[[f32; 2]], position: [f32; 2]) -> Result<()> {
         if edge.len() != self.m || normals.len() != self.m {
-            return Err(Error::Corrupt { what: "template edge length differs from m" });
+            return Err(Error::Corrupt {
+                what: "template edge length differs from m",
+            });
         }
-        if !edge.iter().chain(normals).flatten().chain(&position).all(|v| v.is_finite()) {
-            return Err(Error::Corrupt { what: "template edge value is not finite" });
+        if !edge
+            .iter()
+            .chain(normals)
+            .flatten()
+            .chain(&position)
+            .all(|v| v.is_finite())
+        {
+            return Err(Error::Corrupt {
+                what: "template edge value is not finite",
+            });
         }
         for (d, s) in self.edge.iter_mut().zip(edge) {
             *d = *s;

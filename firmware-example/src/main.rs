@@ -92,44 +92,60 @@ const BUDGET: Budget = budget(Layout::CORTEX_M, CAPS);
 
 // The budget calculator's layout of this target is the compiler's: if a struct of the core
 // changes, this firmware stops building until `vorl_core::budget` follows.
-const _: () = assert!(Layout::CORTEX_M.word == size_of::<usize>());
-const _: () = assert!(Layout::CORTEX_M.params == size_of::<Params>());
-const _: () = assert!(Layout::CORTEX_M.contour == size_of::<Contour>());
-const _: () = assert!(BUDGET.recognizer == size_of::<Rec>());
-const _: () =
-    assert!(vorl_core::budget::template_bytes(Layout::CORTEX_M, M) == size_of::<Template<M>>());
+const _: () = assert!(
+    Layout::CORTEX_M.word == size_of::<usize>(),
+    "vorl_core::budget::Layout::CORTEX_M.word is not size_of::<usize>(): update core/src/budget.rs"
+);
+const _: () = assert!(
+    Layout::CORTEX_M.params == size_of::<Params>(),
+    "vorl_core::budget::Layout::CORTEX_M.params is not size_of::<Params>() on Cortex-M: update core/src/budget.rs"
+);
+const _: () = assert!(
+    Layout::CORTEX_M.contour == size_of::<Contour>(),
+    "vorl_core::budget::Layout::CORTEX_M.contour is not size_of::<Contour>() on Cortex-M: update core/src/budget.rs"
+);
+const _: () = assert!(
+    vorl_core::budget::template_bytes(Layout::CORTEX_M, M) == size_of::<Template<M>>(),
+    "vorl_core::budget::template_bytes is not size_of::<Template<M>>(): update core/src/budget.rs to the fields of Template"
+);
+const _: () = assert!(
+    BUDGET.recognizer == size_of::<Rec>(),
+    "vorl_core::budget::recognizer_bytes is not size_of::<Recognizer<..>>(): update core/src/budget.rs to the fields of Recognizer"
+);
 const _: () = assert!(BUDGET.total == 2 * PLANE + size_of::<Rec>());
+
+/// Bytes aligned to 8: frames and planes start on a word boundary, as a camera's DMA buffers
+/// do, so row copies take the word-wise path of `memcpy` whatever the layout of the image
+/// (unaligned, a QVGA frame's mask stage costs about 200 000 more instructions).
+#[repr(C, align(8))]
+struct Aligned<const N: usize>([u8; N]);
 
 /// The recognizer (`.data`: its parameters are not zero).
 static mut RECOGNIZER: Rec = Rec::new();
 /// The background model's plane (`.bss`).
-static mut BACKGROUND: [u8; PLANE] = [0; PLANE];
+static mut BACKGROUND: Aligned<PLANE> = Aligned([0; PLANE]);
 /// The label plane: mask and border labels; the high byte of the sum while learning (`.bss`).
-static mut LABELS: [u8; PLANE] = [0; PLANE];
+static mut LABELS: Aligned<PLANE> = Aligned([0; PLANE]);
 
 /// The template library, written on the host by `vorl templates export`.
 static LIBRARY: &[u8] = include_bytes!("../fixtures/templates.vtl");
 /// Captures of the empty platform (8-bit gray, row-major; the type checks their size).
-static BACKGROUNDS: [(&str, &[u8; PLANE]); 2] = [
-    (
-        "background_0",
-        include_bytes!("../fixtures/background_0.gray"),
-    ),
-    (
-        "background_1",
-        include_bytes!("../fixtures/background_1.gray"),
-    ),
-];
+static BACKGROUND_0: Aligned<PLANE> = Aligned(*include_bytes!("../fixtures/background_0.gray"));
+static BACKGROUND_1: Aligned<PLANE> = Aligned(*include_bytes!("../fixtures/background_1.gray"));
 /// Scenes: four parts each.
-static FRAMES: [(&str, &[u8; PLANE]); 3] = [
-    ("frame_0", include_bytes!("../fixtures/frame_0.gray")),
-    ("frame_1", include_bytes!("../fixtures/frame_1.gray")),
-    ("frame_2", include_bytes!("../fixtures/frame_2.gray")),
-];
+static FRAME_0: Aligned<PLANE> = Aligned(*include_bytes!("../fixtures/frame_0.gray"));
+static FRAME_1: Aligned<PLANE> = Aligned(*include_bytes!("../fixtures/frame_1.gray"));
+static FRAME_2: Aligned<PLANE> = Aligned(*include_bytes!("../fixtures/frame_2.gray"));
+/// The background captures by name.
+static BACKGROUNDS: [(&str, &Aligned<PLANE>); 2] = [("background_0", &BACKGROUND_0), ("background_1", &BACKGROUND_1)];
+/// The scenes by name.
+static FRAMES: [(&str, &Aligned<PLANE>); 3] = [("frame_0", &FRAME_0), ("frame_1", &FRAME_1), ("frame_2", &FRAME_2)];
 
 /// QEMU `-icount shift=0` runs one guest instruction per nanosecond of virtual time, and the
 /// mps2-an386 SysTick counts the 25 MHz processor clock: 1e9 / 25e6 = 40 instructions per tick.
 const NOMINAL_INSTRUCTIONS_PER_TICK: u64 = 40;
+/// Stack kept free above the static buffers (`_vorl_min_stack` in memory.x).
+const STACK_RESERVE: usize = 24 * 1024;
 /// Iterations of the calibration loop (two instructions each).
 const SPIN_ITERATIONS: u32 = 5_000_000;
 
@@ -184,11 +200,7 @@ fn spin(iterations: u32) {
 }
 
 /// The three statics, once (`None` on a second call).
-fn take_buffers() -> Option<(
-    &'static mut Rec,
-    &'static mut [u8; PLANE],
-    &'static mut [u8; PLANE],
-)> {
+fn take_buffers() -> Option<(&'static mut Rec, &'static mut [u8; PLANE], &'static mut [u8; PLANE])> {
     static TAKEN: AtomicBool = AtomicBool::new(false);
     if TAKEN.swap(true, Ordering::SeqCst) {
         return None;
@@ -198,14 +210,15 @@ fn take_buffers() -> Option<(
     unsafe {
         Some((
             &mut *addr_of_mut!(RECOGNIZER),
-            &mut *addr_of_mut!(BACKGROUND),
-            &mut *addr_of_mut!(LABELS),
+            &mut (*addr_of_mut!(BACKGROUND)).0,
+            &mut (*addr_of_mut!(LABELS)).0,
         ))
     }
 }
 
 /// Bytes of the stack used so far: the stack was painted with `0xCCCCCCCC` at reset
-/// (cortex-m-rt `paint-stack`); the lowest word no longer painted marks the peak.
+/// (cortex-m-rt `paint-stack`); the lowest word no longer painted marks the peak (a frame that
+/// reserves stack it never writes, or writes the paint value, can hide a few words).
 fn stack_peak() -> usize {
     extern "C" {
         static _stack_end: u32;
@@ -236,8 +249,12 @@ fn stack_peak() -> usize {
 fn main() -> ! {
     let status = match run() {
         Ok(()) => EXIT_SUCCESS,
-        Err(e) => {
+        Err(Failure::Core(e)) => {
             hprintln!("error {}", e);
+            EXIT_FAILURE
+        }
+        Err(Failure::Setup(what)) => {
+            hprintln!("error {}", what);
             EXIT_FAILURE
         }
     };
@@ -246,16 +263,26 @@ fn main() -> ! {
     loop {}
 }
 
-fn run() -> Result<(), Error> {
+/// Why the program stopped early.
+enum Failure {
+    /// The core refused an input (library, frame, parameters).
+    Core(Error),
+    /// The program's own set-up went wrong.
+    Setup(&'static str),
+}
+
+impl From<Error> for Failure {
+    fn from(e: Error) -> Self {
+        Failure::Core(e)
+    }
+}
+
+fn run() -> Result<(), Failure> {
     let Some(mut core) = cortex_m::Peripherals::take() else {
-        return Err(Error::Corrupt {
-            what: "peripherals taken twice",
-        });
+        return Err(Failure::Setup("the core peripherals were taken twice"));
     };
     let Some((rec, bg_plane, labels)) = take_buffers() else {
-        return Err(Error::Corrupt {
-            what: "buffers taken twice",
-        });
+        return Err(Failure::Setup("the static buffers were taken twice"));
     };
     hprintln!("vorl-firmware version=1");
     let spin_instructions = 2 * u64::from(SPIN_ITERATIONS);
@@ -284,14 +311,13 @@ fn run() -> Result<(), Error> {
         u8::from(per_tick == NOMINAL_INSTRUCTIONS_PER_TICK)
     );
     if per_tick != NOMINAL_INSTRUCTIONS_PER_TICK {
-        hprintln!(
-            "warning the counts below are not instruction counts: run QEMU with -icount shift=0"
-        );
+        hprintln!("warning the counts below are not instruction counts: run QEMU with -icount shift=0");
     }
     let instructions = |ticks: u64| ticks * NOMINAL_INSTRUCTIONS_PER_TICK;
 
     let library = Library::parse(LIBRARY)?;
     library.load_into(rec)?;
+    let stack_after_load = stack_peak();
     let p = *rec.params();
     hprintln!(
         "config width={} height={} n={} m={} k={} omega={} templates={} T={} M={} P={} C={} D={}",
@@ -309,28 +335,21 @@ fn run() -> Result<(), Error> {
         D
     );
     hprintln!(
-        "memory static_ram={} recognizer={} planes={} stack_reserve={}",
+        "memory static_ram={} recognizer={} planes={} stack_reserve={} stack_peak_after_library={}",
         BUDGET.total,
         size_of::<Rec>(),
         2 * PLANE,
-        16 * 1024
+        STACK_RESERVE,
+        stack_after_load
     );
     for i in 0..library.len() {
-        hprintln!(
-            "template index={} name={}",
-            i,
-            library.name(i).unwrap_or("?")
-        );
+        hprintln!("template index={} name={}", i, library.name(i).unwrap_or("?"));
     }
 
     let t0 = ticks();
     let mut background = Background::new(&mut bg_plane[..], W, H)?;
     for (_, pixels) in BACKGROUNDS.iter() {
-        background.learn(
-            &Frame::new_checked(&pixels[..], W, H)?,
-            p.alpha(),
-            &mut labels[..],
-        )?;
+        background.learn(&Frame::new_checked(&pixels.0[..], W, H)?, p.alpha(), &mut labels[..])?;
     }
     background.finish_learning(&labels[..])?;
     hprintln!(
@@ -341,7 +360,7 @@ fn run() -> Result<(), Error> {
 
     let (mut detections, mut total) = (0usize, 0u64);
     for (name, pixels) in FRAMES.iter() {
-        let frame = Frame::new_checked(&pixels[..], W, H)?;
+        let frame = Frame::new_checked(&pixels.0[..], W, H)?;
         let mut marks = [0u64; 3];
         let start = ticks();
         let report = rec.process_observed(&frame, &background, &mut labels[..], |stage| {
@@ -399,12 +418,7 @@ fn run() -> Result<(), Error> {
             }
         }
         for s in report.skips.iter() {
-            hprintln!(
-                "skip frame={} border={} reason={:?}",
-                name,
-                s.contour,
-                s.reason
-            );
+            hprintln!("skip frame={} border={} reason={:?}", name, s.contour, s.reason);
         }
         hprintln!(
             "instructions frame={} mask={} borders={} descriptors_matching={} total={} [instructions, not cycles]",

@@ -39,7 +39,14 @@ pub struct Tolerances {
 
 impl Default for Tolerances {
     fn default() -> Self {
-        Tolerances { pixels: 0, point_px: 1e-3, descriptor: 1e-3, cost_rel: 1e-3, angle_deg: 0.1, centroid_px: 1e-3 }
+        Tolerances {
+            pixels: 0,
+            point_px: 1e-3,
+            descriptor: 1e-3,
+            cost_rel: 1e-3,
+            angle_deg: 0.1,
+            centroid_px: 1e-3,
+        }
     }
 }
 
@@ -129,7 +136,8 @@ pub fn compare_frame(
     let mut bg = Background::new(vec![0u8; w * h], w, h).map_err(|e| e.to_string())?;
     let mut high = vec![0u8; w * h];
     for b in backgrounds {
-        let f = Frame::new_checked(b.as_raw().as_slice(), b.width() as usize, b.height() as usize).map_err(|e| e.to_string())?;
+        let f = Frame::new_checked(b.as_raw().as_slice(), b.width() as usize, b.height() as usize)
+            .map_err(|e| e.to_string())?;
         bg.learn(&f, params.alpha(), &mut high).map_err(|e| e.to_string())?;
     }
     bg.finish_learning(&high).map_err(|e| e.to_string())?;
@@ -140,10 +148,22 @@ pub fn compare_frame(
     // Mask.
     let frame_view = Frame::new_checked(frame.as_raw().as_slice(), w, h).map_err(|e| e.to_string())?;
     let mut labels = vec![0u8; w * h];
-    foreground_mask(&frame_view, &bg, params.alpha(), params.threshold, params.cleanup, &mut labels).map_err(|e| e.to_string())?;
+    foreground_mask(
+        &frame_view,
+        &bg,
+        params.alpha(),
+        params.threshold,
+        params.cleanup,
+        &mut labels,
+    )
+    .map_err(|e| e.to_string())?;
     let ref_enh = r::enhance(frame, rp.alpha);
     let ref_mask = r::foreground_mask(&ref_enh, &ref_bg, rp.threshold, rp.cleanup).map_err(|e| e.to_string())?;
-    let differing = labels.iter().zip(ref_mask.as_raw()).filter(|(a, b)| (**a != 0) != (**b != 0)).count();
+    let differing = labels
+        .iter()
+        .zip(ref_mask.as_raw())
+        .filter(|(a, b)| (**a != 0) != (**b != 0))
+        .count();
     if differing > tol.pixels {
         bad("mask", name.into(), format!("{differing} pixels differ"));
     }
@@ -156,7 +176,15 @@ pub fn compare_frame(
         .filter(|b| b.points.len() >= rp.min_points && r::polygon_area(&b.points) >= rp.min_area)
         .collect();
     if ref_kept.len() != store.contours().len() {
-        bad("borders", name.into(), format!("core keeps {} borders, reference {}", store.contours().len(), ref_kept.len()));
+        bad(
+            "borders",
+            name.into(),
+            format!(
+                "core keeps {} borders, reference {}",
+                store.contours().len(),
+                ref_kept.len()
+            ),
+        );
     }
     // Templates on both sides.
     let mut core_tpls = Vec::new();
@@ -166,12 +194,17 @@ pub fn compare_frame(
         let mut tl = vec![0u8; tw * th];
         let mut ts = Box::new(ContourStore::<HOST_POINTS, HOST_CONTOURS>::new());
         let f = Frame::new_checked(t.as_raw().as_slice(), tw, th).map_err(|e| e.to_string())?;
-        let ct = Template::<HOST_M>::from_silhouette(&f, params, &mut tl, &mut ts).map_err(|e| format!("template {ti}: {e}"))?;
+        let ct = Template::<HOST_M>::from_silhouette(&f, params, &mut tl, &mut ts)
+            .map_err(|e| format!("template {ti}: {e}"))?;
         let rt = r::template_from_silhouette(t, &rp).map_err(|e| format!("template {ti} (reference): {e}"))?;
         for (j, (a, b)) in ct.points().iter().zip(&rt.points).enumerate() {
             let d = ((a[0] as f64 - b.0).powi(2) + (a[1] as f64 - b.1).powi(2)).sqrt();
             if d > tol.point_px {
-                bad("template points", format!("template {ti} point {j}"), format!("core {a:?} reference {b:?}"));
+                bad(
+                    "template points",
+                    format!("template {ti} point {j}"),
+                    format!("core {a:?} reference {b:?}"),
+                );
                 break;
             }
         }
@@ -186,7 +219,16 @@ pub fn compare_frame(
         let core_pts: Vec<(i32, i32)> = store.points(ci).iter().map(|p| (p.x as i32, p.y as i32)).collect();
         let c = store.contours()[ci];
         if core_pts != rb.points || (c.kind == BorderKind::Hole) != rb.is_hole {
-            bad("borders", at.clone(), format!("core {} points ({:?}), reference {} points", core_pts.len(), c.kind, rb.points.len()));
+            bad(
+                "borders",
+                at.clone(),
+                format!(
+                    "core {} points ({:?}), reference {} points",
+                    core_pts.len(),
+                    c.kind,
+                    rb.points.len()
+                ),
+            );
             continue;
         }
         out.borders += 1;
@@ -212,23 +254,36 @@ pub fn compare_frame(
         // Resample and describe.
         let mut pts = vec![[0.0f32; 2]; n];
         let mut desc = vec![0.0f32; n];
-        let core_ok = resample(store.points(ci), &mut pts).and_then(|_| describe(&pts, params.descriptor(n), &mut desc));
+        let core_ok =
+            resample(store.points(ci), &mut pts).and_then(|_| describe(&pts, params.descriptor(n), &mut desc));
         let rpts_in: Vec<(f64, f64)> = rb.points.iter().map(|&(x, y)| (x as f64, y as f64)).collect();
         let ref_ok = r::resample(&rpts_in, n).and_then(|q| r::descriptor(&q, rp.k, rp.omega).map(|d| (q, d)));
         let (pc, (rq, rd)) = match (core_ok, ref_ok) {
             (Ok(c), Ok(r)) => (c, r),
             (Err(_), Err(_)) => continue,
             (a, b) => {
-                bad("descriptor", at.clone(), format!("core {:?}, reference {:?}", a.err(), b.err()));
+                bad(
+                    "descriptor",
+                    at.clone(),
+                    format!("core {:?}, reference {:?}", a.err(), b.err()),
+                );
                 continue;
             }
         };
-        let dmax = desc.iter().zip(&rd).map(|(a, b)| (*a as f64 - b).abs()).fold(0.0, f64::max);
+        let dmax = desc
+            .iter()
+            .zip(&rd)
+            .map(|(a, b)| (*a as f64 - b).abs())
+            .fold(0.0, f64::max);
         out.max_descriptor = out.max_descriptor.max(dmax);
         if dmax > tol.descriptor {
             bad("descriptor", at.clone(), format!("values differ by up to {dmax:.2e}"));
         }
-        let pmax = pts.iter().zip(&rq).map(|(a, b)| ((a[0] as f64 - b.0).powi(2) + (a[1] as f64 - b.1).powi(2)).sqrt()).fold(0.0, f64::max);
+        let pmax = pts
+            .iter()
+            .zip(&rq)
+            .map(|(a, b)| ((a[0] as f64 - b.0).powi(2) + (a[1] as f64 - b.1).powi(2)).sqrt())
+            .fold(0.0, f64::max);
         if pmax > tol.point_px {
             bad("resample", at.clone(), format!("points differ by up to {pmax:.2e} px"));
         }
@@ -252,10 +307,18 @@ pub fn compare_frame(
             let rel = (cm.cost as f64 - rm.cost).abs() / rm.cost.abs().max(1e-6);
             out.max_cost_rel = out.max_cost_rel.max(rel);
             if rel > tol.cost_rel {
-                bad("dp", at.clone(), format!("cost core {} reference {} (relative {rel:.2e})", cm.cost, rm.cost));
+                bad(
+                    "dp",
+                    at.clone(),
+                    format!("cost core {} reference {} (relative {rel:.2e})", cm.cost, rm.cost),
+                );
             }
             if (cm.normalized < params.epsilon) != (rm.normalized < rp.epsilon) && rel > tol.cost_rel {
-                bad("decision", at.clone(), format!("f' core {} reference {}", cm.normalized, rm.normalized));
+                bad(
+                    "decision",
+                    at.clone(),
+                    format!("f' core {} reference {}", cm.normalized, rm.normalized),
+                );
             }
             let tc = ct.centroid();
             let cs = angle_signed(&pts, pc, ct.points(), tc, &assignment).unwrap_or(0.0) as f64;
@@ -267,7 +330,11 @@ pub fn compare_frame(
                 // Several optimal assignments (a symmetric shape): hold the core's assignment to be
                 // optimal for the reference too, and compare the angle formulas on it.
                 let asg: Vec<usize> = assignment.iter().map(|&j| j as usize).collect();
-                let ref_cost_of_core: f64 = rd.iter().zip(&asg).map(|(a, &j)| (a - rt.descriptor[j % rt.descriptor.len()]).abs()).sum();
+                let ref_cost_of_core: f64 = rd
+                    .iter()
+                    .zip(&asg)
+                    .map(|(a, &j)| (a - rt.descriptor[j % rt.descriptor.len()]).abs())
+                    .sum();
                 let tie = (ref_cost_of_core - rm.cost).abs() <= tol.cost_rel * rm.cost.abs().max(1e-6);
                 if tie {
                     out.ties += 1;
@@ -278,10 +345,18 @@ pub fn compare_frame(
             out.max_angle_deg = out.max_angle_deg.max(da);
             out.max_angle_paper_deg = out.max_angle_paper_deg.max(dp);
             if da > tol.angle_deg {
-                bad("angle (signed)", at.clone(), format!("core {cs:.4}° reference {rs:.4}° (reference's optimum not tied with the core's)"));
+                bad(
+                    "angle (signed)",
+                    at.clone(),
+                    format!("core {cs:.4}° reference {rs:.4}° (reference's optimum not tied with the core's)"),
+                );
             }
             if dp > tol.angle_deg {
-                bad("angle (paper)", at.clone(), format!("core {cp:.4}° reference {rpap:.4}°"));
+                bad(
+                    "angle (paper)",
+                    at.clone(),
+                    format!("core {cp:.4}° reference {rpap:.4}°"),
+                );
             }
         }
     }

@@ -181,11 +181,9 @@ impl Config {
     /// # Errors
     /// A one-line message naming the file.
     pub fn load(path: &std::path::Path) -> Result<Self, String> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| format!("{}: {}", path.display(), crate::io::io_problem(&e)))?;
-        toml::from_str(&text).map_err(|e| {
-            format!("{}: not a valid vorl config: {}", path.display(), e.message())
-        })
+        let text =
+            std::fs::read_to_string(path).map_err(|e| format!("{}: {}", path.display(), crate::io::io_problem(&e)))?;
+        toml::from_str(&text).map_err(|e| format!("{}: not a valid vorl config: {}", path.display(), e.message()))
     }
 
     /// Every parameter with its default and meaning, as a commented TOML file.
@@ -240,7 +238,10 @@ impl Config {
 
 /// The kebab-case name of a setting, as serde writes it.
 fn setting_name<T: Serialize>(v: &T) -> String {
-    serde_json::to_value(v).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default()
+    serde_json::to_value(v)
+        .ok()
+        .and_then(|v| v.as_str().map(String::from))
+        .unwrap_or_default()
 }
 
 #[cfg(test)]

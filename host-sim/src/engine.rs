@@ -71,7 +71,12 @@ pub fn load_silhouettes(dir: &Path) -> Result<Vec<NamedSilhouette>, InputError> 
     }
     files
         .iter()
-        .map(|p| load_gray(p).map(|l| NamedSilhouette { name: file_stem(p), image: l.image }))
+        .map(|p| {
+            load_gray(p).map(|l| NamedSilhouette {
+                name: file_stem(p),
+                image: l.image,
+            })
+        })
         .collect()
 }
 
@@ -83,7 +88,10 @@ pub fn check_silhouette(img: &GrayImage) -> Result<(), String> {
     let (w, h) = (img.width() as usize, img.height() as usize);
     let mut labels: Vec<u8> = img.as_raw().iter().map(|&p| (p > 127) as u8).collect();
     let mut store = Box::new(ContourStore::<HOST_POINTS, HOST_CONTOURS>::new());
-    let filter = BorderFilter { min_points: 1, min_area: 0.0 };
+    let filter = BorderFilter {
+        min_points: 1,
+        min_area: 0.0,
+    };
     trace_borders(&mut labels, w, h, filter, &mut store).map_err(|e| e.to_string())?;
     let areas: Vec<f32> = store
         .contours()
@@ -97,7 +105,9 @@ pub fn check_silhouette(img: &GrayImage) -> Result<(), String> {
     }
     let blobs = areas.iter().filter(|&&a| a >= (0.01 * largest).max(16.0)).count();
     if blobs > 1 {
-        return Err(format!("silhouette holds {blobs} separate blobs; a template must be one part"));
+        return Err(format!(
+            "silhouette holds {blobs} separate blobs; a template must be one part"
+        ));
     }
     Ok(())
 }
@@ -118,7 +128,12 @@ impl Engine {
     pub fn new(params: Params) -> Result<Self, String> {
         let mut rec: Box<HostRecognizer> = Box::default();
         rec.set_params(params).map_err(|e| format!("invalid parameters: {e}"))?;
-        Ok(Engine { rec, names: Vec::new(), background: None, labels: Vec::new() })
+        Ok(Engine {
+            rec,
+            names: Vec::new(),
+            background: None,
+            labels: Vec::new(),
+        })
     }
 
     /// The parameters.
@@ -198,7 +213,10 @@ impl Engine {
         let frame = Frame::new_checked(img.as_raw().as_slice(), img.width() as usize, img.height() as usize)
             .map_err(|e| e.to_string())?;
         let t0 = std::time::Instant::now();
-        let report = self.rec.process(&frame, bg, &mut self.labels).map_err(|e| e.to_string())?;
+        let report = self
+            .rec
+            .process(&frame, bg, &mut self.labels)
+            .map_err(|e| e.to_string())?;
         let seconds = t0.elapsed().as_secs_f64();
         let store = self.rec.contours();
         let name = |i: Option<u16>| i.and_then(|i| self.names.get(i as usize).cloned());
@@ -209,10 +227,19 @@ impl Engine {
                 core: *d,
                 class: name(d.template),
                 best_class: name(d.best_template),
-                border: store.points(d.contour as usize).iter().map(|p: &Point| (p.x, p.y)).collect(),
+                border: store
+                    .points(d.contour as usize)
+                    .iter()
+                    .map(|p: &Point| (p.x, p.y))
+                    .collect(),
             })
             .collect();
-        Ok(FrameResult { detections, skips: report.skips.to_vec(), report, seconds })
+        Ok(FrameResult {
+            detections,
+            skips: report.skips.to_vec(),
+            report,
+            seconds,
+        })
     }
 }
 

@@ -40,7 +40,12 @@ impl Spread {
         }
         v.sort_by(f64::total_cmp);
         let rank = |q: f64| v[((q * v.len() as f64).ceil() as usize).clamp(1, v.len()) - 1];
-        Spread { count: v.len(), median: rank(0.5), p95: rank(0.95), max: v[v.len() - 1] }
+        Spread {
+            count: v.len(),
+            median: rank(0.5),
+            p95: rank(0.95),
+            max: v[v.len() - 1],
+        }
     }
 }
 
@@ -244,7 +249,10 @@ mod tests {
             ],
         );
         let s = score(&truth, &pred);
-        assert_eq!((s.truth_parts, s.detected, s.predictions, s.true_predictions), (3, 2, 3, 2));
+        assert_eq!(
+            (s.truth_parts, s.detected, s.predictions, s.true_predictions),
+            (3, 2, 3, 2)
+        );
         assert_eq!((s.known, s.known_correct, s.unknown, s.unknown_rejected), (1, 1, 1, 0));
         assert!((s.position.median - 0.5).abs() < 1e-9);
         assert!((s.angle.max - 1.0).abs() < 1e-9);

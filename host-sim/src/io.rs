@@ -17,7 +17,10 @@ pub struct InputError {
 impl InputError {
     /// An error about `path`.
     pub fn new(path: impl Into<PathBuf>, problem: impl Into<String>) -> Self {
-        InputError { path: path.into(), problem: problem.into() }
+        InputError {
+            path: path.into(),
+            problem: problem.into(),
+        }
     }
 }
 
@@ -78,7 +81,10 @@ fn to_gray(img: DynamicImage) -> LoadedImage {
         (None, DynamicImage::ImageLuma8(g)) => LoadedImage { image: g, note: None },
         (kind, img) => LoadedImage {
             image: img.to_luma8(),
-            note: Some(format!("converted from {} to 8-bit gray", kind.unwrap_or("another format"))),
+            note: Some(format!(
+                "converted from {} to 8-bit gray",
+                kind.unwrap_or("another format")
+            )),
         },
     }
 }
@@ -114,10 +120,14 @@ pub fn list_files(dir: &Path, exts: &[&str]) -> Result<Vec<PathBuf>, InputError>
 
 /// The file name of `path` as a string (`"?"` when it has none).
 pub fn file_name(path: &Path) -> String {
-    path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "?".into())
+    path.file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "?".into())
 }
 
 /// The file stem of `path` as a string.
 pub fn file_stem(path: &Path) -> String {
-    path.file_stem().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "?".into())
+    path.file_stem()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "?".into())
 }

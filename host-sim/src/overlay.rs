@@ -86,7 +86,9 @@ pub fn draw_label(img: &mut RgbImage, x: i32, y: i32, text: &str, colour: Rgb<u8
     let y = y.clamp(0, (h - 10).max(0));
     draw_filled_rect_mut(img, Rect::at(x, y).of_size(tw as u32, 10), SHADOW);
     for (i, ch) in text.chars().enumerate() {
-        let Some(glyph) = font8x8::BASIC_FONTS.get(ch) else { continue };
+        let Some(glyph) = font8x8::BASIC_FONTS.get(ch) else {
+            continue;
+        };
         for (row, bits) in glyph.iter().enumerate() {
             for col in 0..8 {
                 if bits & (1 << col) != 0 {

@@ -35,13 +35,27 @@ impl FixtureSet {
         }
         let background = root.join("background.png");
         if !background.is_file() {
-            return Err(InputError::new(&background, "no such file (every fixture set needs its empty platform)"));
+            return Err(InputError::new(
+                &background,
+                "no such file (every fixture set needs its empty platform)",
+            ));
         }
         let bg_dir = root.join("backgrounds");
-        let backgrounds = if bg_dir.is_dir() { list_files(&bg_dir, &["png"])? } else { Vec::new() };
+        let backgrounds = if bg_dir.is_dir() {
+            list_files(&bg_dir, &["png"])?
+        } else {
+            Vec::new()
+        };
         let frames = list_files(&root.join("frames"), &["png"])?;
         let truth = Some(root.join("truth.json")).filter(|p| p.is_file());
-        Ok(FixtureSet { root: root.to_path_buf(), background, backgrounds, templates: root.join("templates"), frames, truth })
+        Ok(FixtureSet {
+            root: root.to_path_buf(),
+            background,
+            backgrounds,
+            templates: root.join("templates"),
+            frames,
+            truth,
+        })
     }
 
     /// The background frames: `background.png` then `backgrounds/*.png`.

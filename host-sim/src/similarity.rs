@@ -35,8 +35,17 @@ pub fn describe_silhouette(name: &str, img: &GrayImage, params: &Params) -> Resu
     let (w, h) = (img.width() as usize, img.height() as usize);
     let mut labels: Vec<u8> = img.as_raw().iter().map(|&p| (p > 127) as u8).collect();
     let mut store = Box::new(ContourStore::<HOST_POINTS, HOST_CONTOURS>::new());
-    trace_borders(&mut labels, w, h, BorderFilter { min_points: 1, min_area: 0.0 }, &mut store)
-        .map_err(|e| e.to_string())?;
+    trace_borders(
+        &mut labels,
+        w,
+        h,
+        BorderFilter {
+            min_points: 1,
+            min_area: 0.0,
+        },
+        &mut store,
+    )
+    .map_err(|e| e.to_string())?;
     let best = store
         .contours()
         .iter()
@@ -52,7 +61,11 @@ pub fn describe_silhouette(name: &str, img: &GrayImage, params: &Params) -> Resu
     describe(&pts, params.descriptor(params.n), &mut part).map_err(|e| e.to_string())?;
     let holes = store.holes_of(best).map(|i| store.points(i));
     let template = Box::new(Template::<HOST_M>::from_border(border, holes, params).map_err(|e| e.to_string())?);
-    Ok(Described { name: name.to_string(), part, template })
+    Ok(Described {
+        name: name.to_string(),
+        part,
+        template,
+    })
 }
 
 /// The `f'` matrix and the pairs too alike to tell apart.
@@ -101,15 +114,20 @@ pub fn similarity(
         })
         .collect();
     let mut too_alike = Vec::new();
-    for i in 0..described.len() {
-        for j in i + 1..described.len() {
-            let v = matrix[i][j].min(matrix[j][i]);
+    for (i, row) in matrix.iter().enumerate() {
+        for (j, &v_ij) in row.iter().enumerate().skip(i + 1) {
+            let v = v_ij.min(matrix[j][i]);
             if v < params.epsilon {
                 too_alike.push((i, j, v));
             }
         }
     }
-    Ok(Similarity { names: described.into_iter().map(|d| d.name).collect(), matrix, epsilon: params.epsilon, too_alike })
+    Ok(Similarity {
+        names: described.into_iter().map(|d| d.name).collect(),
+        matrix,
+        epsilon: params.epsilon,
+        too_alike,
+    })
 }
 
 impl Similarity {

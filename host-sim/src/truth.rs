@@ -43,8 +43,8 @@ impl FramesJson {
     /// # Errors
     /// A one-line message naming the file: missing, unreadable, or not of this shape.
     pub fn load(path: &Path) -> Result<Self, String> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| format!("{}: {}", path.display(), crate::io::io_problem(&e)))?;
+        let text =
+            std::fs::read_to_string(path).map_err(|e| format!("{}: {}", path.display(), crate::io::io_problem(&e)))?;
         serde_json::from_str(&text).map_err(|e| format!("{}: does not parse as truth JSON: {e}", path.display()))
     }
 }

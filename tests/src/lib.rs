@@ -29,7 +29,17 @@ pub struct TracedBorder {
 pub fn core_borders(rows: &[&str]) -> Vec<TracedBorder> {
     let (mut plane, w, h) = ascii_mask(rows);
     let mut store = Box::new(ContourStore::<4096, 64>::new());
-    trace_borders(&mut plane, w, h, BorderFilter { min_points: 1, min_area: 0.0 }, &mut store).unwrap();
+    trace_borders(
+        &mut plane,
+        w,
+        h,
+        BorderFilter {
+            min_points: 1,
+            min_area: 0.0,
+        },
+        &mut store,
+    )
+    .unwrap();
     (0..store.contours().len())
         .map(|i| TracedBorder {
             points: store.points(i).iter().map(|p| (p.x, p.y)).collect(),
@@ -53,11 +63,26 @@ pub fn shapes() -> Vec<Shape> {
     vec![
         Shape {
             name: "l_bracket",
-            outline: vec![(-30.0, -40.0), (-10.0, -40.0), (-10.0, 20.0), (40.0, 20.0), (40.0, 40.0), (-30.0, 40.0)],
+            outline: vec![
+                (-30.0, -40.0),
+                (-10.0, -40.0),
+                (-10.0, 20.0),
+                (40.0, 20.0),
+                (40.0, 40.0),
+                (-30.0, 40.0),
+            ],
         },
         Shape {
             name: "arrow",
-            outline: vec![(-45.0, -8.0), (15.0, -8.0), (15.0, -25.0), (48.0, 0.0), (15.0, 25.0), (15.0, 8.0), (-45.0, 8.0)],
+            outline: vec![
+                (-45.0, -8.0),
+                (15.0, -8.0),
+                (15.0, -25.0),
+                (48.0, 0.0),
+                (15.0, 25.0),
+                (15.0, 8.0),
+                (-45.0, 8.0),
+            ],
         },
         Shape {
             name: "key",

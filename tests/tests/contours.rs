@@ -5,27 +5,47 @@
 use vorl_tests::{core_borders, TracedBorder};
 
 fn outer(points: &[(u16, u16)]) -> TracedBorder {
-    TracedBorder { points: points.to_vec(), hole: false, parent: None }
+    TracedBorder {
+        points: points.to_vec(),
+        hole: false,
+        parent: None,
+    }
 }
 
 #[test]
 fn square() {
     let b = core_borders(&[".....", ".###.", ".###.", ".###.", "....."]);
-    assert_eq!(b, vec![outer(&[(1, 1), (1, 2), (1, 3), (2, 3), (3, 3), (3, 2), (3, 1), (2, 1)])]);
+    assert_eq!(
+        b,
+        vec![outer(&[(1, 1), (1, 2), (1, 3), (2, 3), (3, 3), (3, 2), (3, 1), (2, 1)])]
+    );
 }
 
 #[test]
 fn l_shape_with_one_pixel_stem_revisits_pixels() {
     let b = core_borders(&["......", ".#....", ".#....", ".###..", "......"]);
-    assert_eq!(b, vec![outer(&[(1, 1), (1, 2), (1, 3), (2, 3), (3, 3), (2, 3), (1, 2)])]);
+    assert_eq!(
+        b,
+        vec![outer(&[(1, 1), (1, 2), (1, 3), (2, 3), (3, 3), (2, 3), (1, 2)])]
+    );
 }
 
 #[test]
 fn ring_has_outer_and_hole_with_parent() {
     let b = core_borders(&[".....", ".###.", ".#.#.", ".###.", "....."]);
     assert_eq!(b.len(), 2);
-    assert_eq!(b[0], outer(&[(1, 1), (1, 2), (1, 3), (2, 3), (3, 3), (3, 2), (3, 1), (2, 1)]));
-    assert_eq!(b[1], TracedBorder { points: vec![(1, 2), (2, 1), (3, 2), (2, 3)], hole: true, parent: Some(0) });
+    assert_eq!(
+        b[0],
+        outer(&[(1, 1), (1, 2), (1, 3), (2, 3), (3, 3), (3, 2), (3, 1), (2, 1)])
+    );
+    assert_eq!(
+        b[1],
+        TracedBorder {
+            points: vec![(1, 2), (2, 1), (3, 2), (2, 3)],
+            hole: true,
+            parent: Some(0)
+        }
+    );
 }
 
 #[test]
@@ -49,7 +69,10 @@ fn part_touching_right_border_gives_no_false_hole() {
 #[test]
 fn two_parts_in_raster_order() {
     let b = core_borders(&[".......", ".##..#.", ".##..#.", "......."]);
-    assert_eq!(b, vec![outer(&[(1, 1), (1, 2), (2, 2), (2, 1)]), outer(&[(5, 1), (5, 2)])]);
+    assert_eq!(
+        b,
+        vec![outer(&[(1, 1), (1, 2), (2, 2), (2, 1)]), outer(&[(5, 1), (5, 2)])]
+    );
 }
 
 #[test]
@@ -57,7 +80,17 @@ fn touches_edge_flag() {
     use vorl_core::contour::{trace_borders, BorderFilter, ContourStore};
     let (mut p, w, h) = vorl_tests::ascii_mask(&["......", ".##..#", ".##..#", "......"]);
     let mut store = ContourStore::<64, 8>::new();
-    trace_borders(&mut p, w, h, BorderFilter { min_points: 1, min_area: 0.0 }, &mut store).unwrap();
+    trace_borders(
+        &mut p,
+        w,
+        h,
+        BorderFilter {
+            min_points: 1,
+            min_area: 0.0,
+        },
+        &mut store,
+    )
+    .unwrap();
     let flags: Vec<bool> = store.contours().iter().map(|c| c.touches_edge).collect();
     assert_eq!(flags, [false, true]);
 }
@@ -67,7 +100,17 @@ fn size_filter_drops_small_borders() {
     use vorl_core::contour::{trace_borders, BorderFilter, ContourStore};
     let (mut p, w, h) = vorl_tests::ascii_mask(&[".......", ".###.#.", ".###...", ".###...", "......."]);
     let mut store = ContourStore::<64, 8>::new();
-    let stats = trace_borders(&mut p, w, h, BorderFilter { min_points: 2, min_area: 1.0 }, &mut store).unwrap();
+    let stats = trace_borders(
+        &mut p,
+        w,
+        h,
+        BorderFilter {
+            min_points: 2,
+            min_area: 1.0,
+        },
+        &mut store,
+    )
+    .unwrap();
     assert_eq!(stats.found, 2);
     assert_eq!(stats.kept, 1);
     assert_eq!(stats.dropped_small, 1);
@@ -78,12 +121,32 @@ fn long_border_is_subsampled_not_cut() {
     use vorl_core::contour::{trace_borders, BorderFilter, ContourStore};
     // A 30×30 block has a border of 116 points; a store of 40 points keeps every 3rd.
     let rows: Vec<String> = (0..32)
-        .map(|y| (0..32).map(|x| if (1..31).contains(&x) && (1..31).contains(&y) { '#' } else { '.' }).collect())
+        .map(|y| {
+            (0..32)
+                .map(|x| {
+                    if (1..31).contains(&x) && (1..31).contains(&y) {
+                        '#'
+                    } else {
+                        '.'
+                    }
+                })
+                .collect()
+        })
         .collect();
     let refs: Vec<&str> = rows.iter().map(|s| s.as_str()).collect();
     let (mut p, w, h) = vorl_tests::ascii_mask(&refs);
     let mut store = ContourStore::<40, 8>::new();
-    let stats = trace_borders(&mut p, w, h, BorderFilter { min_points: 1, min_area: 0.0 }, &mut store).unwrap();
+    let stats = trace_borders(
+        &mut p,
+        w,
+        h,
+        BorderFilter {
+            min_points: 1,
+            min_area: 0.0,
+        },
+        &mut store,
+    )
+    .unwrap();
     assert_eq!(stats.subsampled, 1);
     let c = store.contours()[0];
     assert_eq!(c.traced_len, 116);

@@ -15,10 +15,17 @@ fn check(part: &[f32], tpl: &[f32]) -> Result<(), TestCaseError> {
     let p64: Vec<f64> = part.iter().map(|&v| v as f64).collect();
     let t64: Vec<f64> = tpl.iter().map(|&v| v as f64).collect();
     let want = brute_force_cyclic(&p64, &t64).unwrap();
-    prop_assert!((got.cost as f64 - want).abs() <= 1e-4 * want.max(1.0), "n {n} m {m}: DP {} brute force {want}", got.cost);
+    prop_assert!(
+        (got.cost as f64 - want).abs() <= 1e-4 * want.max(1.0),
+        "n {n} m {m}: DP {} brute force {want}",
+        got.cost
+    );
     // The assignment: injective, cyclic order kept (offsets from j(0) strictly increasing), cost.
     let offs: Vec<usize> = asg.iter().map(|&j| (j as usize + m - asg[0] as usize) % m).collect();
-    prop_assert!(offs.windows(2).all(|w| w[0] < w[1]), "not cyclic order-preserving: {asg:?}");
+    prop_assert!(
+        offs.windows(2).all(|w| w[0] < w[1]),
+        "not cyclic order-preserving: {asg:?}"
+    );
     let cost: f32 = part.iter().zip(&asg).map(|(a, &j)| (a - tpl[j as usize]).abs()).sum();
     prop_assert!((cost - got.cost).abs() <= 1e-4 * cost.max(1.0));
     Ok(())

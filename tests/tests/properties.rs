@@ -22,17 +22,26 @@ fn taught(shape: usize) -> (Box<Rec>, Background<Vec<u8>>) {
     let mut rec: Box<Rec> = Box::default();
     rec.set_params(Params::DEFAULT).unwrap();
     let mut labels = vec![0u8; W * H];
-    rec.teach(&Frame::new_checked(&tpl[..], W, H).unwrap(), &mut labels).unwrap();
+    rec.teach(&Frame::new_checked(&tpl[..], W, H).unwrap(), &mut labels)
+        .unwrap();
     let bg_px = vec![PLATFORM; W * H];
     let mut bg = Background::new(vec![0u8; W * H], W, H).unwrap();
-    bg.set_from_frame(&Frame::new_checked(&bg_px[..], W, H).unwrap(), Params::DEFAULT.alpha()).unwrap();
+    bg.set_from_frame(&Frame::new_checked(&bg_px[..], W, H).unwrap(), Params::DEFAULT.alpha())
+        .unwrap();
     (rec, bg)
 }
 
 fn detect_one(rec: &mut Rec, bg: &Background<Vec<u8>>, scene: &[u8]) -> vorl_core::Detection {
     let mut labels = vec![0u8; W * H];
-    let report = rec.process(&Frame::new_checked(scene, W, H).unwrap(), bg, &mut labels).unwrap();
-    assert_eq!(report.detections.len(), 1, "expected one part, got {:?}", report.detections);
+    let report = rec
+        .process(&Frame::new_checked(scene, W, H).unwrap(), bg, &mut labels)
+        .unwrap();
+    assert_eq!(
+        report.detections.len(),
+        1,
+        "expected one part, got {:?}",
+        report.detections
+    );
     report.detections[0]
 }
 
@@ -167,15 +176,26 @@ fn double_scale_keeps_score_below_epsilon() {
         let tpl = rasterise(&s.posed(0.0, 1.0, 160.0, 160.0), BIG, BIG, 255, 0);
         let mut rec: Box<Rec> = Box::default();
         let mut labels = vec![0u8; BIG * BIG];
-        rec.teach(&Frame::new_checked(&tpl[..], BIG, BIG).unwrap(), &mut labels).unwrap();
+        rec.teach(&Frame::new_checked(&tpl[..], BIG, BIG).unwrap(), &mut labels)
+            .unwrap();
         let bg_px = vec![PLATFORM; BIG * BIG];
         let mut bg = Background::new(vec![0u8; BIG * BIG], BIG, BIG).unwrap();
-        bg.set_from_frame(&Frame::new_checked(&bg_px[..], BIG, BIG).unwrap(), Params::DEFAULT.alpha()).unwrap();
+        bg.set_from_frame(
+            &Frame::new_checked(&bg_px[..], BIG, BIG).unwrap(),
+            Params::DEFAULT.alpha(),
+        )
+        .unwrap();
         for angle in [0.0, 77.0, 211.0] {
             let scene = rasterise(&s.posed(angle, 2.0, 160.0, 160.0), BIG, BIG, PART, PLATFORM);
-            let report = rec.process(&Frame::new_checked(&scene[..], BIG, BIG).unwrap(), &bg, &mut labels).unwrap();
+            let report = rec
+                .process(&Frame::new_checked(&scene[..], BIG, BIG).unwrap(), &bg, &mut labels)
+                .unwrap();
             let d = report.detections[0];
-            assert!(d.score < Params::DEFAULT.epsilon, "shape {i} at 2×, {angle}°: f' {}", d.score);
+            assert!(
+                d.score < Params::DEFAULT.epsilon,
+                "shape {i} at 2×, {angle}°: f' {}",
+                d.score
+            );
             assert_eq!(d.template, Some(0));
         }
     }

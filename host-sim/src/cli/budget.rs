@@ -15,8 +15,7 @@ pub const SWEEP_POINTS: [usize; 6] = [32, 64, 96, 128, 192, 256];
 /// Template counts of `--sweep`.
 pub const SWEEP_TEMPLATES: [usize; 3] = [4, 8, 16];
 /// Frame sizes of `--sweep`: QQVGA, QVGA, VGA.
-pub const SWEEP_FRAMES: [(&str, usize, usize); 3] =
-    [("QQVGA", 160, 120), ("QVGA", 320, 240), ("VGA", 640, 480)];
+pub const SWEEP_FRAMES: [(&str, usize, usize); 3] = [("QQVGA", 160, 120), ("QVGA", 320, 240), ("VGA", 640, 480)];
 /// RAM sizes the fit columns are judged against.
 pub const RAM_SIZES: [(&str, usize); 4] = [
     ("64K", 64 << 10),
@@ -25,7 +24,7 @@ pub const RAM_SIZES: [(&str, usize); 4] = [
     ("1M", 1 << 20),
 ];
 /// Stack reserved above the static buffers when judging a fit (`_vorl_min_stack` in `memory.x`).
-pub const STACK_RESERVE: usize = 16 << 10;
+pub const STACK_RESERVE: usize = 24 << 10;
 
 /// The target whose struct layouts the budget uses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -148,13 +147,9 @@ fn row(
     let m = m.unwrap_or_else(|| default_m(n));
     check_counts(n, m).map_err(|e| format!("--points {n} --template-points {m}: {e}"))?;
     if w == 0 || h == 0 {
-        return Err(format!(
-            "frame {w}×{h}: width and height must be at least 1"
-        ));
+        return Err(format!("frame {w}×{h}: width and height must be at least 1"));
     }
-    let p = args
-        .border_points
-        .unwrap_or_else(|| default_border_points(w, h));
+    let p = args.border_points.unwrap_or_else(|| default_border_points(w, h));
     let mut caps = Capacities::for_points(w, h, n, m, t, p, args.max_contours);
     if let Some(d) = args.dp_cells {
         if d < caps.dp_cells {
@@ -206,17 +201,7 @@ pub fn rows(args: &BudgetArgs) -> Result<Vec<Row>, String> {
         )?]),
         None => SWEEP_POINTS
             .iter()
-            .map(|&n| {
-                row(
-                    args,
-                    frame,
-                    args.width,
-                    args.height,
-                    n,
-                    None,
-                    args.templates,
-                )
-            })
+            .map(|&n| row(args, frame, args.width, args.height, n, None, args.templates))
             .collect(),
     }
 }
@@ -234,10 +219,7 @@ pub fn run(args: BudgetArgs) -> Result<ExitCode, String> {
         } else {
             list.into()
         };
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&value).map_err(|e| e.to_string())?
-        );
+        println!("{}", serde_json::to_string_pretty(&value).map_err(|e| e.to_string())?);
     } else if rows.len() == 1 && !args.sweep {
         print_detail(&rows[0], args.target.layout());
     } else {
@@ -299,21 +281,22 @@ fn print_detail(r: &Row, layout: Layout) {
         (
             "templates",
             b.templates,
-            format!(
-                "T·{tpl} + length word ({tpl} = {} + 12·M + 20)",
-                layout.word
-            ),
+            format!("T·{tpl} + length word ({tpl} = {} + 28·M + 28)", layout.word),
         ),
         ("DP table", b.dp_table, "4·D".into()),
         (
             "part buffers",
             b.part_buffers,
-            "14·M (points 8·M, descriptor 4·M, pairs 2·M)".into(),
+            "22·M (points 8·M, descriptor 4·M, pairs 2·M, part edge 8·M)".into(),
         ),
         (
-            "parameters, padding",
+            "params, candidates",
             b.other,
-            format!("Params {} bytes + alignment", layout.params),
+            format!(
+                "Params {} bytes, {} DP candidates, alignment",
+                layout.params,
+                vorl_core::recognizer::MAX_CANDIDATES
+            ),
         ),
         (
             "total static RAM",
@@ -339,14 +322,9 @@ fn print_detail(r: &Row, layout: Layout) {
         kib(STACK_RESERVE)
     );
     println!();
-    let fit = |bytes: usize| {
-        Row::smallest_ram(bytes).map_or("more than 1M".to_string(), |s| format!("{s} of RAM"))
-    };
+    let fit = |bytes: usize| Row::smallest_ram(bytes).map_or("more than 1M".to_string(), |s| format!("{s} of RAM"));
     println!("fits (static + stack):                {}", fit(b.total));
-    println!(
-        "fits (static + frame buffer + stack): {}",
-        fit(b.total + b.frame)
-    );
+    println!("fits (static + frame buffer + stack): {}", fit(b.total + b.frame));
 }
 
 fn print_table(rows: &[Row], args: &BudgetArgs) {
@@ -428,10 +406,7 @@ fn print_table(rows: &[Row], args: &BudgetArgs) {
                 .collect::<Vec<_>>()
                 .join("  ")
         };
-        println!(
-            "{}",
-            fmt_line(header.iter().map(|s| s.to_string()).collect())
-        );
+        println!("{}", fmt_line(header.iter().map(|s| s.to_string()).collect()));
         for line in body {
             println!("{}", fmt_line(line));
         }

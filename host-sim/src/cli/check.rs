@@ -12,11 +12,13 @@ use crate::set::FixtureSet;
 
 /// Arguments of `vorl check`.
 #[derive(Debug, clap::Args)]
-#[command(after_help = "Compares, per frame: background model and mask (pixel for pixel), kept borders \
+#[command(
+    after_help = "Compares, per frame: background model and mask (pixel for pixel), kept borders \
     (point for point), resampled points and descriptors (1e-3), DP cost for every part × template \
     (1e-3 relative), the decision f' < ε, both angle estimators (0.1°) and the area centroid (1e-3 px). \
     Exits 1 on any disagreement.\n\n\
-    Examples:\n  vorl check examples/plant\n  vorl check my_set --threshold otsu --json")]
+    Examples:\n  vorl check examples/plant\n  vorl check my_set --threshold otsu --json"
+)]
 pub struct CheckArgs {
     /// A fixture set folder.
     #[arg(value_name = "SET")]
@@ -37,8 +39,16 @@ pub fn run(args: CheckArgs) -> Result<ExitCode, String> {
     let params = args.params.params()?;
     let set = FixtureSet::open(&args.set).map_err(|e| e.to_string())?;
     let backgrounds = set.load_backgrounds().map_err(|e| e.to_string())?;
-    let templates: Vec<_> = set.load_templates().map_err(|e| e.to_string())?.into_iter().map(|t| t.image).collect();
-    let tol = Tolerances { pixels: if params.alpha < 1.0 { 8 } else { 0 }, ..Tolerances::default() };
+    let templates: Vec<_> = set
+        .load_templates()
+        .map_err(|e| e.to_string())?
+        .into_iter()
+        .map(|t| t.image)
+        .collect();
+    let tol = Tolerances {
+        pixels: if params.alpha < 1.0 { 8 } else { 0 },
+        ..Tolerances::default()
+    };
     let bar = ProgressBar::new(set.frames.len() as u64);
     bar.set_style(
         ProgressStyle::with_template("check [{bar:30}] {pos}/{len} frames, {eta} left")
@@ -75,15 +85,26 @@ pub fn run(args: CheckArgs) -> Result<ExitCode, String> {
         );
         println!("  tolerances: {:?}", tol);
         if out.ties > 0 {
-            println!("  {} match(es) with several optimal correspondences (symmetric shapes) compared on the core's", out.ties);
+            println!(
+                "  {} match(es) with several optimal correspondences (symmetric shapes) compared on the core's",
+                out.ties
+            );
         }
         for d in &out.disagreements {
             println!("  DISAGREE {} at {}: {}", d.stage, d.at, d.detail);
         }
         println!(
             "{}",
-            if out.disagreements.is_empty() && failed == 0 { "agreement: yes" } else { "agreement: NO" }
+            if out.disagreements.is_empty() && failed == 0 {
+                "agreement: yes"
+            } else {
+                "agreement: NO"
+            }
         );
     }
-    Ok(if out.disagreements.is_empty() && failed == 0 { ExitCode::SUCCESS } else { ExitCode::from(1) })
+    Ok(if out.disagreements.is_empty() && failed == 0 {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    })
 }

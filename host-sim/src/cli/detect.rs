@@ -63,7 +63,11 @@ pub fn prepare(
     let (bgs, tpls, frames) = match set {
         Some(root) => {
             let s = FixtureSet::open(root).map_err(|e| e.to_string())?;
-            (s.load_backgrounds().map_err(|e| e.to_string())?, s.load_templates().map_err(|e| e.to_string())?, s.frames)
+            (
+                s.load_backgrounds().map_err(|e| e.to_string())?,
+                s.load_templates().map_err(|e| e.to_string())?,
+                s.frames,
+            )
         }
         None => {
             let bg = background.ok_or("--background is needed without a SET")?.to_path_buf();
@@ -74,13 +78,20 @@ pub fn prepare(
         }
     };
     engine.learn_background(&bgs)?;
-    let dir = set.map(|s| s.join("templates")).or_else(|| templates.map(Path::to_path_buf)).unwrap_or_default();
+    let dir = set
+        .map(|s| s.join("templates"))
+        .or_else(|| templates.map(Path::to_path_buf))
+        .unwrap_or_default();
     for t in &tpls {
         engine
             .add_silhouette(&t.name, &t.image)
             .map_err(|e| format!("{}: {e}", dir.join(format!("{}.png", t.name)).display()))?;
     }
-    Ok(Inputs { engine, frames, notes: Vec::new() })
+    Ok(Inputs {
+        engine,
+        frames,
+        notes: Vec::new(),
+    })
 }
 
 /// Loads and runs one frame; a one-line error naming the file on failure.
@@ -101,7 +112,9 @@ pub fn run_frame(engine: &mut Engine, path: &Path) -> Result<(FrameResult, image
         }
     }
     let note = loaded.note.map(|n| format!("{}: {n}", path.display()));
-    let result = engine.detect(&loaded.image).map_err(|e| format!("{}: {e}", path.display()))?;
+    let result = engine
+        .detect(&loaded.image)
+        .map_err(|e| format!("{}: {e}", path.display()))?;
     Ok((result, loaded.image, note))
 }
 
@@ -112,11 +125,20 @@ pub fn to_json(result: &FrameResult) -> Vec<PartJson> {
         .iter()
         .map(|d| {
             let mut extra = std::collections::BTreeMap::new();
-            extra.insert("angle_paper_deg".into(), serde_json::json!(round6(d.core.angle_paper_deg as f64)));
-            extra.insert("angle_dp_deg".into(), serde_json::json!(round6(d.core.angle_dp_deg as f64)));
+            extra.insert(
+                "angle_paper_deg".into(),
+                serde_json::json!(round6(d.core.angle_paper_deg as f64)),
+            );
+            extra.insert(
+                "angle_dp_deg".into(),
+                serde_json::json!(round6(d.core.angle_dp_deg as f64)),
+            );
             extra.insert(
                 "polygon_centroid".into(),
-                serde_json::json!([round6(d.core.polygon_centroid[0] as f64), round6(d.core.polygon_centroid[1] as f64)]),
+                serde_json::json!([
+                    round6(d.core.polygon_centroid[0] as f64),
+                    round6(d.core.polygon_centroid[1] as f64)
+                ]),
             );
             if d.core.verify.is_finite() {
                 extra.insert("verify_px".into(), serde_json::json!(round6(d.core.verify as f64)));
@@ -152,11 +174,15 @@ pub fn run(args: DetectArgs) -> Result<ExitCode, String> {
     let (set, frames) = match (&args.background, args.inputs.as_slice()) {
         (Some(_), frames) => (None, frames.to_vec()),
         (None, [set]) => (Some(set.clone()), Vec::new()),
-        (None, _) => {
-            return Err("give one SET folder, or --background BG --templates DIR and the frame files".into())
-        }
+        (None, _) => return Err("give one SET folder, or --background BG --templates DIR and the frame files".into()),
     };
-    let mut inputs = prepare(set.as_deref(), args.background.as_deref(), args.templates.as_deref(), &frames, &args.params)?;
+    let mut inputs = prepare(
+        set.as_deref(),
+        args.background.as_deref(),
+        args.templates.as_deref(),
+        &frames,
+        &args.params,
+    )?;
     if inputs.frames.is_empty() {
         return Err("no frames to process".into());
     }
@@ -205,7 +231,11 @@ pub fn run(args: DetectArgs) -> Result<ExitCode, String> {
 }
 
 fn print_human(name: &str, result: &FrameResult) {
-    println!("{name}: {} part(s) in {:.1} ms", result.detections.len(), result.seconds * 1e3);
+    println!(
+        "{name}: {} part(s) in {:.1} ms",
+        result.detections.len(),
+        result.seconds * 1e3
+    );
     for d in &result.detections {
         let class = d.class.as_deref().unwrap_or("unknown");
         let best = match (&d.class, &d.best_class) {

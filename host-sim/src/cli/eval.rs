@@ -62,7 +62,12 @@ pub struct EvalReport {
 /// The set, its truth, background or templates cannot be read.
 pub fn evaluate(args: &EvalArgs) -> Result<EvalReport, String> {
     let set = FixtureSet::open(&args.set).map_err(|e| e.to_string())?;
-    let truth_path = set.truth.clone().ok_or_else(|| format!("{}: no such file (eval needs the set's truth)", args.set.join("truth.json").display()))?;
+    let truth_path = set.truth.clone().ok_or_else(|| {
+        format!(
+            "{}: no such file (eval needs the set's truth)",
+            args.set.join("truth.json").display()
+        )
+    })?;
     let truth = FramesJson::load(&truth_path)?;
     let mut inputs = prepare(Some(&args.set), None, None, &[], &args.params)?;
     if let Some(dir) = &args.overlay {
@@ -105,15 +110,27 @@ pub fn evaluate(args: &EvalArgs) -> Result<EvalReport, String> {
     // Frames that failed are not scored (they are reported above).
     let mut scored_truth = truth.clone();
     scored_truth.frames.retain(|k, _| pred.frames.contains_key(k));
-    let missing: Vec<&String> = truth.frames.keys().filter(|k| !set.frames.iter().any(|p| &file_name(p) == *k)).collect();
+    let missing: Vec<&String> = truth
+        .frames
+        .keys()
+        .filter(|k| !set.frames.iter().any(|p| &file_name(p) == *k))
+        .collect();
     if !missing.is_empty() {
-        eprintln!("warning: {} frame(s) in truth.json have no file in frames/ (first: {})", missing.len(), missing[0]);
+        eprintln!(
+            "warning: {} frame(s) in truth.json have no file in frames/ (first: {})",
+            missing.len(),
+            missing[0]
+        );
     }
     let scores = score(&scored_truth, &pred);
     Ok(EvalReport {
         set: args.set.display().to_string(),
         failed_frames: failed,
-        ms_per_frame: if done > 0 { seconds * 1e3 / done as f64 } else { f64::NAN },
+        ms_per_frame: if done > 0 {
+            seconds * 1e3 / done as f64
+        } else {
+            f64::NAN
+        },
         recall: scores.recall(),
         precision: scores.precision(),
         classification: scores.classification(),
@@ -133,7 +150,11 @@ pub fn run(args: EvalArgs) -> Result<ExitCode, String> {
     } else {
         print_table(&r);
     }
-    Ok(if r.failed_frames > 0 { ExitCode::from(1) } else { ExitCode::SUCCESS })
+    Ok(if r.failed_frames > 0 {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
+    })
 }
 
 fn pct(v: f64) -> String {
@@ -148,14 +169,46 @@ fn pct(v: f64) -> String {
 pub fn print_table(r: &EvalReport) {
     let s = &r.scores;
     println!("vorl eval {}: {} frames, {} parts", r.set, s.frames, s.truth_parts);
-    println!("  detection recall        {:>8}   ({}/{})", pct(r.recall), s.detected, s.truth_parts);
-    println!("  detection precision     {:>8}   ({}/{})", pct(r.precision), s.true_predictions, s.predictions);
-    println!("  classification          {:>8}   ({}/{} known parts)", pct(r.classification), s.known_correct, s.known);
-    println!("  unknown rejection       {:>8}   ({}/{} parts not taught)", pct(r.unknown_rejection), s.unknown_rejected, s.unknown);
-    println!("  angle error  (reported) median {:.3}°  p95 {:.3}°  max {:.3}°  ({} parts)", s.angle.median, s.angle.p95, s.angle.max, s.angle.count);
-    println!("  angle error  (paper 6.4) median {:.3}°  p95 {:.3}°  max {:.3}°", s.angle_paper.median, s.angle_paper.p95, s.angle_paper.max);
-    println!("  position error          median {:.3} px  p95 {:.3} px  max {:.3} px", s.position.median, s.position.p95, s.position.max);
-    println!("  time                    {:.2} ms/frame (core, this machine)", r.ms_per_frame);
+    println!(
+        "  detection recall        {:>8}   ({}/{})",
+        pct(r.recall),
+        s.detected,
+        s.truth_parts
+    );
+    println!(
+        "  detection precision     {:>8}   ({}/{})",
+        pct(r.precision),
+        s.true_predictions,
+        s.predictions
+    );
+    println!(
+        "  classification          {:>8}   ({}/{} known parts)",
+        pct(r.classification),
+        s.known_correct,
+        s.known
+    );
+    println!(
+        "  unknown rejection       {:>8}   ({}/{} parts not taught)",
+        pct(r.unknown_rejection),
+        s.unknown_rejected,
+        s.unknown
+    );
+    println!(
+        "  angle error  (reported) median {:.3}°  p95 {:.3}°  max {:.3}°  ({} parts)",
+        s.angle.median, s.angle.p95, s.angle.max, s.angle.count
+    );
+    println!(
+        "  angle error  (paper 6.4) median {:.3}°  p95 {:.3}°  max {:.3}°",
+        s.angle_paper.median, s.angle_paper.p95, s.angle_paper.max
+    );
+    println!(
+        "  position error          median {:.3} px  p95 {:.3} px  max {:.3} px",
+        s.position.median, s.position.p95, s.position.max
+    );
+    println!(
+        "  time                    {:.2} ms/frame (core, this machine)",
+        r.ms_per_frame
+    );
     if r.failed_frames > 0 {
         println!("  failed frames           {}", r.failed_frames);
     }

@@ -7,11 +7,13 @@ use crate::gen::{generate, GenOptions, Variant};
 
 /// Arguments of `vorl gen`.
 #[derive(Debug, clap::Args)]
-#[command(after_help = "Variants: default (parts 88–138 px), noisy (stronger noise, lighting drift, lower \
+#[command(
+    after_help = "Variants: default (parts 88–138 px), noisy (stronger noise, lighting drift, lower \
     contrast), small (parts 35–55 px), border (parts cut by the frame's edge, marked partial), stereo \
     (left/right pairs, camera.json, depth in truth). The same seed and options give byte-identical sets.\n\n\
     Examples:\n  vorl gen out/plant --seed 7 --frames 60\n  vorl gen out/noisy --variant noisy --frames 20\n  \
-    vorl gen out/stereo --variant stereo --frames 10")]
+    vorl gen out/stereo --variant stereo --frames 10"
+)]
 pub struct GenArgs {
     /// Folder to write the set into (created if missing).
     #[arg(value_name = "OUT")]
@@ -38,7 +40,13 @@ pub struct GenArgs {
 /// # Errors
 /// Bad options or a file that cannot be written.
 pub fn run(args: GenArgs) -> Result<ExitCode, String> {
-    let opts = GenOptions { seed: args.seed, frames: args.frames, variant: args.variant, width: args.width, height: args.height };
+    let opts = GenOptions {
+        seed: args.seed,
+        frames: args.frames,
+        variant: args.variant,
+        width: args.width,
+        height: args.height,
+    };
     let t0 = std::time::Instant::now();
     let s = generate(&args.out, &opts).map_err(|e| e.to_string())?;
     println!(

@@ -65,14 +65,27 @@ impl ParamArgs {
                 ThresholdSetting::Named(ThresholdName::Otsu)
             } else {
                 ThresholdSetting::Fixed(
-                    t.parse().map_err(|_| format!("--threshold {t}: expected 0..255 or \"otsu\""))?,
+                    t.parse()
+                        .map_err(|_| format!("--threshold {t}: expected 0..255 or \"otsu\""))?,
                 )
             };
         }
         macro_rules! set {
             ($($f:ident),*) => { $( if let Some(v) = self.$f { c.$f = v; } )* };
         }
-        set!(alpha, n, m, k, omega, epsilon, angle, refine, candidates, verify_threshold, position);
+        set!(
+            alpha,
+            n,
+            m,
+            k,
+            omega,
+            epsilon,
+            angle,
+            refine,
+            candidates,
+            verify_threshold,
+            position
+        );
         Ok(c)
     }
 

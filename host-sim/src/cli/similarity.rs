@@ -20,11 +20,13 @@ pub enum Format {
 
 /// Arguments of `vorl similarity`.
 #[derive(Debug, clap::Args)]
-#[command(after_help = "Row i, column j is f' of silhouette i seen as a part against silhouette j as a \
+#[command(
+    after_help = "Row i, column j is f' of silhouette i seen as a part against silhouette j as a \
     template. Pairs below ε in either direction are warned about on stderr: the matcher cannot tell \
     them apart at that ε.\n\n\
     Examples:\n  vorl similarity examples/plant/templates\n  \
-    vorl similarity my_templates --format json --out sim.json --epsilon 0.05")]
+    vorl similarity my_templates --format json --out sim.json --epsilon 0.05"
+)]
 pub struct SimilarityArgs {
     /// Folder of silhouettes (PNG, GIF or BMP; part bright on dark).
     #[arg(value_name = "DIR")]
@@ -71,8 +73,16 @@ pub fn run(args: SimilarityArgs) -> Result<ExitCode, String> {
         );
     }
     if sim.too_alike.len() > SHOWN {
-        eprintln!("warning: … and {} more pairs (all are listed by --format json)", sim.too_alike.len() - SHOWN);
+        eprintln!(
+            "warning: … and {} more pairs (all are listed by --format json)",
+            sim.too_alike.len() - SHOWN
+        );
     }
-    eprintln!("{} silhouettes, {} pair(s) below ε = {}", sim.names.len(), sim.too_alike.len(), sim.epsilon);
+    eprintln!(
+        "{} silhouettes, {} pair(s) below ε = {}",
+        sim.names.len(),
+        sim.too_alike.len(),
+        sim.epsilon
+    );
     Ok(ExitCode::SUCCESS)
 }

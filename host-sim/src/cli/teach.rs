@@ -13,9 +13,11 @@ use crate::set::load_background_frames;
 
 /// Arguments of `vorl teach`.
 #[derive(Debug, clap::Args)]
-#[command(after_help = "The part's silhouette at its pose in FRAME becomes the template's reference pose \
+#[command(
+    after_help = "The part's silhouette at its pose in FRAME becomes the template's reference pose \
     (angle 0). The frame should hold exactly one part, clear of the frame's edge.\n\n\
-    Examples:\n  vorl teach --background set/background.png set/frames/f000.png --name bracket --out set/templates")]
+    Examples:\n  vorl teach --background set/background.png set/frames/f000.png --name bracket --out set/templates"
+)]
 pub struct TeachArgs {
     /// The empty platform.
     #[arg(long, value_name = "BG")]
@@ -43,11 +45,17 @@ pub struct TeachArgs {
 /// Unreadable inputs, no part in the frame, or the template cannot be written.
 pub fn run(args: TeachArgs) -> Result<ExitCode, String> {
     if args.name.is_empty() || args.name.contains(['/', '\\']) || args.name.starts_with('.') {
-        return Err(format!("--name {:?}: a class name must be a plain file name", args.name));
+        return Err(format!(
+            "--name {:?}: a class name must be a plain file name",
+            args.name
+        ));
     }
     let target = args.out.join(format!("{}.png", args.name));
     if target.exists() && !args.force {
-        return Err(format!("{}: template exists already (use --force to replace it)", target.display()));
+        return Err(format!(
+            "{}: template exists already (use --force to replace it)",
+            target.display()
+        ));
     }
     let mut engine = Engine::new(args.params.params()?)?;
     let bgs = load_background_frames([&args.background]).map_err(|e| e.to_string())?;
@@ -66,8 +74,14 @@ pub fn run(args: TeachArgs) -> Result<ExitCode, String> {
             bgs[0].height()
         ));
     }
-    let result = engine.detect(&frame.image).map_err(|e| format!("{}: {e}", args.frame.display()))?;
-    let Some(part) = result.detections.iter().max_by(|a, b| a.core.area.total_cmp(&b.core.area)) else {
+    let result = engine
+        .detect(&frame.image)
+        .map_err(|e| format!("{}: {e}", args.frame.display()))?;
+    let Some(part) = result
+        .detections
+        .iter()
+        .max_by(|a, b| a.core.area.total_cmp(&b.core.area))
+    else {
         return Err(format!(
             "{}: no part found against the background (try a lower --threshold)",
             args.frame.display()
@@ -93,7 +107,9 @@ pub fn run(args: TeachArgs) -> Result<ExitCode, String> {
     };
     let silhouette = component(engine.labels(), w, h, sx as usize, sy as usize);
     std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: cannot create folder: {e}", args.out.display()))?;
-    silhouette.save(&target).map_err(|e| format!("{}: cannot write: {e}", target.display()))?;
+    silhouette
+        .save(&target)
+        .map_err(|e| format!("{}: cannot write: {e}", target.display()))?;
     println!(
         "taught {:?} from {} ({}×{} silhouette, area {:.0} px²) → {}",
         args.name,

@@ -62,11 +62,9 @@ pub struct ExportArgs {
 
 /// Arguments of `vorl templates info`.
 #[derive(Debug, clap::Args)]
-#[command(
-    after_help = "Exits with status 1 when the file is not a valid library, naming the \
+#[command(after_help = "Exits with status 1 when the file is not a valid library, naming the \
     problem (bad magic, unsupported version, truncated, checksum mismatch, corrupt).\n\n\
-    Examples:\n  vorl templates info plant.vtl\n  vorl templates info firmware-example/fixtures/templates.vtl"
-)]
+    Examples:\n  vorl templates info plant.vtl\n  vorl templates info firmware-example/fixtures/templates.vtl")]
 pub struct InfoArgs {
     /// Library file to check.
     #[arg(value_name = "FILE")]
@@ -140,13 +138,10 @@ fn export(args: ExportArgs) -> Result<ExitCode, String> {
     let params = args.params.params()?;
     let (bytes, names) = export_library(&args.dir, params)?;
     if let Some(parent) = args.out.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(parent)
-            .map_err(|e| format!("{}: cannot create folder: {e}", parent.display()))?;
+        std::fs::create_dir_all(parent).map_err(|e| format!("{}: cannot create folder: {e}", parent.display()))?;
     }
-    std::fs::write(&args.out, &bytes)
-        .map_err(|e| format!("{}: cannot write: {e}", args.out.display()))?;
-    let lib =
-        Library::parse(&bytes).map_err(|e| format!("written library does not read back: {e}"))?;
+    std::fs::write(&args.out, &bytes).map_err(|e| format!("{}: cannot write: {e}", args.out.display()))?;
+    let lib = Library::parse(&bytes).map_err(|e| format!("written library does not read back: {e}"))?;
     println!(
         "{}: {} template(s) ({}), n {} m {} k {} ω {}, {} bytes, CRC-32 {:#010x}",
         args.out.display(),
@@ -163,8 +158,7 @@ fn export(args: ExportArgs) -> Result<ExitCode, String> {
 }
 
 fn info(args: InfoArgs) -> Result<ExitCode, String> {
-    let bytes = std::fs::read(&args.file)
-        .map_err(|e| format!("{}: {}", args.file.display(), io_problem(&e)))?;
+    let bytes = std::fs::read(&args.file).map_err(|e| format!("{}: {}", args.file.display(), io_problem(&e)))?;
     let lib = match Library::parse(&bytes) {
         Ok(lib) => lib,
         Err(e) => {

@@ -263,8 +263,7 @@ impl SetPlan {
             ((40.0, 90.0), 30.0)
         };
         // The right camera sees the platform point that the left one sees at x + f·B/Z0.
-        let light_right =
-            stereo.map(|s| lighting.field(w, h, s.f_px * s.baseline_mm / s.platform_z_mm));
+        let light_right = stereo.map(|s| lighting.field(w, h, s.f_px * s.baseline_mm / s.platform_z_mm));
         SetPlan {
             seed: opts.seed,
             w,
@@ -293,23 +292,13 @@ impl SetPlan {
             self.light.clone()
         };
         blur(&mut img, self.w, self.h, BLUR_SIGMA);
-        let mut rng = Rng::stream(
-            self.seed,
-            purpose::BACKGROUND,
-            index + if right { 1000 } else { 0 },
-        );
+        let mut rng = Rng::stream(self.seed, purpose::BACKGROUND, index + if right { 1000 } else { 0 });
         capture(&img, self.w, self.h, self.noise_sigma, &mut rng)
     }
 
     /// One camera's view of the placed parts before noise: lighting, drift, parts, blur (the
     /// right view shifts each part by its disparity).
-    fn compose(
-        &self,
-        cat: &[PartSpec],
-        parts: &[Placed],
-        right: bool,
-        drift: &mut Rng,
-    ) -> Vec<f64> {
+    fn compose(&self, cat: &[PartSpec], parts: &[Placed], right: bool, drift: &mut Rng) -> Vec<f64> {
         let (w, h) = (self.w, self.h);
         let mut img = if right {
             self.light_right.clone().unwrap_or_default()
@@ -330,14 +319,7 @@ impl SetPlan {
     }
 
     /// One camera's view with sensor noise from the frame's stream.
-    fn view(
-        &self,
-        cat: &[PartSpec],
-        parts: &[Placed],
-        right: bool,
-        index: u64,
-        drift: &mut Rng,
-    ) -> image::GrayImage {
+    fn view(&self, cat: &[PartSpec], parts: &[Placed], right: bool, index: u64, drift: &mut Rng) -> image::GrayImage {
         let img = self.compose(cat, parts, right, drift);
         let stream = if right {
             purpose::NOISE_RIGHT
@@ -354,13 +336,7 @@ impl SetPlan {
     }
 
     /// Plans, renders and writes frame `index`; its truth.
-    fn frame(
-        &self,
-        cat: &[PartSpec],
-        frames_dir: &Path,
-        index: usize,
-        name: &str,
-    ) -> Result<Vec<PartJson>, GenError> {
+    fn frame(&self, cat: &[PartSpec], frames_dir: &Path, index: usize, name: &str) -> Result<Vec<PartJson>, GenError> {
         let mut rng = Rng::stream(self.seed, purpose::LAYOUT, index as u64);
         let parts = plan(&mut rng, cat, &self.scene);
         if self.scene.stereo.is_some() {
@@ -418,9 +394,7 @@ fn frame_name(index: usize, count: usize) -> String {
 pub fn generate(out: &Path, opts: &GenOptions) -> Result<GenSummary, GenError> {
     for (what, v) in [("width", opts.width), ("height", opts.height)] {
         if !(32..=16384).contains(&v) {
-            return Err(GenError::Options(format!(
-                "{what} {v} px is out of range (32–16384)"
-            )));
+            return Err(GenError::Options(format!("{what} {v} px is out of range (32–16384)")));
         }
     }
     let cat = catalogue();
@@ -468,16 +442,11 @@ pub fn generate(out: &Path, opts: &GenOptions) -> Result<GenSummary, GenError> {
         let file = format!("bg_{k:02}.png");
         jobs.push((out.join("backgrounds").join(&file), false, k as u64 + 1));
         if stereo {
-            jobs.push((
-                out.join("backgrounds_right").join(&file),
-                true,
-                k as u64 + 1,
-            ));
+            jobs.push((out.join("backgrounds_right").join(&file), true, k as u64 + 1));
         }
     }
-    jobs.par_iter().try_for_each(|(path, right, index)| {
-        output::write_png(path, &set.background(*right, *index))
-    })?;
+    jobs.par_iter()
+        .try_for_each(|(path, right, index)| output::write_png(path, &set.background(*right, *index)))?;
 
     // Frames.
     let truths: Vec<Vec<PartJson>> = (0..opts.frames)
@@ -558,20 +527,12 @@ mod tests {
     /// Compares each part's silhouette in a frame (|frame − background| over a threshold) with
     /// the part drawn from its truth (shape, x, y, angle, scale) inside its bounding circle + 3 px,
     /// leaving out pixels within ¾ px of the border; the worst share of pixels that disagree.
-    fn worst_disagreement(
-        frame: &image::GrayImage,
-        bg: &image::GrayImage,
-        parts: &[PartJson],
-        right: bool,
-    ) -> f64 {
+    fn worst_disagreement(frame: &image::GrayImage, bg: &image::GrayImage, parts: &[PartJson], right: bool) -> f64 {
         let cat = catalogue();
         let mut worst: f64 = 0.0;
         for p in parts {
             let shape = p.extra["shape"].as_str().expect("shape");
-            let spec = cat
-                .iter()
-                .find(|s| s.name == shape)
-                .expect("shape in catalogue");
+            let spec = cat.iter().find(|s| s.name == shape).expect("shape in catalogue");
             assert_eq!(p.class.is_some(), spec.is_template);
             let scale = p.extra["scale"].as_f64().expect("scale");
             // Half the contrast, at most 15 (labels and shading stay ≥ 30 from the platform).
@@ -639,10 +600,7 @@ mod tests {
             let mut rng = Rng::stream(opts.seed, purpose::LAYOUT, index);
             let parts = plan(&mut rng, &cat, &set.scene);
             let img = set.compose(&cat, &parts, false, &mut rng);
-            for p in parts
-                .iter()
-                .filter(|p| p.look.texture == render::Texture::Plain)
-            {
+            for p in parts.iter().filter(|p| p.look.texture == render::Texture::Plain) {
                 // Inside the bounding circle + 4 px: all of this part's blurred edge, none of another part.
                 let r = cat[p.spec].radius_mm() * p.pose.k + 4.0;
                 let (mut s, mut sx, mut sy) = (0.0, 0.0, 0.0);
@@ -804,10 +762,8 @@ mod tests {
             ..GenOptions::default()
         };
         generate(&dir, &opts).expect("generate");
-        let cam: serde_json::Value = serde_json::from_str(
-            &std::fs::read_to_string(dir.join("camera.json")).expect("camera"),
-        )
-        .expect("json");
+        let cam: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.join("camera.json")).expect("camera")).expect("json");
         let (f, b) = (
             cam["f_px"].as_f64().expect("f"),
             cam["baseline_mm"].as_f64().expect("b"),

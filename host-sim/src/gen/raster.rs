@@ -30,13 +30,7 @@ pub(crate) struct Pose {
 impl Pose {
     pub(crate) fn new(cx: f64, cy: f64, angle_deg: f64, k: f64) -> Self {
         let (sin, cos) = angle_deg.to_radians().sin_cos();
-        Pose {
-            cx,
-            cy,
-            cos,
-            sin,
-            k,
-        }
+        Pose { cx, cy, cos, sin, k }
     }
 
     /// The same pose moved by `dx` px along x.
@@ -74,12 +68,7 @@ impl Pose {
 pub(crate) fn bounds(rings: &[Vec<P>]) -> [f64; 4] {
     let mut b = [f64::MAX, f64::MAX, f64::MIN, f64::MIN];
     for p in rings.iter().flatten() {
-        b = [
-            b[0].min(p[0]),
-            b[1].min(p[1]),
-            b[2].max(p[0]),
-            b[3].max(p[1]),
-        ];
+        b = [b[0].min(p[0]), b[1].min(p[1]), b[2].max(p[0]), b[3].max(p[1])];
     }
     b
 }
@@ -124,12 +113,7 @@ impl Coverage {
 
     /// Calls `f(x, y, coverage)` for every pixel with coverage > 0.
     pub(crate) fn for_each(&self, mut f: impl FnMut(i64, i64, f64)) {
-        for (j, row) in self
-            .data
-            .chunks_exact(self.w.max(1))
-            .take(self.h)
-            .enumerate()
-        {
+        for (j, row) in self.data.chunks_exact(self.w.max(1)).take(self.h).enumerate() {
             for (i, &c) in row.iter().enumerate() {
                 if c > 0.0 {
                     f(self.x0 + i as i64, self.y0 + j as i64, c);
@@ -329,16 +313,10 @@ mod tests {
         // A point to the right of the centroid goes above it (smaller y) at +90°.
         let pose = Pose::new(100.0, 50.0, 90.0, 1.0);
         let p = pose.apply([10.0, 0.0]);
-        assert!(
-            (p[0] - 100.0).abs() < 1e-12 && (p[1] - 40.0).abs() < 1e-12,
-            "{p:?}"
-        );
+        assert!((p[0] - 100.0).abs() < 1e-12 && (p[1] - 40.0).abs() < 1e-12, "{p:?}");
         // A point below the centroid (y down) goes to the right.
         let p = pose.apply([0.0, 10.0]);
-        assert!(
-            (p[0] - 110.0).abs() < 1e-12 && (p[1] - 50.0).abs() < 1e-12,
-            "{p:?}"
-        );
+        assert!((p[0] - 110.0).abs() < 1e-12 && (p[1] - 50.0).abs() < 1e-12, "{p:?}");
         // The documented formula, at an arbitrary angle and scale.
         let (th, s, d) = (37.5_f64, 1.02, [3.0, -7.0]);
         let pose = Pose::new(0.0, 0.0, th, s);
@@ -398,21 +376,12 @@ mod tests {
         for (n, spec) in cat.iter().enumerate() {
             for (m, &k) in [1.0, 0.4, 1.07].iter().enumerate() {
                 let a = 13.7 + 71.3 * (n * 3 + m) as f64;
-                let pose = Pose::new(
-                    150.0 + 0.137 * n as f64,
-                    140.0 + 0.291 * m as f64,
-                    a % 360.0,
-                    k,
-                );
+                let pose = Pose::new(150.0 + 0.137 * n as f64, 140.0 + 0.291 * m as f64, a % 360.0, k);
                 let cov = coverage(&pose.rings(spec.rings()), None, 16);
                 let (area, c) = cov.moments();
                 let err = (c[0] - pose.cx).hypot(c[1] - pose.cy);
                 worst = worst.max(err);
-                assert!(
-                    err < 0.02,
-                    "{} at k={k}: centroid off by {err} px",
-                    spec.name
-                );
+                assert!(err < 0.02, "{} at k={k}: centroid off by {err} px", spec.name);
                 let want = spec.area_mm2() * k * k;
                 assert!(
                     (area - want).abs() / want < 2e-3,

@@ -73,11 +73,7 @@ impl Lighting {
         let u = (x - self.centre[0]) / self.half_w;
         let v = (y - self.centre[1]) / self.half_w;
         let c = &self.c;
-        c[0] * u
-            + c[1] * v
-            + c[2] * (u * u + v * v)
-            + c[3] * u * v
-            + c[4] * (c[5] * u + c[6] * v + c[7]).cos()
+        c[0] * u + c[1] * v + c[2] * (u * u + v * v) + c[3] * u * v + c[4] * (c[5] * u + c[6] * v + c[7]).cos()
     }
 
     /// Gray level of the empty platform at image point (x, y).
@@ -191,20 +187,11 @@ pub(crate) struct Appearance {
 }
 
 /// Draws a part into a `w`×`h` image (coverage × contrast added to what is there).
-pub(crate) fn draw_part(
-    img: &mut [f64],
-    w: usize,
-    h: usize,
-    spec: &PartSpec,
-    pose: &Pose,
-    look: &Appearance,
-) {
+pub(crate) fn draw_part(img: &mut [f64], w: usize, h: usize, spec: &PartSpec, pose: &Pose, look: &Appearance) {
     let cov = coverage(&pose.rings(spec.rings()), Some((w, h)), SUBROWS);
     let radius = spec.radius_mm();
     let level = |p: P| match &look.texture {
-        Texture::Gradient { dir, amplitude } => {
-            look.contrast + amplitude * dot(pose.invert(p), *dir) / radius
-        }
+        Texture::Gradient { dir, amplitude } => look.contrast + amplitude * dot(pose.invert(p), *dir) / radius,
         _ => look.contrast,
     };
     cov.for_each(|x, y, c| {
@@ -234,13 +221,7 @@ pub(crate) fn template(spec: &PartSpec, px_per_mm: f64) -> (GrayImage, P) {
     let cy0 = m + (-b[1] * px_per_mm).ceil();
     let w = (cx0 + (b[2] * px_per_mm).ceil() + m + 2.0) as usize;
     let h = (cy0 + (b[3] * px_per_mm).ceil() + m + 2.0) as usize;
-    let raster = |c: P| {
-        fill_centres(
-            &Pose::new(c[0], c[1], 0.0, px_per_mm).rings(spec.rings()),
-            w,
-            h,
-        )
-    };
+    let raster = |c: P| fill_centres(&Pose::new(c[0], c[1], 0.0, px_per_mm).rings(spec.rings()), w, h);
     let area = spec.area_mm2() * px_per_mm * px_per_mm;
     let perimeter: f64 = spec
         .rings()
@@ -276,10 +257,7 @@ pub(crate) fn template(spec: &PartSpec, px_per_mm: f64) -> (GrayImage, P) {
         .min_by(|a, b| a.0.total_cmp(&b.0))
         .map_or([cx0, cy0], |(_, c)| c);
     let px = raster(c).iter().map(|&v| if v { 255 } else { 0 }).collect();
-    (
-        GrayImage::from_raw(w as u32, h as u32, px).unwrap_or_default(),
-        c,
-    )
+    (GrayImage::from_raw(w as u32, h as u32, px).unwrap_or_default(), c)
 }
 
 #[cfg(test)]
@@ -297,11 +275,7 @@ mod tests {
                 for (x, y, p) in img.enumerate_pixels() {
                     assert!(p.0[0] == 0 || p.0[0] == 255);
                     if p.0[0] == 255 {
-                        assert!(
-                            x >= 10 && y >= 10 && x + 10 < w && y + 10 < h,
-                            "{}: margin",
-                            spec.name
-                        );
+                        assert!(x >= 10 && y >= 10 && x + 10 < w && y + 10 < h, "{}: margin", spec.name);
                         n += 1.0;
                         sx += f64::from(x);
                         sy += f64::from(y);
@@ -314,11 +288,7 @@ mod tests {
                     spec.name
                 );
                 let err = (sx / n - c[0]).hypot(sy / n - c[1]);
-                assert!(
-                    err < 0.03,
-                    "{} at {ppm}: template centroid off by {err}",
-                    spec.name
-                );
+                assert!(err < 0.03, "{} at {ppm}: template centroid off by {err}", spec.name);
             }
         }
     }
@@ -328,9 +298,7 @@ mod tests {
         let mut rng = Rng::stream(5, 1, 0);
         let l = Lighting::random(&mut rng, 640, 480, 130.0, 15.0);
         let f = l.field(640, 480, 0.0);
-        let (lo, hi) = f
-            .iter()
-            .fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
+        let (lo, hi) = f.iter().fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
         assert!(lo > 130.0 - 16.0 && hi < 130.0 + 16.0, "{lo}..{hi}");
         assert!(hi - lo > 10.0, "uneven: {lo}..{hi}");
         let step = f
@@ -348,12 +316,7 @@ mod tests {
         img[13 * w + 17] = 50.0;
         blur(&mut img, w, h, BLUR_SIGMA);
         let s: f64 = img.iter().sum();
-        let cy: f64 = img
-            .iter()
-            .enumerate()
-            .map(|(i, v)| v * (i / w) as f64)
-            .sum::<f64>()
-            / s;
+        let cy: f64 = img.iter().enumerate().map(|(i, v)| v * (i / w) as f64).sum::<f64>() / s;
         assert!((s - 150.0).abs() < 1e-9);
         assert!((cy - (12.0 * 100.0 + 13.0 * 50.0) / 150.0).abs() < 1e-9);
     }

@@ -90,13 +90,7 @@ pub(crate) fn plan(rng: &mut Rng, cat: &[PartSpec], cfg: &SceneConfig) -> Vec<Pl
     placed
 }
 
-fn try_place(
-    rng: &mut Rng,
-    cat: &[PartSpec],
-    spec_i: usize,
-    cfg: &SceneConfig,
-    placed: &[Placed],
-) -> Option<Placed> {
+fn try_place(rng: &mut Rng, cat: &[PartSpec], spec_i: usize, cfg: &SceneConfig, placed: &[Placed]) -> Option<Placed> {
     let spec = &cat[spec_i];
     let angle_deg = rng.range(0.0, 360.0);
     let (scale, depth) = match cfg.stereo {
@@ -151,8 +145,7 @@ fn try_place(
         if !(0.0..=w - 1.0).contains(&cx) || !(0.0..=h - 1.0).contains(&cy) {
             return None;
         }
-        let v = clipped_area(&pose.rings(spec.rings()), [-0.5, -0.5, w - 0.5, h - 0.5])
-            / (spec.area_mm2() * k * k);
+        let v = clipped_area(&pose.rings(spec.rings()), [-0.5, -0.5, w - 0.5, h - 0.5]) / (spec.area_mm2() * k * k);
         if !(PARTIAL_VISIBLE.0..=PARTIAL_VISIBLE.1).contains(&v) {
             return None;
         }
@@ -206,14 +199,7 @@ fn appearance(rng: &mut Rng, spec: &PartSpec, k: f64, cfg: &SceneConfig) -> Appe
 /// [`LABEL_MARGIN_PX`] to spare, or `None` when 60 tries find no room. A try: a random interior
 /// point, a rectangle about it as large as its clearance allows (at most 45 % of the part's
 /// extent), shrunk until it fits. The largest of the first 6 that fit is kept.
-fn label(
-    rng: &mut Rng,
-    spec: &PartSpec,
-    k: f64,
-    sign: f64,
-    mag: f64,
-    min_contrast: f64,
-) -> Option<Texture> {
+fn label(rng: &mut Rng, spec: &PartSpec, k: f64, sign: f64, mag: f64, min_contrast: f64) -> Option<Texture> {
     let margin = LABEL_MARGIN_PX / k;
     let (min_long, min_short) = (8.0 / k, 5.0 / k);
     let b = spec.bbox_mm();
@@ -243,7 +229,7 @@ fn label(
             let rect = [cx - hw, cy - hh, cx + hw, cy + hh];
             if rect_clear(spec.rings(), rect, margin) {
                 let area = |r: &[f64; 4]| (r[2] - r[0]) * (r[3] - r[1]);
-                if best.map_or(true, |(r, _)| area(&rect) > area(&r)) {
+                if best.is_none_or(|(r, _)| area(&rect) > area(&r)) {
                     best = Some((rect, along_x));
                 }
                 found += 1;
@@ -278,11 +264,7 @@ fn label_texture(
     };
     let bars = 2 + rng.below(3);
     let stripes = (2 * bars - 1) as f64;
-    let long = if along_x {
-        rect[2] - rect[0]
-    } else {
-        rect[3] - rect[1]
-    };
+    let long = if along_x { rect[2] - rect[0] } else { rect[3] - rect[1] };
     let rects = if rng.chance(0.5) && long * k / stripes >= 2.0 {
         (0..bars)
             .map(|i| {

@@ -81,7 +81,7 @@ impl Path {
 
     /// Appends a point (a straight segment from the previous one); drops exact repeats.
     fn to(&mut self, p: P) {
-        if self.0.last().map_or(true, |l| norm(sub(*l, p)) > 1e-9) {
+        if self.0.last().is_none_or(|l| norm(sub(*l, p)) > 1e-9) {
             self.0.push(p);
         }
     }
@@ -97,8 +97,7 @@ impl Path {
     }
 
     fn finish(mut self) -> Vec<P> {
-        while self.0.len() > 1 && norm(sub(self.0[0], *self.0.last().unwrap_or(&[0.0; 2]))) <= 1e-9
-        {
+        while self.0.len() > 1 && norm(sub(self.0[0], *self.0.last().unwrap_or(&[0.0; 2]))) <= 1e-9 {
             self.0.pop();
         }
         self.0
@@ -157,9 +156,7 @@ fn convex_hull(mut pts: Vec<P>) -> Vec<P> {
             Box::new(pts.iter().rev())
         };
         for &p in iter {
-            while hull.len() >= start + 2
-                && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0
-            {
+            while hull.len() >= start + 2 && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0 {
                 hull.pop();
             }
             hull.push(p);
@@ -311,11 +308,7 @@ fn l_bracket() -> Vec<Vec<P>> {
         ([34.0, 100.0], 6.0),
         ([0.0, 100.0], 6.0),
     ]);
-    vec![
-        outline,
-        circle([90.0, 17.0], 6.0),
-        circle([17.0, 80.0], 6.0),
-    ]
+    vec![outline, circle([90.0, 17.0], 6.0), circle([17.0, 80.0], 6.0)]
 }
 
 fn t_bracket() -> Vec<Vec<P>> {
@@ -365,12 +358,7 @@ fn flange_oval() -> Vec<Vec<P>> {
 /// Square four-bolt flange with rounded corners and a centre bore.
 fn flange_square() -> Vec<Vec<P>> {
     let s = 50.0;
-    let outline = rounded_polygon(&[
-        ([-s, -s], 14.0),
-        ([s, -s], 14.0),
-        ([s, s], 14.0),
-        ([-s, s], 14.0),
-    ]);
+    let outline = rounded_polygon(&[([-s, -s], 14.0), ([s, -s], 14.0), ([s, s], 14.0), ([-s, s], 14.0)]);
     let mut rings = vec![outline, circle([0.0, 0.0], 24.0)];
     for (x, y) in [(-32.0, -32.0), (32.0, -32.0), (32.0, 32.0), (-32.0, 32.0)] {
         rings.push(circle([x, y], 6.5));
@@ -448,11 +436,7 @@ fn u_bracket() -> Vec<Vec<P>> {
         ([26.0, 90.0], 4.0),
         ([0.0, 90.0], 4.0),
     ]);
-    vec![
-        outline,
-        circle([13.0, 72.0], 6.0),
-        circle([87.0, 72.0], 6.0),
-    ]
+    vec![outline, circle([13.0, 72.0], 6.0), circle([87.0, 72.0], 6.0)]
 }
 
 /// Distractor: five-pointed star.
@@ -486,10 +470,7 @@ fn blob() -> Vec<Vec<P>> {
         .map(|i| {
             let t = TAU * f64::from(i) / f64::from(n);
             let r = 48.0
-                * (1.0
-                    + 0.13 * (2.0 * t + 0.4).cos()
-                    + 0.09 * (3.0 * t + 1.9).cos()
-                    + 0.06 * (5.0 * t + 0.7).cos()
+                * (1.0 + 0.13 * (2.0 * t + 0.4).cos() + 0.09 * (3.0 * t + 1.9).cos() + 0.06 * (5.0 * t + 0.7).cos()
                     - 0.04 * (7.0 * t + 2.3).cos());
             polar([0.0, 0.0], r, t)
         })
@@ -542,11 +523,7 @@ mod tests {
         assert_eq!(names.len(), cat.len(), "class names are unique");
         for p in &cat {
             let across = (p.bbox_mm()[2] - p.bbox_mm()[0]).max(p.bbox_mm()[3] - p.bbox_mm()[1]);
-            assert!(
-                (75.0..=150.0).contains(&across),
-                "{}: {across} mm across",
-                p.name
-            );
+            assert!((75.0..=150.0).contains(&across), "{}: {across} mm across", p.name);
             // Centroid at the origin, to rounding.
             let (mut a, mut mx, mut my) = (0.0, 0.0, 0.0);
             for r in p.rings() {
@@ -603,12 +580,7 @@ mod tests {
                     if n >= 2 {
                         let s = rot(q, TAU / f64::from(n));
                         if !near_border(s) {
-                            assert_eq!(
-                                here,
-                                p.coverage(s[0], s[1]),
-                                "{}: not {n}-fold symmetric",
-                                p.name
-                            );
+                            assert_eq!(here, p.coverage(s[0], s[1]), "{}: not {n}-fold symmetric", p.name);
                         }
                     }
                     // No finer symmetry than claimed: some point changes under a rotation by 360/(2n)

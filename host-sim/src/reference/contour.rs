@@ -66,12 +66,7 @@ fn twice_signed_area(points: &[(f64, f64)]) -> f64 {
 fn to_f64(points: &[(i32, i32)], origin: (i32, i32)) -> Vec<(f64, f64)> {
     points
         .iter()
-        .map(|&(x, y)| {
-            (
-                f64::from(x) - f64::from(origin.0),
-                f64::from(y) - f64::from(origin.1),
-            )
-        })
+        .map(|&(x, y)| (f64::from(x) - f64::from(origin.0), f64::from(y) - f64::from(origin.1)))
         .collect()
 }
 
@@ -101,10 +96,7 @@ pub fn resample(points: &[(f64, f64)], count: usize) -> Result<Vec<(f64, f64)>, 
     if points.is_empty() || count == 0 {
         return Err(RefError::Empty);
     }
-    if points
-        .iter()
-        .any(|&(x, y)| !x.is_finite() || !y.is_finite())
-    {
+    if points.iter().any(|&(x, y)| !x.is_finite() || !y.is_finite()) {
         return Err(RefError::NonFinite);
     }
     let len = points.len();

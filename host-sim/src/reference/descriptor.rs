@@ -29,10 +29,7 @@ pub fn descriptor(points: &[(f64, f64)], k: usize, omega: f64) -> Result<Vec<f64
     if k == 0 {
         return Err(RefError::InvalidParams("k must be at least 1".into()));
     }
-    if points
-        .iter()
-        .any(|&(x, y)| !x.is_finite() || !y.is_finite())
-    {
+    if points.iter().any(|&(x, y)| !x.is_finite() || !y.is_finite()) {
         return Err(RefError::NonFinite);
     }
     let len = points.len();

@@ -93,11 +93,7 @@ pub fn learn_background(frames: &[GrayImage], alpha: f64) -> Result<GrayImage, R
 pub fn difference(enhanced: &GrayImage, background: &GrayImage) -> Result<GrayImage, RefError> {
     same_size(enhanced, background)?;
     let mut out = GrayImage::new(enhanced.width(), enhanced.height());
-    for ((o, &a), &b) in out
-        .iter_mut()
-        .zip(enhanced.as_raw())
-        .zip(background.as_raw())
-    {
+    for ((o, &a), &b) in out.iter_mut().zip(enhanced.as_raw()).zip(background.as_raw()) {
         *o = a.abs_diff(b);
     }
     Ok(out)

@@ -139,9 +139,7 @@ pub fn brute_force_cyclic(part: &[f64], template: &[f64]) -> Result<f64, RefErro
     let mut subset: Vec<usize> = (0..n).collect();
     loop {
         for r in 0..n {
-            let total: f64 = (0..n)
-                .map(|i| (part[i] - template[subset[(r + i) % n]]).abs())
-                .sum();
+            let total: f64 = (0..n).map(|i| (part[i] - template[subset[(r + i) % n]]).abs()).sum();
             best = best.min(total);
         }
         // Next subset: bump the rightmost index that can still move, reset the ones after it.

@@ -43,10 +43,7 @@ pub struct RefDetection {
 }
 
 fn to_f64(points: &[(i32, i32)]) -> Vec<(f64, f64)> {
-    points
-        .iter()
-        .map(|&(x, y)| (f64::from(x), f64::from(y)))
-        .collect()
+    points.iter().map(|&(x, y)| (f64::from(x), f64::from(y))).collect()
 }
 
 /// Template from a silhouette image (§9): mask = pixels `> 127`, no clean-up; the outer border
@@ -56,10 +53,7 @@ fn to_f64(points: &[(i32, i32)]) -> Vec<(f64, f64)> {
 ///
 /// Errors: invalid parameters (`n ≥ 1`, `n ≤ m < 2n`, `k ≥ 1`, ω finite), no outer border, and the
 /// errors of [`resample`] and [`descriptor`].
-pub fn template_from_silhouette(
-    img: &GrayImage,
-    params: &RefParams,
-) -> Result<RefTemplate, RefError> {
+pub fn template_from_silhouette(img: &GrayImage, params: &RefParams) -> Result<RefTemplate, RefError> {
     params.check()?;
     let mut mask = GrayImage::new(img.width(), img.height());
     for (o, &v) in mask.iter_mut().zip(img.as_raw()) {

@@ -5,11 +5,7 @@ use super::descriptor::centroid;
 /// The matched centred pairs `(v_i, v'_i)`: `v_i = q_i − C` (part points and their mean),
 /// `v'_i = t_{j(i)} − C'` (template points and their mean, eqs. 6.2, 6.3). Part points beyond
 /// the assignment's length and template indices out of range are left out.
-fn matched_pairs(
-    part: &[(f64, f64)],
-    template: &[(f64, f64)],
-    assignment: &[usize],
-) -> Vec<((f64, f64), (f64, f64))> {
+fn matched_pairs(part: &[(f64, f64)], template: &[(f64, f64)], assignment: &[usize]) -> Vec<((f64, f64), (f64, f64))> {
     if part.is_empty() || template.is_empty() {
         return Vec::new();
     }

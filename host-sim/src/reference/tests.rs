@@ -22,16 +22,7 @@ fn border_of_3x3_square() {
     assert_eq!(b.len(), 1);
     // Start (1,1); second point by the clockwise search from W is E (2,1), which closes the
     // list; the counter-clockwise tracing goes down the left side first.
-    let expected = vec![
-        (1, 1),
-        (1, 2),
-        (1, 3),
-        (2, 3),
-        (3, 3),
-        (3, 2),
-        (3, 1),
-        (2, 1),
-    ];
+    let expected = vec![(1, 1), (1, 2), (1, 3), (2, 3), (3, 3), (3, 2), (3, 1), (2, 1)];
     assert_eq!(b[0].points, expected);
     assert!(!b[0].is_hole);
     assert_eq!(b[0].parent, None);
@@ -44,16 +35,7 @@ fn border_of_square_touching_the_image_edge() {
     let mask = mask_from(3, 3, |_, _| true);
     let b = borders(&mask);
     assert_eq!(b.len(), 1);
-    let expected = vec![
-        (0, 0),
-        (0, 1),
-        (0, 2),
-        (1, 2),
-        (2, 2),
-        (2, 1),
-        (2, 0),
-        (1, 0),
-    ];
+    let expected = vec![(0, 0), (0, 1), (0, 2), (1, 2), (2, 2), (2, 1), (2, 0), (1, 0)];
     assert_eq!(b[0].points, expected);
     assert!(!b[0].is_hole);
     assert_eq!(b[0].parent, None);
@@ -158,11 +140,7 @@ fn dp_equals_brute_force_on_random_inputs() {
     for trial in 0..3000 {
         let n = rng.random_range(1..=7usize);
         // n ≤ m < 2n and m ≤ 10 (the spec's range); every fourth trial any n ≤ m ≤ 10.
-        let m_max = if trial % 4 == 3 {
-            10
-        } else {
-            (2 * n - 1).min(10)
-        };
+        let m_max = if trial % 4 == 3 { 10 } else { (2 * n - 1).min(10) };
         let m = rng.random_range(n..=m_max);
         // Quantised values in some trials, to produce ties.
         let quantised = trial % 3 == 0;
@@ -187,9 +165,7 @@ fn dp_equals_brute_force_on_random_inputs() {
         assert!((dp.normalized - dp.cost / n as f64).abs() < 1e-15);
         assert_eq!(dp.assignment.len(), n);
         assert_cyclic_order_preserving(&dp.assignment, m);
-        let total: f64 = (0..n)
-            .map(|i| (part[i] - template[dp.assignment[i]]).abs())
-            .sum();
+        let total: f64 = (0..n).map(|i| (part[i] - template[dp.assignment[i]]).abs()).sum();
         assert!((total - dp.cost).abs() <= 1e-12 * (1.0 + total));
         cases += 1;
     }
@@ -242,10 +218,7 @@ fn resample_walks_the_closed_polygon() {
         (0.0, 2.0),
     ];
     for (a, b) in q.iter().zip(expected) {
-        assert!(
-            (a.0 - b.0).abs() < 1e-12 && (a.1 - b.1).abs() < 1e-12,
-            "{q:?}"
-        );
+        assert!((a.0 - b.0).abs() < 1e-12 && (a.1 - b.1).abs() < 1e-12, "{q:?}");
     }
     // Two points: the closing edge counts, perimeter 2·5 = 10, 4 points every 2.5.
     let q = resample(&[(0.0, 0.0), (3.0, 4.0)], 4).unwrap();
@@ -276,11 +249,7 @@ fn descriptor_of_a_rasterised_disk_is_near_constant() {
     });
     let b = borders(&mask);
     assert_eq!(b.len(), 1);
-    let pts: Vec<(f64, f64)> = b[0]
-        .points
-        .iter()
-        .map(|&(x, y)| (f64::from(x), f64::from(y)))
-        .collect();
+    let pts: Vec<(f64, f64)> = b[0].points.iter().map(|&(x, y)| (f64::from(x), f64::from(y))).collect();
     let q = resample(&pts, 64).unwrap();
     let c = descriptor(&q, 4, 0.5).unwrap();
     for v in &c {
@@ -290,10 +259,7 @@ fn descriptor_of_a_rasterised_disk_is_near_constant() {
 
 #[test]
 fn descriptor_guards() {
-    assert_eq!(
-        descriptor(&[(2.0, 2.0), (2.0, 2.0)], 1, 0.5),
-        Err(RefError::Degenerate)
-    );
+    assert_eq!(descriptor(&[(2.0, 2.0), (2.0, 2.0)], 1, 0.5), Err(RefError::Degenerate));
     assert!(descriptor(&[(0.0, 0.0), (1.0, 0.0)], 0, 0.5).is_err());
     assert_eq!(descriptor(&[], 1, 0.5), Err(RefError::Empty));
     // Regular octagon with k = 1: q_{i−1} and q_{i+1} are 90° apart about the centre, so
@@ -340,9 +306,7 @@ const L_SHAPE: [(f64, f64); 6] = [
 fn signed_angle_recovers_known_rotations() {
     let template = resample(&L_SHAPE, 96).unwrap();
     let identity: Vec<usize> = (0..template.len()).collect();
-    for deg in [
-        0.0, 10.0, 30.0, 89.5, 90.0, 135.25, 180.0, 200.0, 270.0, 333.0, 359.0,
-    ] {
+    for deg in [0.0, 10.0, 30.0, 89.5, 90.0, 135.25, 180.0, 200.0, 270.0, 333.0, 359.0] {
         let part: Vec<(f64, f64)> = template
             .iter()
             .map(|&p| rotate_screen_ccw(p, (0.0, 0.0), deg, (150.0, 90.0)))
@@ -450,9 +414,7 @@ fn morphology_agrees_with_imageproc_linf() {
         let w = rng.random_range(1..20u32);
         let h = rng.random_range(1..20u32);
         let density = if trial % 2 == 0 { 0.5 } else { 0.9 };
-        let img = GrayImage::from_fn(w, h, |_, _| {
-            Luma([if rng.random_bool(density) { 255 } else { 0 }])
-        });
+        let img = GrayImage::from_fn(w, h, |_, _| Luma([if rng.random_bool(density) { 255 } else { 0 }]));
         let fg: Vec<bool> = img.as_raw().iter().map(|&v| v != 0).collect();
         let (wu, hu) = (w as usize, h as usize);
         let as_bool = |g: &GrayImage| -> Vec<bool> { g.as_raw().iter().map(|&v| v != 0).collect() };
@@ -510,15 +472,7 @@ fn inside(poly: &[(f64, f64)], p: (f64, f64)) -> bool {
 }
 
 /// Draws `poly` rotated by `deg` (screen CCW) about the origin and placed at `centre`.
-fn draw(
-    w: u32,
-    h: u32,
-    poly: &[(f64, f64)],
-    centre: (f64, f64),
-    deg: f64,
-    fg: u8,
-    bg: u8,
-) -> GrayImage {
+fn draw(w: u32, h: u32, poly: &[(f64, f64)], centre: (f64, f64), deg: f64, fg: u8, bg: u8) -> GrayImage {
     GrayImage::from_fn(w, h, |x, y| {
         // Inverse rotation (by −deg) of the offset from the centre.
         let back = rotate_screen_ccw(
@@ -536,27 +490,15 @@ fn pipeline_finds_a_rotated_part() {
     let params = RefParams::default();
     let ring: Vec<(f64, f64)> = circle(64, 28.0, (0.0, 0.0));
     let templates = vec![
-        template_from_silhouette(&draw(100, 100, &ring, (50.0, 50.0), 0.0, 255, 0), &params)
-            .unwrap(),
-        template_from_silhouette(
-            &draw(100, 100, &L_SHAPE, (50.0, 50.0), 0.0, 255, 0),
-            &params,
-        )
-        .unwrap(),
+        template_from_silhouette(&draw(100, 100, &ring, (50.0, 50.0), 0.0, 255, 0), &params).unwrap(),
+        template_from_silhouette(&draw(100, 100, &L_SHAPE, (50.0, 50.0), 0.0, 255, 0), &params).unwrap(),
     ];
     assert_eq!(templates[1].points.len(), params.m);
     assert_eq!(templates[1].descriptor.len(), params.m);
 
-    let background = learn_background(
-        &vec![GrayImage::from_pixel(200, 160, Luma([40])); 3],
-        params.alpha,
-    )
-    .unwrap();
+    let background = learn_background(&vec![GrayImage::from_pixel(200, 160, Luma([40])); 3], params.alpha).unwrap();
     // Area centroid of the L polygon: (1200·(0, −10) + 750·(−15, 12.5)) / 1950.
-    let l_centroid = (
-        -15.0 * 750.0 / 1950.0,
-        (-10.0 * 1200.0 + 12.5 * 750.0) / 1950.0,
-    );
+    let l_centroid = (-15.0 * 750.0 / 1950.0, (-10.0 * 1200.0 + 12.5 * 750.0) / 1950.0);
     for deg in [0.0, 30.0, 145.0, 250.0] {
         let centre = (95.0, 80.0);
         let frame = draw(200, 160, &L_SHAPE, centre, deg, 200, 40);
@@ -620,10 +562,7 @@ fn bad_input_is_an_error_not_a_panic() {
     assert!(template_from_silhouette(&img, &params).is_err()); // no border
     assert!(template_from_silhouette(&GrayImage::new(0, 0), &params).is_err());
     let one = mask_from(5, 5, |x, y| (x, y) == (2, 2));
-    assert_eq!(
-        template_from_silhouette(&one, &params),
-        Err(RefError::ZeroPerimeter)
-    );
+    assert_eq!(template_from_silhouette(&one, &params), Err(RefError::ZeroPerimeter));
     let bad = RefParams { m: 128, ..params };
     assert!(template_from_silhouette(&img, &bad).is_err());
     assert!(detect(&img, &img, &[], &bad).is_err());
@@ -635,11 +574,9 @@ fn bad_input_is_an_error_not_a_panic() {
         descriptor: vec![1.0; 10],
     };
     assert!(detect(&img, &img, &[short], &params).is_err());
-    assert!(
-        detect(&GrayImage::new(0, 0), &GrayImage::new(0, 0), &[], &params)
-            .unwrap()
-            .is_empty()
-    );
+    assert!(detect(&GrayImage::new(0, 0), &GrayImage::new(0, 0), &[], &params)
+        .unwrap()
+        .is_empty());
     assert_eq!(area_centroid(&[], &[]), None);
     assert_eq!(area_centroid(&[(1, 1), (5, 1)], &[]), None);
     assert_eq!(polygon_area(&[]), 0.0);
@@ -656,11 +593,6 @@ fn template_neighbourhood_scales_with_m() {
         ..p
     };
     assert_eq!(p.k_template(), 1); // round(1.09) = 1
-    let p = RefParams {
-        n: 4,
-        m: 6,
-        k: 1,
-        ..p
-    };
+    let p = RefParams { n: 4, m: 6, k: 1, ..p };
     assert_eq!(p.k_template(), 2); // round(1.5) = 2, half away from zero
 }
