@@ -1,5 +1,5 @@
-//! Overlay pictures: each part's contour, its class name (or "unknown") and f', a cross at its
-//! position and an arrow along its angle.
+//! Overlay pictures: each part's contour, its class name (or "unknown"), f' and the
+//! verification score, a cross at its position and an arrow along its angle.
 //!
 //! Colours: green for a known part, red for an unknown one, yellow for a part touching the
 //! frame's edge. The arrow points along the template's +x axis turned by the detected angle
@@ -63,7 +63,9 @@ pub fn draw_detection(img: &mut RgbImage, d: &HostDetection) {
         draw_line_segment_mut(img, tip, back, c);
     }
     let name = d.class.as_deref().unwrap_or("unknown");
-    let text = if d.core.score.is_finite() {
+    let text = if d.core.verify.is_finite() {
+        format!("{name} f'={:.3} v={:.2}px {:.1}deg", d.core.score, d.core.verify, d.core.angle_deg)
+    } else if d.core.score.is_finite() {
         format!("{name} f'={:.3} {:.1}deg", d.core.score, d.core.angle_deg)
     } else {
         name.to_string()
