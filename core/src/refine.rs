@@ -339,6 +339,10 @@ pub fn mean_distance_to_outline(points: &[[f32; 2]], outline: impl Fn(usize) -> 
     sum / points.len() as f32
 }
 
+/// Below this fraction of the part's contrast an interior pixel is taken for platform (a filled
+/// hole).
+const HOLE_RATIO: f32 = 0.2;
+
 /// Bits of the label plane used while measuring one part (bit 0 is the mask).
 const COMPONENT: u8 = 1 << 1;
 const GROWN: u8 = 1 << 2;
@@ -379,38 +383,11 @@ pub fn partial_volume_centroid<B: AsRef<[u8]>>(
         x1: (bbox.x1 + 6).min(w),
         y1: (bbox.y1 + 6).min(h),
     };
-    // The 8-connected component of the seed, by repeated forward and backward passes.
+    // The 8-connected component of the seed.
     if mask.get(seed.1 * w + seed.0).is_none_or(|v| v & 1 == 0) {
         return None;
     }
-    if let Some(v) = mask.get_mut(seed.1 * w + seed.0) {
-        *v |= COMPONENT;
-    }
-    let mut changed = true;
-    let mut passes = 0usize;
-    while changed && passes < (r.x1 - r.x0) + (r.y1 - r.y0) + 2 {
-        changed = false;
-        for forward in [true, false] {
-            for yi in 0..(r.y1 - r.y0) {
-                let y = if forward { r.y0 + yi } else { r.y1 - 1 - yi };
-                for xi in 0..(r.x1 - r.x0) {
-                    let x = if forward { r.x0 + xi } else { r.x1 - 1 - xi };
-                    let i = y * w + x;
-                    let v = mask.get(i).copied().unwrap_or(0);
-                    if v & 1 == 0 || v & COMPONENT != 0 {
-                        continue;
-                    }
-                    if any_neighbour(mask, w, r, x, y, COMPONENT) {
-                        if let Some(p) = mask.get_mut(i) {
-                            *p |= COMPONENT;
-                        }
-                        changed = true;
-                    }
-                }
-            }
-        }
-        passes += 1;
-    }
+    mark_component(mask, w, r, seed);
     // Band = grown by 2 minus shrunk by 2; ring = shrunk by 3 minus shrunk by 5.
     morph_bits(mask, w, r, COMPONENT, GROWN, false);
     morph_bits(mask, w, r, GROWN, SCRATCH, false);
@@ -459,7 +436,15 @@ pub fn partial_volume_centroid<B: AsRef<[u8]>>(
             for x in r.x0..r.x1 {
                 let v = mask.get(y * w + x).copied().unwrap_or(0);
                 let weight = if v & SHRUNK != 0 {
-                    1.0
+                    // Inside counts 1, unless the pixel looks like the platform: a small hole or a
+                    // narrow gap that the mask's closing filled. Printed labels keep at least a
+                    // third of the part's contrast, holes keep none.
+                    let ratio = diff.at(x as isize, y as isize) / contrast;
+                    if ratio >= HOLE_RATIO {
+                        1.0
+                    } else {
+                        ratio.clamp(0.0, 1.0)
+                    }
                 } else if v & GROWN != 0 {
                     // The local contrast: mean D of the ring pixels within 4 px (shading across the
                     // part changes it from one side to the other), else the part's median.
@@ -477,7 +462,7 @@ pub fn partial_volume_centroid<B: AsRef<[u8]>>(
             }
         }
     }
-    // Clear the scratch bits.
+    // Clear the scratch bits (1–6).
     for y in r.y0..r.y1 {
         for x in r.x0..r.x1 {
             if let Some(v) = mask.get_mut(y * w + x) {
@@ -526,26 +511,121 @@ fn any_neighbour(mask: &[u8], w: usize, r: Rect, x: usize, y: usize, bit: u8) ->
     false
 }
 
-/// `dst` bit = 3×3 erosion (or dilation) of the `src` bit inside `r` (outside `r` counts as 0).
+/// Horizontal scratch bit of the separable 3×3 passes.
+const HORIZONTAL: u8 = 1 << 6;
+
+/// `dst` bit = 3×3 erosion (or dilation) of the `src` bit inside `r` (outside `r` counts as 0),
+/// as a horizontal then a vertical 3-tap pass.
 fn morph_bits(mask: &mut [u8], w: usize, r: Rect, src: u8, dst: u8, erode: bool) {
+    let width = r.x1.saturating_sub(r.x0);
+    if width == 0 {
+        return;
+    }
+    for y in r.y0..r.y1 {
+        let Some(row) = mask.get_mut(y * w + r.x0..y * w + r.x1) else { continue };
+        let mut prev = false; // outside r
+        for x in 0..width {
+            let cur = row.get(x).is_some_and(|v| v & src != 0);
+            let next = x + 1 < width && row.get(x + 1).is_some_and(|v| v & src != 0);
+            let on = if erode { prev && cur && next } else { prev || cur || next };
+            if let Some(v) = row.get_mut(x) {
+                *v = if on { *v | HORIZONTAL } else { *v & !HORIZONTAL };
+            }
+            prev = cur;
+        }
+    }
     for y in r.y0..r.y1 {
         for x in r.x0..r.x1 {
-            let mut all = true;
-            let mut any = false;
-            for dy in -1isize..=1 {
-                for dx in -1isize..=1 {
-                    let (nx, ny) = (x as isize + dx, y as isize + dy);
-                    let inside = nx >= r.x0 as isize && ny >= r.y0 as isize && nx < r.x1 as isize && ny < r.y1 as isize;
-                    let set = inside && mask.get(ny as usize * w + nx as usize).is_some_and(|v| v & src != 0);
-                    all &= set;
-                    any |= set;
-                }
-            }
-            let on = if erode { all } else { any };
+            let at = |yy: usize| mask.get(yy * w + x).is_some_and(|v| v & HORIZONTAL != 0);
+            let up = y > r.y0 && at(y - 1);
+            let cur = at(y);
+            let down = y + 1 < r.y1 && at(y + 1);
+            let on = if erode { up && cur && down } else { up || cur || down };
             if let Some(v) = mask.get_mut(y * w + x) {
                 *v = if on { *v | dst } else { *v & !dst };
             }
         }
+    }
+    // HORIZONTAL is left set on some pixels; the caller clears bits 1.. at the end.
+}
+
+/// Marks the 8-connected foreground component of `seed` (inside `r`) with [`COMPONENT`]: a
+/// scanline fill with a fixed stack; when the stack overflows, repeated raster passes finish the
+/// job (bounded by the box's size).
+fn mark_component(mask: &mut [u8], w: usize, r: Rect, seed: (usize, usize)) {
+    const STACK: usize = 256;
+    let free = |mask: &[u8], x: usize, y: usize| mask.get(y * w + x).is_some_and(|v| v & 1 != 0 && v & COMPONENT == 0);
+    let mut stack = [(0usize, 0usize); STACK];
+    let mut top = 0usize;
+    let mut overflow = false;
+    if let Some(slot) = stack.get_mut(0) {
+        *slot = seed;
+        top = 1;
+    }
+    while top > 0 {
+        top -= 1;
+        let Some(&(x, y)) = stack.get(top) else { break };
+        if !free(mask, x, y) {
+            continue;
+        }
+        let (mut xl, mut xr) = (x, x);
+        while xl > r.x0 && free(mask, xl - 1, y) {
+            xl -= 1;
+        }
+        while xr + 1 < r.x1 && free(mask, xr + 1, y) {
+            xr += 1;
+        }
+        for xx in xl..=xr {
+            if let Some(v) = mask.get_mut(y * w + xx) {
+                *v |= COMPONENT;
+            }
+        }
+        for ny in [y.wrapping_sub(1), y + 1] {
+            if ny < r.y0 || ny >= r.y1 {
+                continue;
+            }
+            let mut xx = xl.saturating_sub(1).max(r.x0);
+            let last = (xr + 1).min(r.x1 - 1);
+            while xx <= last {
+                if free(mask, xx, ny) {
+                    match stack.get_mut(top) {
+                        Some(slot) => {
+                            *slot = (xx, ny);
+                            top += 1;
+                        }
+                        None => overflow = true,
+                    }
+                    while xx <= last && free(mask, xx, ny) {
+                        xx += 1;
+                    }
+                } else {
+                    xx += 1;
+                }
+            }
+        }
+    }
+    if !overflow {
+        return;
+    }
+    let mut changed = true;
+    let mut passes = 0usize;
+    while changed && passes < (r.x1 - r.x0) + (r.y1 - r.y0) + 2 {
+        changed = false;
+        for forward in [true, false] {
+            for yi in 0..(r.y1 - r.y0) {
+                let y = if forward { r.y0 + yi } else { r.y1 - 1 - yi };
+                for xi in 0..(r.x1 - r.x0) {
+                    let x = if forward { r.x0 + xi } else { r.x1 - 1 - xi };
+                    if free(mask, x, y) && any_neighbour(mask, w, r, x, y, COMPONENT) {
+                        if let Some(p) = mask.get_mut(y * w + x) {
+                            *p |= COMPONENT;
+                        }
+                        changed = true;
+                    }
+                }
+            }
+        }
+        passes += 1;
     }
 }
 
