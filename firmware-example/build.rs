@@ -6,8 +6,7 @@ use std::fs;
 use std::path::PathBuf;
 
 fn main() {
-    let manifest =
-        PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"));
+    let manifest = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"));
     let memory = manifest.join("..").join("memory.x");
     let out = PathBuf::from(env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
     let text = fs::read(&memory).unwrap_or_else(|e| panic!("{}: {e}", memory.display()));

@@ -430,7 +430,9 @@ pub fn partial_volume_centroid<B: AsRef<[u8]>>(
     } else {
         0.0
     };
-    let (mut sw, mut sx, mut sy) = (0.0f64, 0.0f64, 0.0f64);
+    // f32 sums of coordinates relative to the box's corner (small numbers, so single precision
+    // keeps the centroid to about 1e-4 px; the MCU has no double-precision FPU).
+    let (mut sw, mut sx, mut sy) = (0.0f32, 0.0f32, 0.0f32);
     if contrast.abs() >= 1.0 {
         for y in r.y0..r.y1 {
             for x in r.x0..r.x1 {
@@ -455,9 +457,9 @@ pub fn partial_volume_centroid<B: AsRef<[u8]>>(
                     0.0
                 };
                 if weight > 0.0 {
-                    sw += weight as f64;
-                    sx += weight as f64 * x as f64;
-                    sy += weight as f64 * y as f64;
+                    sw += weight;
+                    sx += weight * (x - r.x0) as f32;
+                    sy += weight * (y - r.y0) as f32;
                 }
             }
         }
@@ -470,7 +472,7 @@ pub fn partial_volume_centroid<B: AsRef<[u8]>>(
             }
         }
     }
-    (sw > 0.0).then(|| [(sx / sw) as f32, (sy / sw) as f32])
+    (sw > 0.0).then(|| [r.x0 as f32 + sx / sw, r.y0 as f32 + sy / sw])
 }
 
 /// Mean `D` of the ring pixels (bit `SCRATCH` set, `RING` clear) within 4 px of `(x, y)`.

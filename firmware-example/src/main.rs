@@ -8,7 +8,8 @@
 //! 2. reads the template library (`fixtures/templates.vtl`, written on the host by
 //!    `vorl templates export`) with full validation and loads it into the recognizer;
 //! 3. learns the mean background from the empty-platform fixture frames;
-//! 4. runs every QVGA fixture frame through the recognizer, timing each stage;
+//! 4. runs every QVGA fixture frame through the recognizer, timing each stage, then again with
+//!    `refine = Off` (the paper's path) for the cost of the refine-and-verify stage;
 //! 5. prints every line over semihosting in the stable format below and exits with status 0
 //!    (any error: status 1; a panic: its message and status 1).
 //!
@@ -26,13 +27,14 @@
 //! calibration_refclk spin_instructions=10000000 ticks=10000 instructions_per_tick=1000
 //! calibration spin_instructions=10000000 ticks=250000 instructions_per_tick=40 icount=1
 //! config width=320 height=240 n=64 m=96 k=4 omega=0.5 templates=8 T=8 M=96 P=4096 C=64 D=2112
-//! memory static_ram=191288 recognizer=37688 planes=153600 stack_reserve=16384
+//! memory static_ram=204488 recognizer=50888 planes=153600 stack_reserve=24576 stack_peak_after_library=…
 //! template index=0 name=arrow
 //! background frames=2 instructions=…
-//! frame name=frame_0 parts=4 borders=4 foreground=… threshold=30
+//! frame name=frame_0 parts=4 borders=4 foreground=… threshold=15
 //! det frame=frame_0 part=0 template=0 class=arrow x=… y=… angle=… angle_paper=… score=… area=… edge=0
 //! instructions frame=frame_0 mask=… borders=… descriptors_matching=… total=… [instructions, not cycles]
-//! summary frames=3 detections=12 instructions_total=… stack_peak=…
+//! instructions_refine_off frame=frame_0 mask=… borders=… descriptors_matching=… total=… [instructions, not cycles]
+//! summary frames=3 detections=12 instructions_total=… stack_peak=… stack_peak_frames=…
 //! ```
 //!
 //! `template=-` and `class=unknown` mark a part that matches no template (`best=` then names the
@@ -59,6 +61,7 @@ use vorl_core::budget::{budget, Budget, Capacities, Layout};
 use vorl_core::contour::Contour;
 use vorl_core::library::Library;
 use vorl_core::matching::table_cells;
+use vorl_core::params::Refine;
 use vorl_core::recognizer::Stage;
 use vorl_core::{Error, Frame, Params, Recognizer, Template};
 
@@ -361,18 +364,7 @@ fn run() -> Result<(), Failure> {
     let (mut detections, mut total) = (0usize, 0u64);
     for (name, pixels) in FRAMES.iter() {
         let frame = Frame::new_checked(&pixels.0[..], W, H)?;
-        let mut marks = [0u64; 3];
-        let start = ticks();
-        let report = rec.process_observed(&frame, &background, &mut labels[..], |stage| {
-            let now = ticks();
-            match stage {
-                Stage::Mask => marks[0] = now,
-                Stage::Borders => marks[1] = now,
-                Stage::Parts => marks[2] = now,
-                _ => {}
-            }
-        })?;
-        let end = ticks();
+        let (report, counts) = timed(rec, &frame, &background, &mut labels[..])?;
         hprintln!(
             "frame name={} parts={} borders={} foreground={} threshold={}",
             name,
@@ -423,20 +415,85 @@ fn run() -> Result<(), Failure> {
         hprintln!(
             "instructions frame={} mask={} borders={} descriptors_matching={} total={} [instructions, not cycles]",
             name,
-            instructions(marks[0] - start),
-            instructions(marks[1] - marks[0]),
-            instructions(marks[2] - marks[1]),
-            instructions(end - start)
+            counts.mask,
+            counts.borders,
+            counts.parts,
+            counts.total
         );
         detections += report.detections.len();
-        total += end - start;
+        total += counts.total;
     }
+    // The paper's path for comparison: no alignment or verification after the DP (the cost of
+    // the refine-and-verify stage is the difference). The detections of this pass are not printed.
+    let stack_after_frames = stack_peak();
+    let default = *rec.params();
+    rec.set_params(Params {
+        refine: Refine::Off,
+        ..default
+    })?;
+    for (name, pixels) in FRAMES.iter() {
+        let frame = Frame::new_checked(&pixels.0[..], W, H)?;
+        let (_, counts) = timed(rec, &frame, &background, &mut labels[..])?;
+        hprintln!(
+            "instructions_refine_off frame={} mask={} borders={} descriptors_matching={} total={} [instructions, not cycles]",
+            name,
+            counts.mask,
+            counts.borders,
+            counts.parts,
+            counts.total
+        );
+    }
+    rec.set_params(default)?;
     hprintln!(
-        "summary frames={} detections={} instructions_total={} stack_peak={}",
+        "summary frames={} detections={} instructions_total={} stack_peak={} stack_peak_frames={}",
         FRAMES.len(),
         detections,
-        instructions(total),
-        stack_peak()
+        total,
+        stack_peak(),
+        stack_after_frames
     );
     Ok(())
+}
+
+/// Instruction counts of one frame's stages.
+struct Counts {
+    /// Mask: enhancement, difference, threshold, clean-up.
+    mask: u64,
+    /// Border following.
+    borders: u64,
+    /// Every part: resampling, descriptor, DP matching, refine and verify, pose.
+    parts: u64,
+    /// The whole call.
+    total: u64,
+}
+
+/// Runs one frame through the recognizer, counting each stage's instructions. Inlined so the
+/// report (about 2.6 KiB) is not copied through another stack frame.
+#[inline(always)]
+fn timed(
+    rec: &mut Rec,
+    frame: &Frame<&[u8]>,
+    background: &Background<&mut [u8]>,
+    labels: &mut [u8],
+) -> Result<(vorl_core::Report, Counts), Error> {
+    let mut marks = [0u64; 3];
+    let start = ticks();
+    let report = rec.process_observed(frame, background, labels, |stage| {
+        let now = ticks();
+        match stage {
+            Stage::Mask => marks[0] = now,
+            Stage::Borders => marks[1] = now,
+            Stage::Parts => marks[2] = now,
+            _ => {}
+        }
+    })?;
+    let end = ticks();
+    let instructions = |ticks: u64| ticks * NOMINAL_INSTRUCTIONS_PER_TICK;
+    let counts = Counts {
+        mask: instructions(marks[0] - start),
+        borders: instructions(marks[1] - marks[0]),
+        parts: instructions(marks[2] - marks[1]),
+        total: instructions(end - start),
+    };
+    Ok((report, counts))
 }

@@ -200,7 +200,7 @@ impl Config {
         format!(
             "# vorl pipeline parameters (defaults). Pass with --config FILE; flags override.\n\
              # Weight of intensity against gradient in I' = α·I + (1−α)·|∇I| (paper eq. 3.1), 0..1.\n\
-             alpha = {}\n\
+             alpha = {:?}\n\
              # Foreground threshold on |I' − B|: 0..255, or \"otsu\" for Otsu's level per frame.\n\
              threshold = {}\n\
              # 3×3 opening and closing of the foreground mask.\n\

@@ -30,6 +30,10 @@ pub type HostRecognizer = Recognizer<HOST_TEMPLATES, HOST_M, HOST_POINTS, HOST_C
 pub struct NamedSilhouette {
     /// Class name (the file stem).
     pub name: String,
+    /// The file it came from.
+    pub path: std::path::PathBuf,
+    /// A note when the file had to be converted to 8-bit gray.
+    pub note: Option<String>,
     /// The silhouette (part > 127).
     pub image: GrayImage,
 }
@@ -74,13 +78,15 @@ pub fn load_silhouettes(dir: &Path) -> Result<Vec<NamedSilhouette>, InputError> 
         .map(|p| {
             load_gray(p).map(|l| NamedSilhouette {
                 name: file_stem(p),
+                path: p.clone(),
+                note: l.note.map(|n| format!("{}: {n}", p.display())),
                 image: l.image,
             })
         })
         .collect()
 }
 
-/// Checks that a silhouette holds exactly one part, returning the number of pixels set.
+/// Checks that a silhouette holds exactly one part.
 ///
 /// # Errors
 /// No part, or several separate blobs (each at least 1% of the largest and 16 px²).

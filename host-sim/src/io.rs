@@ -54,11 +54,14 @@ pub fn load_gray(path: &Path) -> Result<LoadedImage, InputError> {
     }
     let format = image::guess_format(&bytes)
         .map_err(|_| InputError::new(path, "not a PNG, GIF or BMP image (unrecognised content)"))?;
+    let kind = format!("{format:?}").to_uppercase();
     let img = image::load_from_memory_with_format(&bytes, format).map_err(|e| {
         let what = match e {
-            image::ImageError::Decoding(_) => format!("corrupt or truncated {format:?} image ({e})"),
-            image::ImageError::Unsupported(_) => format!("unsupported {format:?} image ({e})"),
-            _ => format!("cannot decode {format:?} image ({e})"),
+            image::ImageError::Decoding(_) | image::ImageError::IoError(_) => {
+                format!("corrupt or truncated {kind} image ({e})")
+            }
+            image::ImageError::Unsupported(_) => format!("unsupported {kind} image ({e})"),
+            _ => format!("cannot decode {kind} image ({e})"),
         };
         InputError::new(path, what)
     })?;

@@ -30,6 +30,12 @@ impl FixtureSet {
     /// # Errors
     /// The folder, its background or its frames folder are missing.
     pub fn open(root: &Path) -> Result<Self, InputError> {
+        if root.is_file() {
+            return Err(InputError::new(
+                root,
+                "is a file, not a fixture set folder (for single frames use --background BG --templates DIR FRAME…)",
+            ));
+        }
         if !root.is_dir() {
             return Err(InputError::new(root, "not a fixture set folder (no such folder)"));
         }
@@ -75,14 +81,18 @@ impl FixtureSet {
     }
 }
 
-/// Loads background frames, all of one size.
+/// Loads background frames, all of one size (a conversion to 8-bit gray is noted on stderr).
 ///
 /// # Errors
 /// A file cannot be read or its size differs from the first's.
 pub fn load_background_frames<'a>(paths: impl IntoIterator<Item = &'a PathBuf>) -> Result<Vec<GrayImage>, InputError> {
     let mut out: Vec<GrayImage> = Vec::new();
     for p in paths {
-        let img = load_gray(p)?.image;
+        let loaded = load_gray(p)?;
+        if let Some(n) = &loaded.note {
+            eprintln!("note: {}: {n}", p.display());
+        }
+        let img = loaded.image;
         if let Some(first) = out.first() {
             if first.dimensions() != img.dimensions() {
                 return Err(InputError::new(

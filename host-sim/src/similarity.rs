@@ -81,8 +81,8 @@ pub struct Similarity {
     pub too_alike: Vec<(usize, usize, f32)>,
 }
 
-/// Describes every silhouette and fills the matrix in parallel; `progress` is called once per
-/// finished row.
+/// Checks that every silhouette holds one part, describes it and fills the matrix in parallel;
+/// `progress` is called once per finished row.
 ///
 /// # Errors
 /// The first silhouette that cannot be described, named.
@@ -93,7 +93,11 @@ pub fn similarity(
 ) -> Result<Similarity, String> {
     let described: Vec<Described> = silhouettes
         .par_iter()
-        .map(|s| describe_silhouette(&s.name, &s.image, params).map_err(|e| format!("{}: {e}", s.name)))
+        .map(|s| {
+            crate::engine::check_silhouette(&s.image)
+                .and_then(|_| describe_silhouette(&s.name, &s.image, params))
+                .map_err(|e| format!("{}: {e}", s.path.display()))
+        })
         .collect::<Result<_, _>>()?;
     let width = params.m - params.n + 1;
     let matrix: Vec<Vec<f32>> = described

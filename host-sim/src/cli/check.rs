@@ -43,7 +43,12 @@ pub fn run(args: CheckArgs) -> Result<ExitCode, String> {
         .load_templates()
         .map_err(|e| e.to_string())?
         .into_iter()
-        .map(|t| t.image)
+        .map(|t| {
+            if let Some(n) = &t.note {
+                eprintln!("note: {n}");
+            }
+            t.image
+        })
         .collect();
     let tol = Tolerances {
         pixels: if params.alpha < 1.0 { 8 } else { 0 },
@@ -59,9 +64,12 @@ pub fn run(args: CheckArgs) -> Result<ExitCode, String> {
     let mut failed = 0usize;
     for path in &set.frames {
         let name = file_name(path);
-        let res = load_gray(path)
-            .map_err(|e| e.to_string())
-            .and_then(|img| compare_frame(&name, &img.image, &backgrounds, &templates, &params, &tol, &mut out));
+        let res = load_gray(path).map_err(|e| e.to_string()).and_then(|img| {
+            if let Some(n) = &img.note {
+                bar.suspend(|| eprintln!("note: {}: {n}", path.display()));
+            }
+            compare_frame(&name, &img.image, &backgrounds, &templates, &params, &tol, &mut out)
+        });
         if let Err(e) = res {
             bar.suspend(|| eprintln!("error: {}: {e}", path.display()));
             failed += 1;

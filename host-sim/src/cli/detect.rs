@@ -44,8 +44,6 @@ pub struct Inputs {
     pub engine: Engine,
     /// The frames to run.
     pub frames: Vec<PathBuf>,
-    /// Notes (conversions) to print.
-    pub notes: Vec<String>,
 }
 
 /// Builds the engine from a set or from explicit files.
@@ -83,14 +81,16 @@ pub fn prepare(
         .or_else(|| templates.map(Path::to_path_buf))
         .unwrap_or_default();
     for t in &tpls {
+        if let Some(n) = &t.note {
+            eprintln!("note: {n}");
+        }
         engine
             .add_silhouette(&t.name, &t.image)
-            .map_err(|e| format!("{}: {e}", dir.join(format!("{}.png", t.name)).display()))?;
+            .map_err(|e| format!("{}: {e}", t.path.display()))?;
     }
     Ok(Inputs {
         engine,
         frames,
-        notes: Vec::new(),
     })
 }
 
@@ -192,14 +192,18 @@ pub fn run(args: DetectArgs) -> Result<ExitCode, String> {
     let mut out = FramesJson::default();
     let mut failed = 0usize;
     for path in inputs.frames.clone() {
-        let name = file_name(&path);
+        // Frames of the same file name from different folders keep their folder in the key.
+        let mut name = file_name(&path);
+        if out.frames.contains_key(&name) {
+            name = path.display().to_string();
+        }
         match run_frame(&mut inputs.engine, &path) {
             Ok((result, image, note)) => {
                 if let Some(n) = note {
                     eprintln!("note: {n}");
                 }
                 if let Some(dir) = &args.overlay {
-                    let target = dir.join(&name);
+                    let target = dir.join(name.replace(['/', '\\'], "_"));
                     let pic = crate::overlay::draw(&image, &result);
                     if let Err(e) = pic.save(&target) {
                         eprintln!("error: {}: cannot write overlay: {e}", target.display());

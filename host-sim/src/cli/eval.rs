@@ -93,6 +93,7 @@ pub fn evaluate(args: &EvalArgs) -> Result<EvalReport, String> {
                     let target = dir.join(&name);
                     if let Err(e) = crate::overlay::draw(&image, &result).save(&target) {
                         bar.suspend(|| eprintln!("error: {}: cannot write overlay: {e}", target.display()));
+                        failed += 1;
                     }
                 }
                 seconds += result.seconds;

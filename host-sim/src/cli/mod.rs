@@ -18,7 +18,15 @@ use clap::{Parser, Subcommand};
 /// Teach templates, replay recorded frames through the same core that runs on the camera,
 /// and measure it.
 #[derive(Debug, Parser)]
-#[command(name = "vorl", version, about, long_about = None, propagate_version = true)]
+#[command(
+    name = "vorl",
+    version,
+    about,
+    long_about = None,
+    propagate_version = true,
+    after_help = "Examples:\n  vorl gen out/plant --seed 7 --frames 20\n  vorl eval out/plant --overlay out/overlays\n  \
+        vorl detect out/plant --json > predictions.json\n  vorl check out/plant\n  vorl config --defaults > vorl.toml"
+)]
 pub struct Cli {
     /// The subcommand.
     #[command(subcommand)]

@@ -49,13 +49,16 @@ pub struct SimilarityArgs {
 pub fn run(args: SimilarityArgs) -> Result<ExitCode, String> {
     let params = args.params.params()?;
     let sils = load_silhouettes(&args.dir).map_err(|e| e.to_string())?;
+    for n in sils.iter().filter_map(|s| s.note.as_ref()) {
+        eprintln!("note: {n}");
+    }
     let bar = ProgressBar::new(sils.len() as u64);
     bar.set_style(
         ProgressStyle::with_template("similarity [{bar:30}] {pos}/{len} rows, {eta} left")
             .unwrap_or_else(|_| ProgressStyle::default_bar())
             .progress_chars("=> "),
     );
-    let sim = similarity(&sils, &params, &|| bar.inc(1)).map_err(|e| format!("{}/{e}", args.dir.display()))?;
+    let sim = similarity(&sils, &params, &|| bar.inc(1))?;
     bar.finish_and_clear();
     let text = match args.format {
         Format::Csv => sim.to_csv(),
