@@ -1,4 +1,5 @@
-//! Foreground mask: `|I' − B| > τ`, then a 3×3 opening and closing (paper sections 3.2–3.3).
+//! Foreground mask: `|I' − B| > τ`, then a 3×3 opening (and optionally closing) (paper sections
+//! 3.2–3.3).
 //!
 //! The mask is written into the caller's label plane (`width·height` bytes, one per pixel:
 //! 0 background, 1 foreground), which border following then labels in place. The threshold τ is
@@ -26,6 +27,19 @@ pub enum Threshold {
     Otsu,
 }
 
+/// The 3×3 clean-up of the mask.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Cleanup {
+    /// None.
+    Off,
+    /// An opening (erode, then dilate): removes specks and one-pixel bridges (default). It
+    /// keeps holes and gaps a few pixels wide that the blur leaves barely above τ.
+    Open,
+    /// An opening followed by a closing (dilate, then erode): also fills pinholes, and with them
+    /// holes and gaps narrower than about 3 px.
+    OpenClose,
+}
+
 /// What [`foreground_mask`] found.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct MaskStats {
@@ -38,7 +52,7 @@ pub struct MaskStats {
 /// Writes the foreground mask of `frame` against `background` into `labels` (0/1 per pixel).
 ///
 /// ```
-/// use vorl_core::{background::Background, enhance::Alpha, mask::{foreground_mask, Threshold}, Frame};
+/// use vorl_core::{background::Background, enhance::Alpha, mask::{foreground_mask, Cleanup, Threshold}, Frame};
 /// // A 3×3 bright block on a 7×7 platform.
 /// let bg_px = [50u8; 49];
 /// let mut frame_px = [50u8; 49];
@@ -48,7 +62,7 @@ pub struct MaskStats {
 /// bg.set_from_frame(&Frame::new_checked(&bg_px[..], 7, 7).unwrap(), a).unwrap();
 /// let mut labels = [0u8; 49];
 /// let frame = Frame::new_checked(&frame_px[..], 7, 7).unwrap();
-/// let stats = foreground_mask(&frame, &bg, a, Threshold::Fixed(30), true, &mut labels).unwrap();
+/// let stats = foreground_mask(&frame, &bg, a, Threshold::Fixed(30), Cleanup::OpenClose, &mut labels).unwrap();
 /// assert_eq!(stats.foreground, 9);
 /// assert_eq!(labels[3 * 7 + 3], 1);
 /// assert_eq!(labels[0], 0);
@@ -62,7 +76,7 @@ pub fn foreground_mask<B: AsRef<[u8]>, S: AsRef<[u8]> + AsMut<[u8]>>(
     background: &Background<S>,
     alpha: Alpha,
     threshold: Threshold,
-    cleanup: bool,
+    cleanup: Cleanup,
     labels: &mut [u8],
 ) -> Result<MaskStats> {
     if !background.is_ready() {
@@ -106,9 +120,11 @@ pub fn foreground_mask<B: AsRef<[u8]>, S: AsRef<[u8]> + AsMut<[u8]>>(
     for d in labels.iter_mut() {
         *d = (*d > tau) as u8;
     }
-    if cleanup {
+    if cleanup != Cleanup::Off {
         erode(labels, w, h);
         dilate(labels, w, h);
+    }
+    if cleanup == Cleanup::OpenClose {
         dilate(labels, w, h);
         erode(labels, w, h);
     }

@@ -4,7 +4,7 @@ use crate::contour::BorderFilter;
 use crate::descriptor::DescriptorParams;
 use crate::enhance::Alpha;
 use crate::error::{Error, Result};
-use crate::mask::Threshold;
+use crate::mask::{Cleanup, Threshold};
 use crate::resample::check_counts;
 
 /// Which rotation estimator fills [`crate::Detection::angle_deg`].
@@ -56,8 +56,8 @@ pub struct Params {
     pub alpha: f32,
     /// Foreground threshold on `|I' − B|`.
     pub threshold: Threshold,
-    /// 3×3 opening and closing of the mask.
-    pub cleanup: bool,
+    /// 3×3 clean-up of the mask.
+    pub cleanup: Cleanup,
     /// Fewest border points of a kept contour.
     pub min_points: usize,
     /// Smallest polygon area of a kept contour, px².
@@ -89,7 +89,7 @@ impl Params {
     pub const DEFAULT: Params = Params {
         alpha: 1.0,
         threshold: Threshold::Fixed(15),
-        cleanup: true,
+        cleanup: Cleanup::Open,
         min_points: 16,
         min_area: 64.0,
         n: 64,

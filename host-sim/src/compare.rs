@@ -11,7 +11,7 @@ use serde::Serialize;
 use vorl_core::background::Background;
 use vorl_core::contour::{trace_borders, BorderKind, ContourStore};
 use vorl_core::descriptor::describe;
-use vorl_core::mask::{foreground_mask, Threshold};
+use vorl_core::mask::{foreground_mask, Cleanup, Threshold};
 use vorl_core::matching::{match_with_assignment, table_cells};
 use vorl_core::pose::{angle_paper, angle_signed, area_centroid};
 use vorl_core::resample::resample;
@@ -95,7 +95,11 @@ pub fn ref_params(p: &Params) -> r::RefParams {
             Threshold::Fixed(t) => r::RefThreshold::Fixed(t),
             Threshold::Otsu => r::RefThreshold::Otsu,
         },
-        cleanup: p.cleanup,
+        cleanup: match p.cleanup {
+            Cleanup::Off => r::RefCleanup::Off,
+            Cleanup::Open => r::RefCleanup::Open,
+            Cleanup::OpenClose => r::RefCleanup::OpenClose,
+        },
         min_points: p.min_points,
         min_area: p.min_area as f64,
         n: p.n,

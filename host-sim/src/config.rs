@@ -1,7 +1,7 @@
 //! Pipeline parameters on the host: flags, a TOML file, and `vorl config --defaults`.
 
 use serde::{Deserialize, Serialize};
-use vorl_core::mask::Threshold;
+use vorl_core::mask::{Cleanup, Threshold};
 use vorl_core::{AngleEstimator, Params, Position, Refine};
 
 /// The parameters as they appear in a TOML config file. Every field is optional in the file;
@@ -13,8 +13,8 @@ pub struct Config {
     pub alpha: f32,
     /// Foreground threshold on |I' − B|: a number 0..255, or "otsu".
     pub threshold: ThresholdSetting,
-    /// 3×3 opening and closing of the foreground mask.
-    pub cleanup: bool,
+    /// 3×3 clean-up of the foreground mask: "off", "open" or "open-close".
+    pub cleanup: CleanupSetting,
     /// Fewest border points of a kept contour.
     pub min_points: usize,
     /// Smallest area of a kept contour, px².
@@ -40,6 +40,18 @@ pub struct Config {
     pub verify_threshold: f32,
     /// Position: "polygon" (the paper's border centroid), "partial-volume", or "pose".
     pub position: PositionSetting,
+}
+
+/// `cleanup` as written in a config file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum CleanupSetting {
+    /// None.
+    Off,
+    /// Opening.
+    Open,
+    /// Opening then closing.
+    OpenClose,
 }
 
 /// `refine` as written in a config file.
@@ -109,7 +121,11 @@ impl Config {
                 Threshold::Fixed(t) => ThresholdSetting::Fixed(t),
                 Threshold::Otsu => ThresholdSetting::Named(ThresholdName::Otsu),
             },
-            cleanup: p.cleanup,
+            cleanup: match p.cleanup {
+                Cleanup::Off => CleanupSetting::Off,
+                Cleanup::Open => CleanupSetting::Open,
+                Cleanup::OpenClose => CleanupSetting::OpenClose,
+            },
             min_points: p.min_points,
             min_area: p.min_area,
             n: p.n,
@@ -147,7 +163,11 @@ impl Config {
                 ThresholdSetting::Fixed(t) => Threshold::Fixed(t),
                 ThresholdSetting::Named(ThresholdName::Otsu) => Threshold::Otsu,
             },
-            cleanup: self.cleanup,
+            cleanup: match self.cleanup {
+                CleanupSetting::Off => Cleanup::Off,
+                CleanupSetting::Open => Cleanup::Open,
+                CleanupSetting::OpenClose => Cleanup::OpenClose,
+            },
             min_points: self.min_points,
             min_area: self.min_area,
             n: self.n,
@@ -203,8 +223,8 @@ impl Config {
              alpha = {:?}\n\
              # Foreground threshold on |I' − B|: 0..255, or \"otsu\" for Otsu's level per frame.\n\
              threshold = {}\n\
-             # 3×3 opening and closing of the foreground mask.\n\
-             cleanup = {}\n\
+             # 3×3 clean-up of the mask: \"off\", \"open\" (removes specks; keeps narrow holes), \"open-close\" (also fills pinholes and holes under ~3 px).\n\
+             cleanup = \"{}\"\n\
              # Fewest border points of a kept contour.\n\
              min_points = {}\n\
              # Smallest area of a kept contour, px².\n\
@@ -230,7 +250,7 @@ impl Config {
              verify_threshold = {:?}\n\
              # Position: \"polygon\" (the paper's border centroid), \"partial-volume\" (edge pixels by coverage), \"pose\" (template centroid through the aligned pose).\n\
              position = \"{}\"\n",
-            d.alpha, thr, d.cleanup, d.min_points, d.min_area, d.n, d.m, d.k, d.omega, d.epsilon, angle,
+            d.alpha, thr, setting_name(&d.cleanup), d.min_points, d.min_area, d.n, d.m, d.k, d.omega, d.epsilon, angle,
             setting_name(&d.refine), d.candidates, d.verify_threshold, setting_name(&d.position)
         )
     }

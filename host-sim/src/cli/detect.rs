@@ -15,7 +15,9 @@ use crate::truth::{FramesJson, PartJson};
     vorl detect examples/plant\n  \
     vorl detect examples/plant --json > predictions.json\n  \
     vorl detect examples/plant --overlay out/overlays\n  \
-    vorl detect --background bg.png --templates templates/ frame1.png frame2.png")]
+    vorl detect --background bg.png --templates templates/ frame1.png frame2.png\n  \
+    vorl detect stereo_set --json          (a set with camera.json: disparity, depth, position_mm)\n  \
+    vorl detect examples/plant --calibration cal.json --json   (adds \"robot\" coordinates)")]
 pub struct DetectArgs {
     /// A fixture set folder (background.png, templates/, frames/) — or, with --background and
     /// --templates, the frame files to run.
@@ -33,6 +35,9 @@ pub struct DetectArgs {
     /// Write an overlay PNG per frame into this folder.
     #[arg(long, value_name = "DIR")]
     pub overlay: Option<PathBuf>,
+    /// Camera-to-robot calibration from `vorl calibrate`: adds "robot" to each part.
+    #[arg(long, value_name = "FILE")]
+    pub calibration: Option<PathBuf>,
     /// Pipeline parameters.
     #[command(flatten)]
     pub params: ParamArgs,
@@ -76,10 +81,6 @@ pub fn prepare(
         }
     };
     engine.learn_background(&bgs)?;
-    let dir = set
-        .map(|s| s.join("templates"))
-        .or_else(|| templates.map(Path::to_path_buf))
-        .unwrap_or_default();
     for t in &tpls {
         if let Some(n) = &t.note {
             eprintln!("note: {n}");
@@ -176,6 +177,14 @@ pub fn run(args: DetectArgs) -> Result<ExitCode, String> {
         (None, [set]) => (Some(set.clone()), Vec::new()),
         (None, _) => return Err("give one SET folder, or --background BG --templates DIR and the frame files".into()),
     };
+    let calibration = args
+        .calibration
+        .as_deref()
+        .map(crate::cli::calibrate::Calibration::load)
+        .transpose()?;
+    if let Some(root) = set.as_deref().filter(|r| crate::stereo::is_stereo_set(r)) {
+        return crate::stereo::run_detect(&args, root, calibration.as_ref());
+    }
     let mut inputs = prepare(
         set.as_deref(),
         args.background.as_deref(),
@@ -213,10 +222,17 @@ pub fn run(args: DetectArgs) -> Result<ExitCode, String> {
                 for s in &result.skips {
                     eprintln!("note: {name}: border {} skipped: {}", s.contour, skip_text(s.reason));
                 }
+                let mut parts = to_json(&result);
+                if let Some(c) = &calibration {
+                    c.apply_all(&mut parts);
+                }
                 if !args.json {
                     print_human(&name, &result);
+                    for r in parts.iter().filter_map(|p| p.extra.get("robot")) {
+                        println!("    robot {r}");
+                    }
                 }
-                out.frames.insert(name, to_json(&result));
+                out.frames.insert(name, parts);
             }
             Err(e) => {
                 eprintln!("error: {e}");

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use vorl_core::Params;
 
-use crate::config::{AngleSetting, Config, PositionSetting, RefineSetting, ThresholdName, ThresholdSetting};
+use crate::config::{AngleSetting, CleanupSetting, Config, PositionSetting, RefineSetting, ThresholdName, ThresholdSetting};
 
 /// Pipeline parameters: a config file, then single flags on top.
 #[derive(Debug, Clone, Default, clap::Args)]
@@ -15,6 +15,9 @@ pub struct ParamArgs {
     /// Foreground threshold τ on |I' − B| (0..255) or "otsu".
     #[arg(long, value_name = "TAU|otsu")]
     pub threshold: Option<String>,
+    /// 3×3 clean-up of the mask.
+    #[arg(long, value_enum)]
+    pub cleanup: Option<CleanupSetting>,
     /// Intensity weight α of I' = α·I + (1−α)·|∇I|.
     #[arg(long)]
     pub alpha: Option<f32>,

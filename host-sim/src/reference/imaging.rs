@@ -5,7 +5,7 @@ use std::cmp::Ordering;
 
 use image::{GrayImage, Luma};
 
-use super::{RefError, RefThreshold};
+use super::{RefCleanup, RefError, RefThreshold};
 
 /// Edge-enhanced intensity `I'` of eq. 3.1 as fixed by §1.
 ///
@@ -202,7 +202,7 @@ pub fn foreground_mask(
     enhanced: &GrayImage,
     background: &GrayImage,
     threshold: RefThreshold,
-    cleanup: bool,
+    cleanup: RefCleanup,
 ) -> Result<GrayImage, RefError> {
     let d = difference(enhanced, background)?;
     let tau = match threshold {
@@ -211,10 +211,12 @@ pub fn foreground_mask(
     };
     let (w, h) = d.dimensions();
     let mut fg: Vec<bool> = d.as_raw().iter().map(|&v| v > tau).collect();
-    if cleanup {
-        let (wu, hu) = (w as usize, h as usize);
+    let (wu, hu) = (w as usize, h as usize);
+    if cleanup != RefCleanup::Off {
         fg = erode(&fg, wu, hu); // opening
         fg = dilate(&fg, wu, hu);
+    }
+    if cleanup == RefCleanup::OpenClose {
         fg = dilate(&fg, wu, hu); // closing
         fg = erode(&fg, wu, hu);
     }

@@ -139,6 +139,17 @@ pub enum RefThreshold {
     Otsu,
 }
 
+/// The 3×3 clean-up of §3: none, an opening, or an opening then a closing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RefCleanup {
+    /// No clean-up.
+    Off,
+    /// Erode, then dilate.
+    Open,
+    /// Erode, dilate, dilate, erode.
+    OpenClose,
+}
+
 /// Every parameter of the reference pipeline.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RefParams {
@@ -147,7 +158,7 @@ pub struct RefParams {
     /// Foreground threshold (§3).
     pub threshold: RefThreshold,
     /// Whether the 3×3 opening + closing clean-up runs (§3).
-    pub cleanup: bool,
+    pub cleanup: RefCleanup,
     /// A border is kept only with at least this many points (§4).
     pub min_points: usize,
     /// A border is kept only with at least this polygon area in px² (§4).
@@ -172,7 +183,7 @@ impl Default for RefParams {
         RefParams {
             alpha: 1.0,
             threshold: RefThreshold::Fixed(30),
-            cleanup: true,
+            cleanup: RefCleanup::Open,
             min_points: 16,
             min_area: 64.0,
             n: 64,
