@@ -138,6 +138,16 @@ impl<const P: usize, const C: usize> ContourStore<P, C> {
         }
     }
 
+    /// Index of the outer border of largest area, if any.
+    pub fn largest_outer(&self) -> Option<usize> {
+        self.contours
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| c.kind == BorderKind::Outer)
+            .max_by_key(|(_, c)| c.area2.unsigned_abs())
+            .map(|(i, _)| i)
+    }
+
     /// Kept hole borders whose parent is border `index`.
     pub fn holes_of(&self, index: usize) -> impl Iterator<Item = usize> + '_ {
         self.contours

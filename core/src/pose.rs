@@ -19,6 +19,24 @@
 use crate::contour::Point;
 use crate::math;
 
+/// The matched pairs as offsets from their centroids: `(v_i, v'_i)` for every part point whose
+/// template index is in range.
+fn pair_offsets<'a>(
+    part: &'a [[f32; 2]],
+    part_centroid: [f32; 2],
+    template: &'a [[f32; 2]],
+    template_centroid: [f32; 2],
+    assignment: &'a [u16],
+) -> impl Iterator<Item = ([f32; 2], [f32; 2])> + 'a {
+    part.iter().zip(assignment).filter_map(move |(p, &j)| {
+        let t = template.get(j as usize)?;
+        Some((
+            [p[0] - part_centroid[0], p[1] - part_centroid[1]],
+            [t[0] - template_centroid[0], t[1] - template_centroid[1]],
+        ))
+    })
+}
+
 /// The paper's unsigned rotation estimate in degrees, `[0, 180]` (eq. 6.4); `None` when no pair
 /// is usable.
 pub fn angle_paper(
@@ -30,10 +48,7 @@ pub fn angle_paper(
 ) -> Option<f32> {
     let mut sum = 0.0f32;
     let mut count = 0usize;
-    for (p, &j) in part.iter().zip(assignment) {
-        let Some(t) = template.get(j as usize) else { continue };
-        let (vx, vy) = (p[0] - part_centroid[0], p[1] - part_centroid[1]);
-        let (wx, wy) = (t[0] - template_centroid[0], t[1] - template_centroid[1]);
+    for ([vx, vy], [wx, wy]) in pair_offsets(part, part_centroid, template, template_centroid, assignment) {
         let den = math::hypot(vx, vy) * math::hypot(wx, wy);
         if den < 1e-12 {
             continue;
@@ -65,10 +80,7 @@ pub fn angle_signed(
 ) -> Option<f32> {
     let (mut cross, mut dot) = (0.0f32, 0.0f32);
     let mut count = 0usize;
-    for (p, &j) in part.iter().zip(assignment) {
-        let Some(t) = template.get(j as usize) else { continue };
-        let (vx, vy) = (p[0] - part_centroid[0], p[1] - part_centroid[1]);
-        let (wx, wy) = (t[0] - template_centroid[0], t[1] - template_centroid[1]);
+    for ([vx, vy], [wx, wy]) in pair_offsets(part, part_centroid, template, template_centroid, assignment) {
         cross += vx * wy - vy * wx;
         dot += vx * wx + vy * wy;
         count += 1;

@@ -30,7 +30,8 @@ use crate::math;
 use crate::params::{AngleEstimator, Params, Position, Refine};
 use crate::pose::{angle_paper, angle_signed_refined, area_centroid};
 use crate::refine::{
-    align, mean_distance_to_outline, partial_volume_centroid, Alignment, Difference, Pose, Rect, RefineParams,
+    align, mean_distance_to_outline, outward_normal, partial_volume_centroid, Alignment, Difference, Pose, Rect,
+    RefineParams,
 };
 use crate::resample::resample;
 use crate::template::Template;
@@ -488,27 +489,15 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
     /// The part's sub-pixel edge at each resampled point (NaN where none is found).
     fn part_edge<B: AsRef<[u8]>>(&mut self, n: usize, counter_clockwise: bool, diff: &Difference<'_, B>) {
         let params = RefineParams::DEFAULT;
+        let points = self.points.get(..n).unwrap_or(&[]);
         for k in 0..n {
-            let (Some(prev), Some(next), Some(p)) = (
-                self.points.get((k + n - 1) % n),
-                self.points.get((k + 1) % n),
-                self.points.get(k),
-            ) else {
-                continue;
-            };
-            let (tx, ty) = (next[0] - prev[0], next[1] - prev[1]);
-            let len = math::hypot(tx, ty);
-            let e = if len > 0.0 {
-                let nrm = if counter_clockwise {
-                    [-ty / len, tx / len]
-                } else {
-                    [ty / len, -tx / len]
-                };
-                diff.edge_offset(*p, nrm, &params)
-                    .map(|u| [p[0] + u * nrm[0], p[1] + u * nrm[1]])
-            } else {
-                None
-            };
+            let e = points
+                .get(k)
+                .zip(outward_normal(points, k, counter_clockwise))
+                .and_then(|(p, nrm)| {
+                    diff.edge_offset(*p, nrm, &params)
+                        .map(|u| [p[0] + u * nrm[0], p[1] + u * nrm[1]])
+                });
             if let Some(slot) = self.part_edges.get_mut(k) {
                 *slot = e.unwrap_or([f32::NAN; 2]);
             }

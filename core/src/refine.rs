@@ -66,6 +66,24 @@ impl Pose {
     }
 }
 
+/// The unit outward normal at point `k` of a closed outline (from its two neighbours), or
+/// `None` where they coincide. `counter_clockwise` is the outline's direction as seen on screen
+/// (a negative shoelace sum in image coordinates), which decides which side is out.
+pub fn outward_normal(points: &[[f32; 2]], k: usize, counter_clockwise: bool) -> Option<[f32; 2]> {
+    let n = points.len();
+    let (prev, next) = (points.get((k + n - 1) % n.max(1))?, points.get((k + 1) % n.max(1))?);
+    let (tx, ty) = (next[0] - prev[0], next[1] - prev[1]);
+    let len = math::hypot(tx, ty);
+    if !(len > 0.0) {
+        return None;
+    }
+    Some(if counter_clockwise {
+        [-ty / len, tx / len]
+    } else {
+        [ty / len, -tx / len]
+    })
+}
+
 /// Tuning of the alignment and verification.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RefineParams {
@@ -524,12 +542,18 @@ fn morph_bits(mask: &mut [u8], w: usize, r: Rect, src: u8, dst: u8, erode: bool)
         return;
     }
     for y in r.y0..r.y1 {
-        let Some(row) = mask.get_mut(y * w + r.x0..y * w + r.x1) else { continue };
+        let Some(row) = mask.get_mut(y * w + r.x0..y * w + r.x1) else {
+            continue;
+        };
         let mut prev = false; // outside r
         for x in 0..width {
             let cur = row.get(x).is_some_and(|v| v & src != 0);
             let next = x + 1 < width && row.get(x + 1).is_some_and(|v| v & src != 0);
-            let on = if erode { prev && cur && next } else { prev || cur || next };
+            let on = if erode {
+                prev && cur && next
+            } else {
+                prev || cur || next
+            };
             if let Some(v) = row.get_mut(x) {
                 *v = if on { *v | HORIZONTAL } else { *v & !HORIZONTAL };
             }

@@ -8,7 +8,7 @@
 //!
 //! Memory: `28·M + 40` bytes per template of capacity `M` (see `vorl budget`).
 
-use crate::contour::{trace_borders, BorderFilter, BorderKind, ContourStore, Point};
+use crate::contour::{trace_borders, BorderFilter, ContourStore, Point};
 use crate::descriptor::describe;
 use crate::error::{Error, Result};
 use crate::frame::Frame;
@@ -89,25 +89,10 @@ impl<const M: usize> Template<M> {
         let m = self.m;
         let ac = self.area_centroid;
         for k in 0..m {
-            let (Some(prev), Some(next), Some(p)) = (
-                self.points.get((k + m - 1) % m),
-                self.points.get((k + 1) % m),
-                self.points.get(k),
-            ) else {
-                continue;
-            };
-            let (tx, ty) = (next[0] - prev[0], next[1] - prev[1]);
-            let len = crate::math::hypot(tx, ty);
-            let n = if len > 0.0 {
-                if counter_clockwise_on_screen {
-                    [-ty / len, tx / len]
-                } else {
-                    [ty / len, -tx / len]
-                }
-            } else {
-                [0.0, 0.0]
-            };
-            let u = crossing(*p, n).unwrap_or(0.5);
+            let points = self.points.get(..m).unwrap_or(&[]);
+            let Some(p) = points.get(k).copied() else { continue };
+            let n = crate::refine::outward_normal(points, k, counter_clockwise_on_screen).unwrap_or([0.0, 0.0]);
+            let u = crossing(p, n).unwrap_or(0.5);
             if let (Some(e), Some(nn)) = (self.edge.get_mut(k), self.normals.get_mut(k)) {
                 *e = [p[0] + u * n[0] - ac[0], p[1] + u * n[1] - ac[1]];
                 *nn = n;
@@ -157,14 +142,7 @@ impl<const M: usize> Template<M> {
             min_area: 0.0,
         };
         trace_borders(labels, w, h, filter, store)?;
-        let best = store
-            .contours()
-            .iter()
-            .enumerate()
-            .filter(|(_, c)| c.kind == BorderKind::Outer)
-            .max_by_key(|(_, c)| c.area2.unsigned_abs())
-            .map(|(i, _)| i)
-            .ok_or(Error::NoPart)?;
+        let best = store.largest_outer().ok_or(Error::NoPart)?;
         let holes = store.holes_of(best).map(|i| store.points(i));
         let mut t = Self::from_border(store.points(best), holes, params)?;
         // The silhouette's edge: where the bilinear image crosses half level along each normal.

@@ -9,7 +9,7 @@
 use image::GrayImage;
 use rayon::prelude::*;
 use serde::Serialize;
-use vorl_core::contour::{trace_borders, BorderFilter, BorderKind, ContourStore};
+use vorl_core::contour::{trace_borders, BorderFilter, ContourStore};
 use vorl_core::descriptor::describe;
 use vorl_core::matching::best_cost;
 use vorl_core::resample::resample;
@@ -46,14 +46,7 @@ pub fn describe_silhouette(name: &str, img: &GrayImage, params: &Params) -> Resu
         &mut store,
     )
     .map_err(|e| e.to_string())?;
-    let best = store
-        .contours()
-        .iter()
-        .enumerate()
-        .filter(|(_, c)| c.kind == BorderKind::Outer)
-        .max_by_key(|(_, c)| c.area2.unsigned_abs())
-        .map(|(i, _)| i)
-        .ok_or("no part in the silhouette")?;
+    let best = store.largest_outer().ok_or("no part in the silhouette")?;
     let border = store.points(best);
     let mut pts = vec![[0.0f32; 2]; params.n];
     resample(border, &mut pts).map_err(|e| e.to_string())?;
