@@ -10,6 +10,12 @@
 //! - angle error: correctly classified known parts, taken modulo `360/symmetry` (symmetry 0 —
 //!   a round part — has no angle and is left out);
 //! - position error: every paired part not cut by the border.
+//! - stereo (truth with `disparity_px`): disparity error `|d − d_truth|` of the refined
+//!   disparity (`disparity_px`), of the paper's centroid disparity (`disparity_centroid_px`)
+//!   and of the border polygons' centroids (`disparity_polygon_px`), in px; depth error
+//!   `|z − z_truth|` in mm and in % of `z_truth`; parts without depth are counted. Predictions
+//!   found only in the right image (`"view": "right"`, positions in the right image) are not
+//!   paired with the truth (positions in the left image) and are counted apart.
 
 use serde::Serialize;
 
@@ -32,6 +38,11 @@ pub struct Spread {
 }
 
 impl Spread {
+    /// Whether it holds no value.
+    pub fn is_empty(&self) -> bool {
+        self.count == 0
+    }
+
     /// The spread of `values` (all zero when empty).
     pub fn of(values: &[f64]) -> Spread {
         let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
@@ -76,6 +87,27 @@ pub struct Scores {
     pub angle_paper: Spread,
     /// Position errors, px.
     pub position: Spread,
+    /// Stereo: error of the refined disparity (`disparity_px`), px.
+    #[serde(skip_serializing_if = "Spread::is_empty")]
+    pub disparity: Spread,
+    /// Stereo: error of the paper's centroid disparity (`disparity_centroid_px`), px.
+    #[serde(skip_serializing_if = "Spread::is_empty")]
+    pub disparity_centroid: Spread,
+    /// Stereo: error of the border polygons' centroid disparity (`disparity_polygon_px`), px.
+    #[serde(skip_serializing_if = "Spread::is_empty")]
+    pub disparity_polygon: Spread,
+    /// Stereo: depth error (`z_mm`), mm.
+    #[serde(skip_serializing_if = "Spread::is_empty")]
+    pub depth_mm: Spread,
+    /// Stereo: depth error in % of the true depth.
+    #[serde(skip_serializing_if = "Spread::is_empty")]
+    pub depth_pct: Spread,
+    /// Stereo: paired truth parts (not partial) whose prediction has no depth.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub stereo_without_depth: usize,
+    /// Stereo: predictions found only in the right image (not scored).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub right_only: usize,
     /// Confusions: (truth class, predicted class or "unknown", count).
     pub confusions: Vec<(String, String, usize)>,
 }
@@ -97,6 +129,10 @@ impl Scores {
     pub fn rejection(&self) -> f64 {
         ratio(self.unknown_rejected, self.unknown)
     }
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 fn ratio(a: usize, b: usize) -> f64 {
@@ -121,10 +157,21 @@ pub fn score(truth: &FramesJson, pred: &FramesJson) -> Scores {
     let mut angle = Vec::new();
     let mut angle_paper = Vec::new();
     let mut position = Vec::new();
+    let (mut disparity, mut disparity_centroid, mut disparity_polygon) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut depth_mm, mut depth_pct) = (Vec::new(), Vec::new());
     let mut confusions: std::collections::BTreeMap<(String, String), usize> = Default::default();
     let empty = Vec::new();
     for (name, truth_parts) in &truth.frames {
-        let preds = pred.frames.get(name).unwrap_or(&empty);
+        let all = pred.frames.get(name).unwrap_or(&empty);
+        let right_only = |p: &PartJson| p.extra.get("view").and_then(|v| v.as_str()) == Some("right");
+        s.right_only += all.iter().filter(|p| right_only(p)).count();
+        let kept: Vec<PartJson>;
+        let preds = if all.iter().any(right_only) {
+            kept = all.iter().filter(|p| !right_only(p)).cloned().collect();
+            &kept
+        } else {
+            all
+        };
         s.frames += 1;
         let pairs = pair(truth_parts, preds);
         // A prediction touching the frame's edge that pairs with nothing is a cut part whose
@@ -144,6 +191,25 @@ pub fn score(truth: &FramesJson, pred: &FramesJson) -> Scores {
             }
             s.detected += 1;
             position.push(((t.x - p.x).powi(2) + (t.y - p.y).powi(2)).sqrt());
+            let num = |part: &PartJson, k: &str| part.extra.get(k).and_then(|v| v.as_f64());
+            if let Some(d_true) = num(t, "disparity_px") {
+                for (key, list) in [
+                    ("disparity_px", &mut disparity),
+                    ("disparity_centroid_px", &mut disparity_centroid),
+                    ("disparity_polygon_px", &mut disparity_polygon),
+                ] {
+                    if let Some(d) = num(p, key) {
+                        list.push((d - d_true).abs());
+                    }
+                }
+                match (num(t, "z_mm"), num(p, "z_mm")) {
+                    (Some(z_true), Some(z)) => {
+                        depth_mm.push((z - z_true).abs());
+                        depth_pct.push(100.0 * (z - z_true).abs() / z_true);
+                    }
+                    _ => s.stereo_without_depth += 1,
+                }
+            }
             match &t.class {
                 Some(tc) => {
                     s.known += 1;
@@ -176,6 +242,11 @@ pub fn score(truth: &FramesJson, pred: &FramesJson) -> Scores {
     s.angle = Spread::of(&angle);
     s.angle_paper = Spread::of(&angle_paper);
     s.position = Spread::of(&position);
+    s.disparity = Spread::of(&disparity);
+    s.disparity_centroid = Spread::of(&disparity_centroid);
+    s.disparity_polygon = Spread::of(&disparity_polygon);
+    s.depth_mm = Spread::of(&depth_mm);
+    s.depth_pct = Spread::of(&depth_pct);
     s.confusions = confusions.into_iter().map(|((a, b), n)| (a, b, n)).collect();
     s
 }
@@ -226,6 +297,66 @@ mod tests {
         assert!((angle_error(359.0, 1.0, 1) - 2.0).abs() < 1e-12);
         assert!((angle_error(95.0, 5.0, 4) - 0.0).abs() < 1e-12);
         assert!((angle_error(50.0, 5.0, 4) - 45.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn stereo_errors_and_right_only_parts() {
+        let with = |mut p: PartJson, kv: &[(&str, serde_json::Value)]| {
+            for (k, v) in kv {
+                p.extra.insert(k.to_string(), v.clone());
+            }
+            p
+        };
+        let mut truth = FramesJson::default();
+        truth.frames.insert(
+            "f.png".into(),
+            vec![
+                with(
+                    part(Some("gear"), 10.0, 10.0, 0.0, Some(1)),
+                    &[("disparity_px", 60.0.into()), ("z_mm", 800.0.into())],
+                ),
+                with(
+                    part(None, 100.0, 100.0, 0.0, Some(1)),
+                    &[("disparity_px", 64.0.into()), ("z_mm", 750.0.into())],
+                ),
+            ],
+        );
+        let mut pred = FramesJson::default();
+        pred.frames.insert(
+            "f.png".into(),
+            vec![
+                with(
+                    part(Some("gear"), 10.0, 10.0, 0.0, None),
+                    &[
+                        ("disparity_px", 60.01.into()),
+                        ("disparity_centroid_px", 60.05.into()),
+                        ("z_mm", 799.8.into()),
+                    ],
+                ),
+                // Found in the left view only: no depth.
+                with(
+                    part(None, 100.0, 100.0, 0.0, None),
+                    &[("stereo", "left image only".into())],
+                ),
+                // Found in the right view only, right-image position near a truth part: not
+                // scored.
+                with(part(None, 10.0, 12.0, 0.0, None), &[("view", "right".into())]),
+            ],
+        );
+        let s = score(&truth, &pred);
+        assert_eq!((s.predictions, s.true_predictions, s.right_only), (2, 2, 1));
+        assert_eq!(
+            (s.disparity.count, s.disparity_centroid.count, s.depth_mm.count),
+            (1, 1, 1)
+        );
+        assert!((s.disparity.median - 0.01).abs() < 1e-9);
+        assert!((s.disparity_centroid.median - 0.05).abs() < 1e-9);
+        assert!((s.depth_mm.median - 0.2).abs() < 1e-9);
+        assert!((s.depth_pct.median - 0.025).abs() < 1e-9);
+        assert_eq!(s.stereo_without_depth, 1);
+        // Mono scores leave the stereo fields out of the JSON.
+        let mono = serde_json::to_value(score(&FramesJson::default(), &FramesJson::default())).unwrap();
+        assert!(mono.get("disparity").is_none() && mono.get("right_only").is_none());
     }
 
     #[test]

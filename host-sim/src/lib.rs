@@ -15,4 +15,5 @@ pub mod overlay;
 pub mod reference;
 pub mod set;
 pub mod similarity;
+pub mod stereo;
 pub mod truth;

@@ -54,6 +54,9 @@ pub struct EvalReport {
     pub classification: f64,
     /// Unknown-rejection rate.
     pub unknown_rejection: f64,
+    /// Problems with the set that are not one frame's (a stereo set's `camera.json`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub setup_errors: Vec<String>,
 }
 
 /// Runs detect over a set and scores it; per-frame errors are reported and counted.
@@ -61,6 +64,9 @@ pub struct EvalReport {
 /// # Errors
 /// The set, its truth, background or templates cannot be read.
 pub fn evaluate(args: &EvalArgs) -> Result<EvalReport, String> {
+    if crate::stereo::is_stereo_set(&args.set) {
+        return crate::stereo::evaluate(args);
+    }
     let set = FixtureSet::open(&args.set).map_err(|e| e.to_string())?;
     let truth_path = set.truth.clone().ok_or_else(|| {
         format!(
@@ -137,6 +143,7 @@ pub fn evaluate(args: &EvalArgs) -> Result<EvalReport, String> {
         classification: scores.classification(),
         unknown_rejection: scores.rejection(),
         scores,
+        setup_errors: Vec::new(),
     })
 }
 
@@ -151,7 +158,7 @@ pub fn run(args: EvalArgs) -> Result<ExitCode, String> {
     } else {
         print_table(&r);
     }
-    Ok(if r.failed_frames > 0 {
+    Ok(if r.failed_frames > 0 || !r.setup_errors.is_empty() {
         ExitCode::from(1)
     } else {
         ExitCode::SUCCESS
@@ -206,12 +213,45 @@ pub fn print_table(r: &EvalReport) {
         "  position error          median {:.3} px  p95 {:.3} px  max {:.3} px",
         s.position.median, s.position.p95, s.position.max
     );
+    if !s.disparity_centroid.is_empty() || !s.disparity.is_empty() {
+        println!(
+            "  stereo disparity error  ({} paired parts)",
+            s.disparity.count.max(s.disparity_centroid.count)
+        );
+        for (name, d) in [
+            ("polygon centroid", &s.disparity_polygon),
+            ("centroid (paper)", &s.disparity_centroid),
+            ("refined", &s.disparity),
+        ] {
+            if !d.is_empty() {
+                println!(
+                    "    {name:<21} median {:.4} px  p95 {:.4} px  max {:.4} px",
+                    d.median, d.p95, d.max
+                );
+            }
+        }
+        if !s.depth_mm.is_empty() {
+            println!(
+                "  depth error (refined)   median {:.3} mm ({:.4}%)  p95 {:.3} mm ({:.4}%)  max {:.3} mm",
+                s.depth_mm.median, s.depth_pct.median, s.depth_mm.p95, s.depth_pct.p95, s.depth_mm.max
+            );
+        }
+        if s.stereo_without_depth > 0 {
+            println!("  parts without depth     {}", s.stereo_without_depth);
+        }
+        if s.right_only > 0 {
+            println!("  right image only        {} (not scored)", s.right_only);
+        }
+    }
     println!(
         "  time                    {:.2} ms/frame (core, this machine)",
         r.ms_per_frame
     );
     if r.failed_frames > 0 {
         println!("  failed frames           {}", r.failed_frames);
+    }
+    for e in &r.setup_errors {
+        println!("  error                   {e}");
     }
     if !s.confusions.is_empty() {
         println!("  confusions (truth → predicted):");

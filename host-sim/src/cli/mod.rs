@@ -1,6 +1,7 @@
 //! The `vorl` command line: one module per subcommand.
 
 pub mod budget;
+pub mod calibrate;
 pub mod check;
 pub mod config;
 pub mod detect;
@@ -54,6 +55,8 @@ pub enum Command {
     Budget(budget::BudgetArgs),
     /// Print the pipeline parameters.
     Config(config::ConfigArgs),
+    /// Fit the camera-to-robot map from point pairs (homography or rigid) and write cal.json.
+    Calibrate(calibrate::CalibrateArgs),
 }
 
 /// Runs the parsed command; the exit code.
@@ -68,6 +71,7 @@ pub fn run(cli: Cli) -> std::process::ExitCode {
         Command::Templates(a) => templates::run(a),
         Command::Budget(a) => budget::run(a),
         Command::Config(a) => config::run(a),
+        Command::Calibrate(a) => calibrate::run(a),
     };
     match result {
         Ok(code) => code,
