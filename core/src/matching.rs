@@ -6,16 +6,74 @@
 //! `j(i) = (s + i + δ_i) mod m` with `0 = δ_0 ≤ δ_1 ≤ … ≤ δ_{n−1} ≤ m − n`. Contours have no
 //! natural first point, so the optimum is taken over **every** start `s` (DESIGN.md).
 //!
-//! For one start the recurrence is `D_i(δ) = c(i, s+i+δ) + min_{δ' ≤ δ} D_{i−1}(δ')`, one row of
-//! `m − n + 1` cells updated in place with a running minimum: `O(n·(m−n+1))` per start and
-//! `O(m·n·(m−n+1))` in all, the paper's cubic bound. Two exact savings:
-//! - **pruning**: costs are non-negative, so a row's minimum never decreases with `i`; once it
-//!   reaches the best total found so far (or a caller's bound, e.g. the best over other
-//!   templates), the start cannot win and is abandoned. The optimum is unchanged.
-//! - **backtracking on one table**: the search keeps one row; only the winning start is run again
-//!   with the full `n × (m−n+1)` table, from which the correspondence is read backwards.
+//! # One start
 //!
-//! Memory: the caller's table of `n·(m−n+1)` `f32` cells (the [`table_cells`] bound).
+//! For one start the recurrence is `D_i(δ) = c(i, s+i+δ) + min_{δ' ≤ δ} D_{i−1}(δ')`, one row of
+//! `w = m − n + 1` cells updated in place with a running minimum: `O(n·w)` per start and
+//! `O(m·n·w)` for all starts, the paper's cubic bound.
+//!
+//! # All starts: divide and conquer over the starts (Maes 1990)
+//!
+//! Unroll the template (column `k` holds template point `k mod m`, `0 ≤ k < 2m`). A start's
+//! assignment is then a *path* `k_0 < k_1 < … < k_{n−1}` with `k_i = s + i + δ_i`, `k_0 = s`
+//! and `k_{n−1} ≤ s + m − 1`; its cost is `Σ_i c(i, k_i)`, and `c(i, k)` depends on the cell
+//! only. Call `P ≤ Q` when `P_i ≤ Q_i` for every row.
+//!
+//! **Non-crossing lemma.** Let `P` be an optimal path of start `a` and `Q` one of start `b`,
+//! `a < b`. Then `min(P, Q)` and `max(P, Q)` (row by row) are again paths: both are strictly
+//! increasing (`min(P_i, Q_i) ≤ P_i < P_{i+1}` and `≤ Q_i < Q_{i+1}`, likewise for `max`);
+//! `min` starts at `min(a, b) = a` and ends at `≤ P_{n−1} ≤ a + m − 1`; `max` starts at `b` and
+//! ends at `≤ max(a + m − 1, b + m − 1) = b + m − 1`. Row by row they use the same two cells as
+//! `P` and `Q`, so `cost(min) + cost(max) = cost(P) + cost(Q)`; as `P` is optimal for `a`,
+//! `cost(min) ≥ cost(P)`, hence `cost(max) ≤ cost(Q)`: `max(P, Q)` is optimal for `b` and lies
+//! on or above `P`. In the same way, if `U` is an optimal path of a start `c > b` with
+//! `P ≤ U`, `min(max(P, Q), U)` is optimal for `b` and lies between `P` and `U`. So for every
+//! start strictly between two starts with optimal paths `L ≤ U` there is an optimal path inside
+//! the *band* `L ≤ · ≤ U`, and the DP restricted to the band finds the start's optimum.
+//!
+//! **The search.** The path of start 0 is computed on the whole row (`P_0`); `P_0 + m` is an
+//! optimal path of start `m`, the same contour point. The starts `(0, m)` are then split in
+//! halves: the middle start of an interval `(lo, hi)` is solved inside the band between the paths
+//! of `lo` and `hi`, and its path bounds the two halves. Each row of a band is an interval
+//! `[L_i, U_i]`, and at one depth of the recursion the bands of the intervals tile the
+//! unrolled template between `P_0` and `P_0 + m`, so a depth costs at most `n·(m + intervals)`
+//! cells and the search `O(n·m·log m)` cells instead of `O(n·m·(m − n + 1))` — and never more
+//! than `n·w` cells per start.
+//!
+//! **Exact pruning.** Costs are non-negative, so a lower bound on what a start, or a whole
+//! interval of starts, can still reach ends its search once it is not below the best total so
+//! far (or the caller's `bound`, e.g. the best over other templates); the optimum is unchanged:
+//! - a start's row minimum never decreases with `i`. A start whose row minimum reaches the best
+//!   cannot win and is abandoned. Its path is then unknown, so the two halves of its interval
+//!   keep the interval's own bounding paths, which are still valid bounds (the lemma only needs
+//!   *some* optimal paths of starts on either side).
+//! - an interval `(lo, hi)` first gets a *relaxed* DP over its band: paths may begin at any
+//!   start in `(lo, hi)` and end anywhere up to `hi − 1 + m − 1`. Every start of the interval has
+//!   an optimal path among these, so the relaxed optimum is a lower bound for all of them; when
+//!   it (or its running row minimum) is not below the best, the whole interval is dropped. The
+//!   two halves of an interval are visited lower bound first.
+//!
+//! **Backtracking without a table.** While a row is updated, the positions where the running
+//! minimum of the previous row strictly decreases are recorded as bits (16 per `f32` cell, kept
+//! as exact small integers): the first minimum of `D_{i−1}` up to `δ_i` is the last set bit at or
+//! below `δ_i`. A start's path is read back from its `n·⌈w/16⌉` bits, so the winning start's
+//! correspondence needs no second DP.
+//!
+//! **Rounding.** The lemma holds in exact arithmetic. The DP itself is exact in `f32` — a
+//! rounded sum is monotone in each term, so every DP returns the least rounded path total in
+//! its region — but two paths whose exact totals tie may round differently, so the band of a
+//! start can, in such a near tie, miss a path that rounds a few units in the last place
+//! lower. The optimum is then the same up to that rounding (on costs whose sums are exact, e.g.
+//! multiples of a power of two, it is identical).
+//!
+//! # Memory
+//!
+//! Everything lives in the caller's `f32` buffer: [`search_cells`]`(n, m)` cells (the doubled
+//! template `2m`, a row of `m + w`, `1 + ⌈log2 m⌉` paths of `n` cells and `n·⌈w/16⌉` bit
+//! cells), which is at most [`table_cells`]`(n, m) = n·w` unless `m − n` is below about
+//! `log2 m + 4`. With fewer cells (at least `w`) the plain per-start DP with row-minimum pruning
+//! is used, and [`match_with_assignment`] then refills the table for the winning start to
+//! backtrack; the optimum is the same either way.
 
 use crate::error::{Error, Result};
 use crate::resample::check_counts;
@@ -27,6 +85,37 @@ pub const fn table_cells(n: usize, m: usize) -> usize {
     } else {
         n * (m - n + 1)
     }
+}
+
+/// Bits of the backtracking record kept in one `f32` cell (as an exact integer).
+const BITS_PER_CELL: usize = 16;
+
+/// `⌈log2 m⌉` (0 for `m ≤ 1`).
+const fn ceil_log2(m: usize) -> usize {
+    if m <= 1 {
+        0
+    } else {
+        (usize::BITS - (m - 1).leading_zeros()) as usize
+    }
+}
+
+/// Cells the divide-and-conquer search over all starts needs (see the module docs):
+/// `3m + w + (1 + ⌈log2 m⌉)·n + n·⌈w/16⌉` with `w = m − n + 1`, or 0 when `m < n`.
+///
+/// [`best_cost`] and [`match_with_assignment`] use the search whenever their buffer holds this
+/// many cells; it is at most [`table_cells`]`(n, m)` unless `m − n` is small (then the plain
+/// per-start DP, cheap for a narrow row, is used).
+pub const fn search_cells(n: usize, m: usize) -> usize {
+    if m < n {
+        return 0;
+    }
+    let w = m - n + 1;
+    let paths = (1 + ceil_log2(m)).saturating_mul(n);
+    let bits = n.saturating_mul(w.div_ceil(BITS_PER_CELL));
+    m.saturating_mul(3)
+        .saturating_add(w)
+        .saturating_add(paths)
+        .saturating_add(bits)
 }
 
 /// The optimal cyclic match.
@@ -42,7 +131,9 @@ pub struct Match {
 
 /// The minimal cost over all starts, or `None` when no start beats `bound` (exclusive).
 ///
-/// `row` needs `m − n + 1` cells. Use [`match_with_assignment`] for the correspondence.
+/// `row` needs `m − n + 1` cells; with [`search_cells`]`(n, m)` cells (at most
+/// [`table_cells`]`(n, m)` for all but nearly equal `n` and `m`) the faster divide-and-conquer
+/// search is used. Use [`match_with_assignment`] for the correspondence.
 ///
 /// # Errors
 /// [`Error::PointCounts`] when `n ≤ m < 2n` fails, [`Error::BufferTooSmall`] for `row`.
@@ -56,10 +147,21 @@ pub fn best_cost(part: &[f32], template: &[f32], bound: f32, row: &mut [f32]) ->
             got: row.len(),
         });
     }
-    let row = &mut row[..width];
+    if let Some(found) = search(part, template, bound, row, &mut []) {
+        return Ok(found);
+    }
+    Ok(plain_best_cost(part, template, bound, row))
+}
+
+/// The plain search: every start in turn on one row of `m − n + 1` cells, with row-minimum
+/// pruning.
+fn plain_best_cost(part: &[f32], template: &[f32], bound: f32, row: &mut [f32]) -> Option<Match> {
+    let n = part.len();
+    let width = (template.len() + 1).saturating_sub(n);
+    let row = row.get_mut(..width)?;
     let mut best = bound;
     let mut best_start = None;
-    for s in 0..m {
+    for s in 0..template.len() {
         if let Some(total) = run_start(part, template, s, best, row) {
             if total < best {
                 best = total;
@@ -67,11 +169,11 @@ pub fn best_cost(part: &[f32], template: &[f32], bound: f32, row: &mut [f32]) ->
             }
         }
     }
-    Ok(best_start.map(|start| Match {
+    best_start.map(|start| Match {
         cost: best,
         normalized: best / n as f32,
         start,
-    }))
+    })
 }
 
 /// One start's DP with a single row; `None` when pruned by `bound`.
@@ -108,12 +210,23 @@ fn dp_row(row: &mut [f32], template: &[f32], j0: usize, ci: f32) -> f32 {
     let mut running = f32::INFINITY;
     let mut row_min = f32::INFINITY;
     for (cell, &t) in row.iter_mut().zip(head.iter().chain(tail)) {
-        running = running.min(*cell);
+        running = lesser(running, *cell);
         let v = (ci - t).abs() + running;
         *cell = v;
-        row_min = row_min.min(v);
+        row_min = lesser(row_min, v);
     }
     row_min
+}
+
+/// `min(acc, v)` for an accumulator that is never NaN, in one comparison (a NaN `v` is ignored,
+/// as by `f32::min`, which costs a NaN test in the loop-carried chain).
+#[inline(always)]
+fn lesser(acc: f32, v: f32) -> f32 {
+    if v < acc {
+        v
+    } else {
+        acc
+    }
 }
 
 /// The optimal match and its correspondence: `assignment[i] = j(i)` for every part point.
@@ -151,23 +264,24 @@ pub fn match_with_assignment(
             got: table.len(),
         });
     }
-    if assignment.len() < n {
+    let Some(assignment) = assignment.get_mut(..n) else {
         return Err(Error::BufferTooSmall {
             needed: n,
             got: assignment.len(),
         });
-    }
-    let best = {
-        let row = table.get_mut(..width).unwrap_or(&mut []);
-        best_cost(part, template, f32::INFINITY, row)?
     };
-    let Some(best) = best else {
-        return Err(Error::DegenerateContour { points: n });
+    let best = match search(part, template, f32::INFINITY, table, assignment) {
+        Some(found) => found,
+        None => {
+            let best = plain_best_cost(part, template, f32::INFINITY, table);
+            if let (Some(b), Some(table)) = (best, table.get_mut(..cells)) {
+                fill_table(part, template, b.start, table, width);
+                backtrack(table, width, n, m, b.start, assignment);
+            }
+            best
+        }
     };
-    let s = best.start;
-    fill_table(part, template, s, &mut table[..cells], width);
-    backtrack(&table[..cells], width, n, m, s, assignment);
-    Ok(best)
+    best.ok_or(Error::DegenerateContour { points: n })
 }
 
 /// The full table of one start: row `i` holds `D_i(δ)`.
@@ -214,5 +328,709 @@ fn backtrack(table: &[f32], width: usize, n: usize, m: usize, s: usize, assignme
         if let Some(a) = assignment.get_mut(i) {
             *a = ((s + i + delta) % m) as u16;
         }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Divide and conquer over the starts.
+// ---------------------------------------------------------------------------------------------
+
+/// A known optimal path bounding a band: row `i` lies at `d_i = start + δ_i` (`d = k − i`, the
+/// unrolled column minus the row), `δ_i` stored in path slot `slot`.
+#[derive(Debug, Clone, Copy)]
+struct Edge {
+    start: usize,
+    slot: usize,
+}
+
+/// The state of one divide-and-conquer search.
+struct Search<'a> {
+    part: &'a [f32],
+    /// The template twice over: `t2[k] = template[k mod m]` for `k < 2m`.
+    t2: &'a [f32],
+    /// The DP row (`m + w` cells); after a start's DP, its path `δ_0 … δ_{n−1}`.
+    row: &'a mut [f32],
+    /// `1 + ⌈log2 m⌉` path slots of `n` cells (`δ_i` as exact integers): slot 0 for start 0,
+    /// slot `1 + depth` for the middle start of the interval being split at that depth.
+    paths: &'a mut [f32],
+    /// Backtracking bits of the current start: `chunks` cells per row.
+    bits: &'a mut [f32],
+    /// The caller's correspondence (empty when not wanted).
+    out: &'a mut [u16],
+    n: usize,
+    m: usize,
+    w: usize,
+    chunks: usize,
+    /// The best total so far (initially the caller's bound).
+    best: f32,
+    best_start: Option<usize>,
+    /// Cells visited (for the tests' work bounds).
+    cells: usize,
+}
+
+/// Runs the divide-and-conquer search in `scratch`; `None` when `scratch` is too small (the
+/// caller then runs the plain DP). `Some(None)`: nothing beats `bound`. When `out` has `n`
+/// entries it receives the winning correspondence.
+fn search(part: &[f32], template: &[f32], bound: f32, scratch: &mut [f32], out: &mut [u16]) -> Option<Option<Match>> {
+    search_counted(part, template, bound, scratch, out).map(|(found, _)| found)
+}
+
+/// [`search`], also returning the number of cells visited.
+fn search_counted(
+    part: &[f32],
+    template: &[f32],
+    bound: f32,
+    scratch: &mut [f32],
+    out: &mut [u16],
+) -> Option<(Option<Match>, usize)> {
+    let (n, m) = (part.len(), template.len());
+    if n == 0 || m < n || scratch.len() < search_cells(n, m) {
+        return None;
+    }
+    let w = m - n + 1;
+    let chunks = w.div_ceil(BITS_PER_CELL);
+    let slots = 1 + ceil_log2(m);
+    let (t2, rest) = scratch.split_at_mut(2 * m);
+    let (row, rest) = rest.split_at_mut(m + w);
+    let (paths, rest) = rest.split_at_mut(slots * n);
+    let bits = rest.get_mut(..n * chunks)?;
+    let (first, second) = t2.split_at_mut(m);
+    first.copy_from_slice(template);
+    second.copy_from_slice(template);
+    let mut st = Search {
+        part,
+        t2,
+        row,
+        paths,
+        bits,
+        out,
+        n,
+        m,
+        w,
+        chunks,
+        best: bound,
+        best_start: None,
+        cells: 0,
+    };
+    st.run();
+    let found = st.best_start.map(|start| Match {
+        cost: st.best,
+        normalized: st.best / n as f32,
+        start,
+    });
+    Some((found, st.cells))
+}
+
+impl Search<'_> {
+    /// The whole search.
+    fn run(&mut self) {
+        let m = self.m;
+        // Under a finite bound, first the relaxed DP of all starts: often none can beat it.
+        if self.best < f32::INFINITY && self.relaxed(0, m - 1, None, None) >= self.best {
+            return;
+        }
+        // Start 0 on whole rows: its path bounds every band, from below and (shifted by `m`, the
+        // same start) from above.
+        self.solve_start(0, None, None, Some(0), false);
+        if m >= 2 {
+            let lower = Edge { start: 0, slot: 0 };
+            let upper = Edge { start: m, slot: 0 };
+            self.solve(0, m, Some(lower), Some(upper), 0);
+        }
+    }
+
+    /// Row `i` of path `e` in `d` coordinates.
+    #[inline]
+    fn edge(&self, e: Edge, i: usize) -> Option<usize> {
+        self.paths.get(e.slot * self.n + i).map(|&v| e.start + v as usize)
+    }
+
+    /// The band of start `s` in row `i`, as `δ` (relative to `s`) bounds; whole rows where an
+    /// edge is `None`.
+    #[inline]
+    fn band(&self, s: usize, lower: Option<Edge>, upper: Option<Edge>, i: usize) -> (usize, usize) {
+        if i == 0 {
+            return (0, 0);
+        }
+        let top = self.w - 1;
+        let a = lower
+            .and_then(|e| self.edge(e, i))
+            .map_or(0, |d| d.saturating_sub(s))
+            .min(top);
+        let b = upper
+            .and_then(|e| self.edge(e, i))
+            .map_or(top, |d| d.saturating_sub(s).min(top));
+        (a, b.max(a))
+    }
+
+    /// Solves the starts strictly between `lo` and `hi` (`hi − lo ≥ 2`) inside the band of
+    /// `lower` and `upper`.
+    fn solve(&mut self, lo: usize, hi: usize, lower: Option<Edge>, upper: Option<Edge>, depth: usize) {
+        let mid = lo + (hi - lo) / 2;
+        let slot = depth + 1;
+        // The middle start runs to the end (its path bounds the halves) unless it is alone.
+        let alone = hi - lo <= 2;
+        let keep = (!alone && slot * self.n < self.paths.len()).then_some(slot);
+        let done = self.solve_start(mid, lower, upper, keep, alone);
+        if alone {
+            return;
+        }
+        // Without the path (no slot left: not reached for `m` of the sizes the docs give) the
+        // halves keep the interval's own edges.
+        let me = if done {
+            keep.map(|slot| Edge { start: mid, slot })
+        } else {
+            None
+        };
+        let left = (lo, mid, lower, me.or(upper));
+        let right = (mid, hi, me.or(lower), upper);
+        let lb_left = self.interval_bound(left.0, left.1, left.2, left.3);
+        let lb_right = self.interval_bound(right.0, right.1, right.2, right.3);
+        let order = if lb_right < lb_left {
+            [(right, lb_right), (left, lb_left)]
+        } else {
+            [(left, lb_left), (right, lb_right)]
+        };
+        for ((l, h, a, b), lb) in order {
+            if h - l >= 2 && lb < self.best {
+                self.solve(l, h, a, b, depth + 1);
+            }
+        }
+    }
+
+    /// A lower bound on the optimum of every start in `(lo, hi)` ([`Self::relaxed`]); `+∞`
+    /// without a start, `−∞` for a single start (solved directly).
+    fn interval_bound(&mut self, lo: usize, hi: usize, lower: Option<Edge>, upper: Option<Edge>) -> f32 {
+        match hi - lo {
+            0 | 1 => f32::INFINITY,
+            2 => f32::NEG_INFINITY,
+            _ => self.relaxed(lo + 1, hi - 1, lower, upper),
+        }
+    }
+
+    /// The relaxed band DP of the starts `first ..= last`: a path may begin at any of them and
+    /// end anywhere up to `d = last + w − 1`. Every start's optimal path in the band is one of
+    /// these, so the result is a lower bound on their optima; `+∞` once its row minimum reaches
+    /// the best so far (none of them can win).
+    fn relaxed(&mut self, first: usize, last: usize, lower: Option<Edge>, upper: Option<Edge>) -> f32 {
+        let (n, w) = (self.n, self.w);
+        let end = last + w - 1;
+        // Band of row `i ≥ 1` relative to `first` (row 0 is `[0, last − first]`).
+        let band = |st: &Self, i: usize| -> (usize, usize) {
+            let a = lower.and_then(|e| st.edge(e, i)).map_or(first, |d| d.max(first));
+            let b = upper.and_then(|e| st.edge(e, i)).map_or(end, |d| d.min(end));
+            (a - first, b.max(a) - first)
+        };
+        let b0 = last - first;
+        let c0 = self.part.first().copied().unwrap_or(0.0);
+        let mut row_min = f32::INFINITY;
+        if let (Some(cells), Some(ts)) = (self.row.get_mut(..=b0), self.t2.get(first..=first + b0)) {
+            for (cell, &t) in cells.iter_mut().zip(ts) {
+                let v = (c0 - t).abs();
+                *cell = v;
+                row_min = lesser(row_min, v);
+            }
+        }
+        self.cells += b0 + 1;
+        if row_min >= self.best {
+            return f32::INFINITY;
+        }
+        let (mut pa, mut pb) = (0, b0);
+        for i in 1..n {
+            let (a, b) = band(self, i);
+            let ci = self.part.get(i).copied().unwrap_or(0.0);
+            let t = self.t2.get(first + i..).unwrap_or(&[]);
+            let row_min = step::<false>(self.row, t, ci, pa, pb, a, b, &mut []);
+            self.cells += (b + 1).saturating_sub(pa);
+            if row_min >= self.best {
+                return f32::INFINITY;
+            }
+            (pa, pb) = (a, b);
+        }
+        self.row
+            .get(pa..=pb)
+            .map_or(f32::INFINITY, |r| r.iter().copied().fold(f32::INFINITY, lesser))
+    }
+
+    /// Start `s`'s DP inside the band: records the path in slot `keep`, and the winner when it
+    /// beats the best so far. Returns whether the path is in `keep`. With `abandon` the DP stops
+    /// once its row minimum reaches the best so far.
+    fn solve_start(
+        &mut self,
+        s: usize,
+        lower: Option<Edge>,
+        upper: Option<Edge>,
+        keep: Option<usize>,
+        abandon: bool,
+    ) -> bool {
+        let (n, chunks) = (self.n, self.chunks);
+        let c0 = match (self.part.first(), self.t2.get(s)) {
+            (Some(&p), Some(&t)) => (p - t).abs(),
+            _ => return false,
+        };
+        if let Some(cell) = self.row.first_mut() {
+            *cell = c0;
+        }
+        self.cells += 1;
+        if abandon && c0 >= self.best {
+            return false;
+        }
+        let (mut pa, mut pb) = (0, 0);
+        for i in 1..n {
+            let (a, b) = self.band(s, lower, upper, i);
+            let ci = self.part.get(i).copied().unwrap_or(0.0);
+            let t = self.t2.get(s + i..).unwrap_or(&[]);
+            let bits = self.bits.get_mut(i * chunks..(i + 1) * chunks).unwrap_or(&mut []);
+            let row_min = step::<true>(self.row, t, ci, pa, pb, a, b, bits);
+            self.cells += (b + 1).saturating_sub(pa);
+            if abandon && row_min >= self.best {
+                return false;
+            }
+            (pa, pb) = (a, b);
+        }
+        // The first minimum of the last row's band.
+        let mut total = f32::INFINITY;
+        let mut end = pa;
+        if let Some(cells) = self.row.get(pa..=pb) {
+            for (d, &v) in cells.iter().enumerate() {
+                if v < total {
+                    total = v;
+                    end = pa + d;
+                }
+            }
+        }
+        let wins = total < self.best;
+        if wins {
+            self.best = total;
+            self.best_start = Some(s);
+        }
+        let report = wins && !self.out.is_empty();
+        if keep.is_none() && !report {
+            return false;
+        }
+        self.read_path(s, lower, upper, end);
+        if let Some(slot) = keep {
+            if let (Some(dst), Some(src)) = (self.paths.get_mut(slot * n..(slot + 1) * n), self.row.get(..n)) {
+                dst.copy_from_slice(src);
+            }
+        }
+        if report {
+            let m = self.m;
+            for (i, (o, &d)) in self.out.iter_mut().zip(self.row.iter()).enumerate() {
+                *o = ((s + i + d as usize) % m) as u16;
+            }
+        }
+        keep.is_some()
+    }
+
+    /// Backtracks start `s`'s path from `δ_{n−1} = end` through the bits into `row[..n]`.
+    fn read_path(&mut self, s: usize, lower: Option<Edge>, upper: Option<Edge>, end: usize) {
+        let (n, chunks) = (self.n, self.chunks);
+        let mut d = end;
+        if let Some(cell) = self.row.get_mut(n - 1) {
+            *cell = d as f32;
+        }
+        for i in (1..n).rev() {
+            // δ_{i−1}: the first minimum of row i − 1 up to δ_i, within that row's band.
+            let (pa, pb) = self.band(s, lower, upper, i - 1);
+            let bits = self.bits.get(i * chunks..(i + 1) * chunks).unwrap_or(&[]);
+            d = last_bit(bits, d.min(pb), pa);
+            if let Some(cell) = self.row.get_mut(i - 1) {
+                *cell = d as f32;
+            }
+        }
+    }
+}
+
+/// The last set bit at a position in `[floor, at]` (`floor` when there is none).
+fn last_bit(bits: &[f32], at: usize, floor: usize) -> usize {
+    if at < floor {
+        return floor;
+    }
+    let mut chunk = at / BITS_PER_CELL;
+    let mut mask = u32::MAX >> (31 - (at % BITS_PER_CELL) as u32);
+    loop {
+        let word = bits.get(chunk).map_or(0, |&v| v as u32) & mask;
+        if word != 0 {
+            let pos = chunk * BITS_PER_CELL + (31 - word.leading_zeros()) as usize;
+            return pos.max(floor);
+        }
+        if chunk == 0 || chunk * BITS_PER_CELL <= floor {
+            return floor;
+        }
+        chunk -= 1;
+        mask = u32::MAX;
+    }
+}
+
+/// One in-place band row: the previous row's band is `[pa, pb]`, the new one `[a, b]`
+/// (`pa ≤ a ≤ b`), `t[x]` the template value of cell `x`. Returns the new band's minimum.
+/// With `BITS`, bit `x` of `bits` is set where the running minimum of the previous row strictly
+/// decreases (for `x` in `[pa, min(pb, b)]`; the chunks covering them are overwritten).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn step<const BITS: bool>(
+    row: &mut [f32],
+    t: &[f32],
+    ci: f32,
+    pa: usize,
+    pb: usize,
+    a: usize,
+    b: usize,
+    bits: &mut [f32],
+) -> f32 {
+    let e = pb.min(b);
+    let mut running = f32::INFINITY;
+    let mut row_min = f32::INFINITY;
+    // Cells of the previous band: the running minimum. Cells below `a` are written too (they
+    // lie outside the new band and are never read again) but not counted in the minimum.
+    let mut from = pa;
+    while from <= e {
+        let to = if BITS {
+            (from / BITS_PER_CELL * BITS_PER_CELL + BITS_PER_CELL - 1).min(e)
+        } else {
+            e
+        };
+        let mut word = 0u32;
+        if let (Some(cells), Some(ts)) = (row.get_mut(from..=to), t.get(from..=to)) {
+            for (x, (cell, &tv)) in (from..).zip(cells.iter_mut().zip(ts)) {
+                let p = *cell;
+                let lower = p < running;
+                if BITS {
+                    word |= u32::from(lower) << (x % BITS_PER_CELL);
+                }
+                running = if lower { p } else { running };
+                let v = (ci - tv).abs() + running;
+                *cell = v;
+                row_min = if x >= a { lesser(row_min, v) } else { row_min };
+            }
+        }
+        if BITS {
+            if let Some(cell) = bits.get_mut(from / BITS_PER_CELL) {
+                *cell = word as f32;
+            }
+        }
+        from = to + 1;
+    }
+    // Cells past the previous band: the running minimum is final.
+    let from = a.max(e + 1);
+    if from <= b {
+        if let (Some(cells), Some(ts)) = (row.get_mut(from..=b), t.get(from..=b)) {
+            for (cell, &tv) in cells.iter_mut().zip(ts) {
+                let v = (ci - tv).abs() + running;
+                *cell = v;
+                row_min = lesser(row_min, v);
+            }
+        }
+    }
+    row_min
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::descriptor::{describe, scaled_k, DescriptorParams};
+    extern crate std;
+    use std::vec;
+    use std::vec::Vec;
+
+    /// The straightforward DP: every start on its whole row, no pruning.
+    fn reference(part: &[f32], template: &[f32]) -> f32 {
+        let (n, m) = (part.len(), template.len());
+        let w = m - n + 1;
+        let mut best = f32::INFINITY;
+        for s in 0..m {
+            let mut row = vec![f32::INFINITY; w];
+            row[0] = (part[0] - template[s]).abs();
+            for i in 1..n {
+                let mut running = f32::INFINITY;
+                for d in 0..w {
+                    running = running.min(row[d]);
+                    row[d] = (part[i] - template[(s + i + d) % m]).abs() + running;
+                }
+            }
+            best = best.min(row.iter().copied().fold(f32::INFINITY, f32::min));
+        }
+        best
+    }
+
+    struct Rng(u64);
+    impl Rng {
+        fn next(&mut self) -> u64 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            self.0
+        }
+    }
+
+    /// Kinds of input: continuous values, a coarse grid (many ties, exact sums), constants.
+    fn values(rng: &mut Rng, count: usize, kind: u64) -> Vec<f32> {
+        (0..count)
+            .map(|_| match kind {
+                0 => (rng.next() % 1_000_000) as f32 / 250_000.0,
+                1 => (rng.next() % 4) as f32 * 0.5,
+                _ => 1.25,
+            })
+            .collect()
+    }
+
+    /// The assignment is cyclic order-preserving, injective, and costs `cost` exactly.
+    fn check_assignment(part: &[f32], template: &[f32], asg: &[u16], cost: f32) {
+        let m = template.len();
+        let j0 = asg[0] as usize;
+        let offs: Vec<usize> = asg.iter().map(|&j| (j as usize + m - j0) % m).collect();
+        assert!(offs.windows(2).all(|w| w[0] < w[1]), "order: {asg:?}");
+        let total = part
+            .iter()
+            .zip(asg)
+            .fold(0.0f32, |acc, (p, &j)| acc + (p - template[j as usize]).abs());
+        assert_eq!(total, cost, "assignment cost");
+    }
+
+    fn compare(part: &[f32], template: &[f32], exact: bool) {
+        let (n, m) = (part.len(), template.len());
+        let want = reference(part, template);
+        let close = |got: f32| {
+            if exact {
+                got == want
+            } else {
+                (got - want).abs() <= 1e-5 * want.max(1.0)
+            }
+        };
+        // The search on a large buffer, the plain DP on a row, and the table of the callers.
+        let mut big = vec![0.0f32; search_cells(n, m).max(table_cells(n, m))];
+        let fast = search(part, template, f32::INFINITY, &mut big, &mut [])
+            .unwrap()
+            .unwrap();
+        assert_eq!(best_cost(part, template, f32::INFINITY, &mut big).unwrap(), Some(fast));
+        assert!(close(fast.cost), "n {n} m {m}: search {} reference {want}", fast.cost);
+        let mut row = vec![0.0f32; m - n + 1];
+        let plain = best_cost(part, template, f32::INFINITY, &mut row).unwrap().unwrap();
+        assert!(close(plain.cost), "n {n} m {m}: plain {} reference {want}", plain.cost);
+        for buffer in [table_cells(n, m), big.len()] {
+            let mut table = vec![0.0f32; buffer];
+            let mut asg = vec![0u16; n];
+            let got = match_with_assignment(part, template, &mut table, &mut asg).unwrap();
+            assert!(close(got.cost), "n {n} m {m}: match {} reference {want}", got.cost);
+            assert_eq!(got.normalized, got.cost / n as f32);
+            check_assignment(part, template, &asg, got.cost);
+            assert_eq!(asg[0] as usize, got.start);
+        }
+        // Bounds: exact pruning of the search.
+        for bound in [want * 0.5, want, want * 1.5 + 0.1] {
+            let bounded = best_cost(part, template, bound, &mut big).unwrap();
+            if fast.cost < bound {
+                assert_eq!(bounded.map(|b| b.cost), Some(fast.cost));
+            } else {
+                assert!(bounded.is_none(), "n {n} m {m} bound {bound}: {bounded:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn search_fits_the_table_for_usual_sizes() {
+        for (n, m) in [(32, 48), (64, 96), (76, 133), (128, 192), (256, 384), (64, 127)] {
+            assert!(search_cells(n, m) <= table_cells(n, m), "{n} × {m}");
+        }
+    }
+
+    #[test]
+    fn search_equals_reference_on_random_inputs() {
+        let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
+        for n in 1..=40usize {
+            let mut ms = vec![n, 2 * n - 1, (3 * n) / 2];
+            for _ in 0..3 {
+                ms.push(n + (rng.next() as usize % n));
+            }
+            for m in ms {
+                let m = m.clamp(n, 2 * n - 1);
+                for kind in 0..3 {
+                    let part = values(&mut rng, n, kind);
+                    let template = values(&mut rng, m, kind);
+                    compare(&part, &template, kind != 0);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn search_equals_reference_on_shifted_copies() {
+        // A template and a part cut from it: a clear optimum, everything else pruned.
+        let mut rng = Rng(12345);
+        for (n, m) in [(20, 30), (33, 50), (48, 72), (64, 96), (64, 127)] {
+            let template = values(&mut rng, m, 0);
+            let shift = rng.next() as usize % m;
+            let part: Vec<f32> = (0..n).map(|i| template[(shift + i * m / n) % m] + 0.001).collect();
+            compare(&part, &template, false);
+        }
+    }
+
+    #[test]
+    fn search_equals_reference_large() {
+        let mut rng = Rng(777);
+        for kind in 0..2 {
+            let part = values(&mut rng, 256, kind);
+            let template = values(&mut rng, 384, kind);
+            compare(&part, &template, kind != 0);
+        }
+    }
+
+    /// The benchmark's wrench-like outline.
+    fn outline(deg: f32) -> Vec<[f32; 2]> {
+        let v: [[f32; 2]; 12] = [
+            [-60.0, -8.0],
+            [20.0, -8.0],
+            [30.0, -22.0],
+            [52.0, -22.0],
+            [44.0, -8.0],
+            [44.0, 8.0],
+            [52.0, 22.0],
+            [30.0, 22.0],
+            [20.0, 8.0],
+            [-60.0, 8.0],
+            [-66.0, 0.0],
+            [-64.0, -4.0],
+        ];
+        let (s, c) = (deg.to_radians().sin(), deg.to_radians().cos());
+        v.iter().map(|p| [p[0] * c + p[1] * s, -p[0] * s + p[1] * c]).collect()
+    }
+    /// `count` points evenly spaced along a closed polygon.
+    fn sample(poly: &[[f32; 2]], count: usize, offset: f32) -> Vec<[f32; 2]> {
+        let n = poly.len();
+        let seg = |i: usize| {
+            let (a, b) = (poly[i % n], poly[(i + 1) % n]);
+            ((b[0] - a[0]).hypot(b[1] - a[1]), a, b)
+        };
+        let perimeter: f32 = (0..n).map(|i| seg(i).0).sum();
+        let step = perimeter / count as f32;
+        (0..count)
+            .map(|k| {
+                let mut s = (k as f32 + offset) * step;
+                let mut i = 0;
+                loop {
+                    let (len, a, b) = seg(i);
+                    if s <= len || i >= 4 * n {
+                        let t = if len > 0.0 { (s / len).min(1.0) } else { 0.0 };
+                        return [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
+                    }
+                    s -= len;
+                    i += 1;
+                }
+            })
+            .collect()
+    }
+    /// The benchmark's descriptors (`core/benches/common.rs`), the part's points rotated by
+    /// `shift`.
+    fn descriptors(n: usize, m: usize, deg: f32, shift: usize) -> (Vec<f32>, Vec<f32>) {
+        let k = (n / 16).max(1);
+        let mut part_pts = sample(&outline(deg), n, 0.3);
+        part_pts.rotate_left(shift % n);
+        let tpl_pts = sample(&outline(0.0), m, 0.0);
+        let mut part = vec![0.0; n];
+        let mut tpl = vec![0.0; m];
+        describe(&part_pts, DescriptorParams { k, omega: 0.5 }, &mut part).unwrap();
+        describe(
+            &tpl_pts,
+            DescriptorParams {
+                k: scaled_k(k, n, m),
+                omega: 0.5,
+            },
+            &mut tpl,
+        )
+        .unwrap();
+        (part, tpl)
+    }
+
+    /// The least left-to-right `f32` total over every start and every `δ` sequence.
+    fn brute_force(part: &[f32], template: &[f32]) -> f32 {
+        fn extend(part: &[f32], template: &[f32], s: usize, i: usize, delta: usize, acc: f32, best: &mut f32) {
+            let (n, m) = (part.len(), template.len());
+            if i == n {
+                *best = best.min(acc);
+                return;
+            }
+            for d in delta..=m - n {
+                let c = (part[i] - template[(s + i + d) % m]).abs();
+                extend(part, template, s, i + 1, d, acc + c, best);
+            }
+        }
+        let mut best = f32::INFINITY;
+        for s in 0..template.len() {
+            let c0 = (part[0] - template[s]).abs();
+            extend(part, template, s, 1, 0, c0, &mut best);
+        }
+        best
+    }
+
+    #[test]
+    fn search_equals_brute_force_on_small_inputs() {
+        let mut rng = Rng(0xD1B5_4A32_D192_ED03);
+        for _ in 0..3000 {
+            let n = 1 + (rng.next() % 7) as usize;
+            let m = (n + (rng.next() % 4) as usize).min(10).min(2 * n - 1);
+            let kind = rng.next() % 3;
+            let part = values(&mut rng, n, kind);
+            let template = values(&mut rng, m, kind);
+            let want = brute_force(&part, &template);
+            let mut big = vec![0.0f32; search_cells(n, m)];
+            let mut asg = vec![0u16; n];
+            let got = match_with_assignment(&part, &template, &mut big, &mut asg).unwrap();
+            if kind == 0 {
+                assert!((got.cost - want).abs() <= 1e-5 * want.max(1.0), "{got:?} {want}");
+            } else {
+                assert_eq!(got.cost, want, "n {n} m {m}");
+            }
+            check_assignment(&part, &template, &asg, got.cost);
+        }
+    }
+
+    /// The search's work on the benchmark's kind of input (a part and its template, a shifted
+    /// part, a different template with and without a bound) and on noise, against the plain
+    /// DP's `n·m·(m − n + 1)` cells.
+    #[test]
+    fn search_work_is_small() {
+        let run = |label: &str, part: &[f32], tpl: &[f32], bound: f32, most: f64| {
+            let (n, m) = (part.len(), tpl.len());
+            let mut table = vec![0.0f32; table_cells(n, m)];
+            let (found, cells) = search_counted(part, tpl, bound, &mut table, &mut []).unwrap();
+            let share = cells as f64 / (n * m * (m - n + 1)) as f64;
+            std::println!("{n}×{m} {label}: {cells} cells, {share:.3} of the plain DP");
+            assert!(share <= most, "{n}×{m} {label}: {share}");
+            found
+        };
+        for (n, m) in [(32, 48), (64, 96), (76, 133), (128, 192), (256, 384)] {
+            let (part, tpl) = descriptors(n, m, 37.0, 0);
+            let right = run("descriptors", &part, &tpl, f32::INFINITY, 0.15).unwrap();
+            let (shifted, _) = descriptors(n, m, 37.0, n / 3);
+            run("shifted part", &shifted, &tpl, f32::INFINITY, 0.2);
+            let mut rng = Rng(5);
+            let pn = values(&mut rng, n, 0);
+            let tn = values(&mut rng, m, 0);
+            run("noise", &pn, &tn, f32::INFINITY, 0.4);
+            // Another template (the outline squeezed), free and under the right one's cost.
+            let other: Vec<[f32; 2]> = outline(0.0).iter().map(|p| [p[0] * 0.5, p[1] * 2.0]).collect();
+            let mut wrong = vec![0.0; m];
+            let params = DescriptorParams {
+                k: scaled_k((n / 16).max(1), n, m),
+                omega: 0.5,
+            };
+            describe(&sample(&other, m, 0.0), params, &mut wrong).unwrap();
+            run("other template", &part, &wrong, f32::INFINITY, 0.35);
+            assert!(run("other template, bound", &part, &wrong, right.cost * 3.0, 0.07).is_none());
+        }
+    }
+
+    #[test]
+    fn non_finite_costs_are_degenerate() {
+        let part = [0.0f32, f32::NAN, 1.0, 2.0];
+        let template = [0.0f32, 1.0, 2.0, 3.0, 4.0];
+        let mut table = vec![0.0f32; 200];
+        let mut asg = [0u16; 4];
+        assert_eq!(
+            match_with_assignment(&part, &template, &mut table, &mut asg),
+            Err(Error::DegenerateContour { points: 4 })
+        );
+        assert_eq!(best_cost(&part, &template, f32::INFINITY, &mut table), Ok(None));
     }
 }

@@ -64,7 +64,10 @@ pub fn draw_detection(img: &mut RgbImage, d: &HostDetection) {
     }
     let name = d.class.as_deref().unwrap_or("unknown");
     let text = if d.core.verify.is_finite() {
-        format!("{name} f'={:.3} v={:.2}px {:.1}deg", d.core.score, d.core.verify, d.core.angle_deg)
+        format!(
+            "{name} f'={:.3} v={:.2}px {:.1}deg",
+            d.core.score, d.core.verify, d.core.angle_deg
+        )
     } else if d.core.score.is_finite() {
         format!("{name} f'={:.3} {:.1}deg", d.core.score, d.core.angle_deg)
     } else {

@@ -23,7 +23,10 @@ fn taught(shape: usize) -> (Box<Rec>, Background<Vec<u8>>) {
 /// The paper's path: decision by `f' < ε` (the verification stage penalises a scale far from 1
 /// on purpose, so the scale properties of the paper's `f'` are tested without it).
 fn paper_params() -> Params {
-    Params { refine: vorl_core::Refine::Off, ..Params::DEFAULT }
+    Params {
+        refine: vorl_core::Refine::Off,
+        ..Params::DEFAULT
+    }
 }
 
 fn taught_with(shape: usize, params: Params) -> (Box<Rec>, Background<Vec<u8>>) {

@@ -89,10 +89,7 @@ pub fn prepare(
             .add_silhouette(&t.name, &t.image)
             .map_err(|e| format!("{}: {e}", t.path.display()))?;
     }
-    Ok(Inputs {
-        engine,
-        frames,
-    })
+    Ok(Inputs { engine, frames })
 }
 
 /// Loads and runs one frame; a one-line error naming the file on failure.

@@ -4,7 +4,9 @@ use std::path::PathBuf;
 
 use vorl_core::Params;
 
-use crate::config::{AngleSetting, CleanupSetting, Config, PositionSetting, RefineSetting, ThresholdName, ThresholdSetting};
+use crate::config::{
+    AngleSetting, CleanupSetting, Config, PositionSetting, RefineSetting, ThresholdName, ThresholdSetting,
+};
 
 /// Pipeline parameters: a config file, then single flags on top.
 #[derive(Debug, Clone, Default, clap::Args)]
