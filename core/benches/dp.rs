@@ -53,7 +53,10 @@ fn search_vs_plain(c: &mut Criterion) {
     let mut g = c.benchmark_group("best_cost");
     g.sample_size(20);
     for (n, m) in SIZES {
-        let inputs = [("descriptors", common::descriptors(n, m)), ("noise", (noise(n, 1), noise(m, 2)))];
+        let inputs = [
+            ("descriptors", common::descriptors(n, m)),
+            ("noise", (noise(n, 1), noise(m, 2))),
+        ];
         for (kind, (part, tpl)) in inputs {
             let mut table = vec![0.0f32; table_cells(n, m)];
             let mut row = vec![0.0f32; m - n + 1];
