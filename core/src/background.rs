@@ -3,7 +3,7 @@
 //! The model is one `u8` plane: the per-pixel mean of `I'` over K learned frames, rounded
 //! (`B = (Σ I' + K/2) / K`, `docs/pipeline-spec.md` §2). Learning sums exactly in 16 bits: the
 //! model's own plane holds the low byte and a caller-provided plane of the same size (on a camera,
-//! the label plane of the [`crate::Workspace`], free while learning) holds the high byte, so no
+//! the label plane that [`crate::Recognizer::process`] uses, free while learning) holds the high byte, so no
 //! extra frame-sized buffer is needed. Up to [`MAX_LEARN_FRAMES`] frames can be averaged.
 //!
 //! Two ways to follow a changing scene:

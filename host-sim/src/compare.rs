@@ -12,7 +12,7 @@ use vorl_core::background::Background;
 use vorl_core::contour::{trace_borders, BorderKind, ContourStore};
 use vorl_core::descriptor::describe;
 use vorl_core::mask::{foreground_mask, Cleanup, Threshold};
-use vorl_core::matching::{match_with_assignment, table_cells};
+use vorl_core::matching::{match_with_assignment, search_cells, table_cells};
 use vorl_core::pose::{angle_paper, angle_signed, area_centroid};
 use vorl_core::resample::resample;
 use vorl_core::{Frame, Params, Template};
@@ -216,7 +216,7 @@ pub fn compare_frame(
         ref_tpls.push(rt);
     }
     let n = params.n;
-    let mut table = vec![0.0f32; table_cells(n, params.m)];
+    let mut table = vec![0.0f32; search_cells(n, params.m).max(table_cells(n, params.m))];
     let mut assignment = vec![0u16; n];
     for (bi, (ci, rb)) in (0..store.contours().len()).zip(ref_kept.iter()).enumerate() {
         let at = format!("{name} border {bi}");

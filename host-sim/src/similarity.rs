@@ -92,7 +92,7 @@ pub fn similarity(
                 .map_err(|e| format!("{}: {e}", s.path.display()))
         })
         .collect::<Result<_, _>>()?;
-    let width = params.m - params.n + 1;
+    let width = vorl_core::matching::search_cells(params.n, params.m).max(params.m - params.n + 1);
     let matrix: Vec<Vec<f32>> = described
         .par_iter()
         .map(|a| {

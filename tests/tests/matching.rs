@@ -1,17 +1,25 @@
-//! DP optimality: for every n ≤ 7 and n ≤ m ≤ min(10, 2n − 1), the core's cyclic DP finds the
-//! same optimum as a brute force over every cyclic order-preserving injective assignment (the
+//! DP optimality: for every n ≤ 7 and n ≤ m ≤ min(10, 2n − 1), the core's cyclic DP (both the
+//! divide-and-conquer search and the per-start DP) finds the same optimum as a brute force over every cyclic order-preserving injective assignment (the
 //! reference's `brute_force_cyclic`, which shares no code with either DP), and its own
 //! assignment is valid and has that cost.
 
 use proptest::prelude::*;
-use vorl_core::matching::{match_with_assignment, table_cells};
+use vorl_core::matching::{match_with_assignment, search_cells, table_cells};
 use vorl_host_sim::reference::brute_force_cyclic;
 
 fn check(part: &[f32], tpl: &[f32]) -> Result<(), TestCaseError> {
     let (n, m) = (part.len(), tpl.len());
+    // Both code paths: the divide-and-conquer search (a buffer of `search_cells`) and the
+    // per-start DP (a buffer of only `table_cells`, used when the search does not fit).
+    let mut big = vec![0.0f32; search_cells(n, m).max(table_cells(n, m))];
+    let mut asg_big = vec![0u16; n];
+    let fast = match_with_assignment(part, tpl, &mut big, &mut asg_big).unwrap();
     let mut table = vec![0.0f32; table_cells(n, m)];
     let mut asg = vec![0u16; n];
     let got = match_with_assignment(part, tpl, &mut table, &mut asg).unwrap();
+    prop_assert!((fast.cost - got.cost).abs() <= 1e-5 * got.cost.max(1.0), "search {} per-start {}", fast.cost, got.cost);
+    let cost_fast: f32 = part.iter().zip(&asg_big).map(|(a, &j)| (a - tpl[j as usize]).abs()).sum();
+    prop_assert!((cost_fast - fast.cost).abs() <= 1e-4 * cost_fast.max(1.0));
     let p64: Vec<f64> = part.iter().map(|&v| v as f64).collect();
     let t64: Vec<f64> = tpl.iter().map(|&v| v as f64).collect();
     let want = brute_force_cyclic(&p64, &t64).unwrap();

@@ -141,7 +141,8 @@ proptest! {
         let m = n + extra.min(n - 1);
         let mut x = seed | 1;
         let tpl: Vec<f32> = (0..m).map(|_| { x ^= x << 13; x ^= x >> 7; x ^= x << 17; (x % 2000) as f32 / 1000.0 }).collect();
-        let mut row = vec![0.0f32; m - n + 1];
+        // With a search-sized buffer (the divide-and-conquer search and its interval bounds).
+        let mut row = vec![0.0f32; vorl_core::matching::search_cells(n, m).max(m - n + 1)];
         let free = best_cost(&part, &tpl, f32::INFINITY, &mut row).unwrap().unwrap();
         let bounded = best_cost(&part, &tpl, bound, &mut row).unwrap();
         if free.cost < bound {
