@@ -17,8 +17,17 @@ fn check(part: &[f32], tpl: &[f32]) -> Result<(), TestCaseError> {
     let mut table = vec![0.0f32; table_cells(n, m)];
     let mut asg = vec![0u16; n];
     let got = match_with_assignment(part, tpl, &mut table, &mut asg).unwrap();
-    prop_assert!((fast.cost - got.cost).abs() <= 1e-5 * got.cost.max(1.0), "search {} per-start {}", fast.cost, got.cost);
-    let cost_fast: f32 = part.iter().zip(&asg_big).map(|(a, &j)| (a - tpl[j as usize]).abs()).sum();
+    prop_assert!(
+        (fast.cost - got.cost).abs() <= 1e-5 * got.cost.max(1.0),
+        "search {} per-start {}",
+        fast.cost,
+        got.cost
+    );
+    let cost_fast: f32 = part
+        .iter()
+        .zip(&asg_big)
+        .map(|(a, &j)| (a - tpl[j as usize]).abs())
+        .sum();
     prop_assert!((cost_fast - fast.cost).abs() <= 1e-4 * cost_fast.max(1.0));
     let p64: Vec<f64> = part.iter().map(|&v| v as f64).collect();
     let t64: Vec<f64> = tpl.iter().map(|&v| v as f64).collect();
