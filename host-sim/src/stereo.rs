@@ -35,8 +35,6 @@ use vorl_core::stereo::{
 };
 use vorl_core::Frame;
 
-use indicatif::{ProgressBar, ProgressStyle};
-
 use crate::cli::calibrate::Calibration;
 use crate::cli::detect::{run_frame, to_json, DetectArgs};
 use crate::cli::eval::{EvalArgs, EvalReport};
@@ -621,13 +619,7 @@ pub fn evaluate(args: &EvalArgs) -> Result<EvalReport, String> {
     if let Some(dir) = &args.overlay {
         std::fs::create_dir_all(dir).map_err(|e| format!("{}: cannot create folder: {e}", dir.display()))?;
     }
-    let bar = ProgressBar::new(inputs.pairs.len() as u64);
-    bar.set_style(
-        ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} stereo pairs, {eta} left")
-            .unwrap_or_else(|_| ProgressStyle::default_bar())
-            .progress_chars("=> "),
-    );
-    bar.set_prefix("eval");
+    let bar = crate::cli::progress(inputs.pairs.len(), "eval", "stereo pairs");
     let run = inputs.run_all(None, |name, result| {
         match result {
             Ok(frame) => {

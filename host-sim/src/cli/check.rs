@@ -3,8 +3,6 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use indicatif::{ProgressBar, ProgressStyle};
-
 use crate::cli::params::ParamArgs;
 use crate::compare::{compare_frame, Comparison, Tolerances};
 use crate::io::{file_name, load_gray};
@@ -54,12 +52,7 @@ pub fn run(args: CheckArgs) -> Result<ExitCode, String> {
         pixels: if params.alpha < 1.0 { 8 } else { 0 },
         ..Tolerances::default()
     };
-    let bar = ProgressBar::new(set.frames.len() as u64);
-    bar.set_style(
-        ProgressStyle::with_template("check [{bar:30}] {pos}/{len} frames, {eta} left")
-            .unwrap_or_else(|_| ProgressStyle::default_bar())
-            .progress_chars("=> "),
-    );
+    let bar = crate::cli::progress(set.frames.len(), "check", "frames");
     let mut out = Comparison::default();
     let mut failed = 0usize;
     for path in &set.frames {

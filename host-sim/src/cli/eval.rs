@@ -3,7 +3,6 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
 use crate::cli::detect::{prepare, run_frame, to_json};
@@ -79,13 +78,7 @@ pub fn evaluate(args: &EvalArgs) -> Result<EvalReport, String> {
     if let Some(dir) = &args.overlay {
         std::fs::create_dir_all(dir).map_err(|e| format!("{}: cannot create folder: {e}", dir.display()))?;
     }
-    let bar = ProgressBar::new(inputs.frames.len() as u64);
-    bar.set_style(
-        ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} frames, {eta} left")
-            .unwrap_or_else(|_| ProgressStyle::default_bar())
-            .progress_chars("=> "),
-    );
-    bar.set_prefix("eval");
+    let bar = crate::cli::progress(inputs.frames.len(), "eval", "frames");
     let mut pred = FramesJson::default();
     let (mut failed, mut seconds, mut done) = (0usize, 0.0f64, 0usize);
     for path in inputs.frames.clone() {

@@ -3,8 +3,6 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use indicatif::{ProgressBar, ProgressStyle};
-
 use crate::cli::params::ParamArgs;
 use crate::engine::load_silhouettes;
 use crate::similarity::similarity;
@@ -52,12 +50,7 @@ pub fn run(args: SimilarityArgs) -> Result<ExitCode, String> {
     for n in sils.iter().filter_map(|s| s.note.as_ref()) {
         eprintln!("note: {n}");
     }
-    let bar = ProgressBar::new(sils.len() as u64);
-    bar.set_style(
-        ProgressStyle::with_template("similarity [{bar:30}] {pos}/{len} rows, {eta} left")
-            .unwrap_or_else(|_| ProgressStyle::default_bar())
-            .progress_chars("=> "),
-    );
+    let bar = crate::cli::progress(sils.len(), "similarity", "rows");
     let sim = similarity(&sils, &params, &|| bar.inc(1))?;
     bar.finish_and_clear();
     let text = match args.format {
