@@ -225,10 +225,12 @@ pub fn run(args: DetectArgs) -> Result<ExitCode, String> {
                 }
                 if !args.json {
                     print_human(&name, &result);
-                    for p in &parts {
-                        let class = p.class.as_deref().unwrap_or("unknown");
-                        let text = crate::cli::calibrate::robot_text(p).unwrap_or_default();
-                        println!("    {class:<14} {text}");
+                    if calibration.is_some() {
+                        for p in &parts {
+                            let class = p.class.as_deref().unwrap_or("unknown");
+                            let text = crate::cli::calibrate::robot_text(p).unwrap_or_default();
+                            println!("    {class:<14} {text}");
+                        }
                     }
                 }
                 out.frames.insert(name, parts);
