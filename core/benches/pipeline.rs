@@ -98,5 +98,66 @@ fn pipeline(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, pipeline);
+/// A star-like outline with `lobes` lobes of depth `depth`, about 50 px in radius: distinct
+/// template shapes for the template-count sweep.
+fn lobed(lobes: usize, depth: f32, twist: f32) -> Vec<[f32; 2]> {
+    (0..96)
+        .map(|i| {
+            let t = i as f32 / 96.0 * std::f32::consts::TAU;
+            let r = 45.0 * (1.0 + depth * (lobes as f32 * t).sin() + 0.12 * (t + twist).cos());
+            [r * t.cos(), r * t.sin()]
+        })
+        .collect()
+}
+
+/// Frame time against the number of parts (1, 4, 8) and templates (4, 12, 32): the DP's
+/// early rejection should make the cost grow gently with the library.
+fn template_sweep(c: &mut Criterion) {
+    type Big = Recognizer<32, 128, 16384, 128, 8192>;
+    let shapes: Vec<Vec<[f32; 2]>> = (0..32)
+        .map(|i| lobed(3 + i % 8, 0.08 + 0.03 * (i / 8) as f32, i as f32 * 0.7))
+        .collect();
+    let bg_px = platform();
+    let mut bg = Background::new(vec![0u8; W * H], W, H).expect("background");
+    bg.set_from_frame(
+        &Frame::new_checked(&bg_px[..], W, H).expect("frame"),
+        Params::DEFAULT.alpha(),
+    )
+    .expect("bg");
+    let mut labels = vec![0u8; W * H];
+    let mut g = c.benchmark_group("frame");
+    g.sample_size(10);
+    for templates in [4usize, 12, 32] {
+        let mut rec: Box<Big> = Box::default();
+        rec.set_params(Params::DEFAULT).expect("params");
+        for shape in shapes.iter().take(templates) {
+            let mut sil = vec![0u8; W * H];
+            draw(&mut sil, shape, 320.0, 240.0, 255);
+            rec.teach(&Frame::new_checked(&sil[..], W, H).expect("frame"), &mut labels)
+                .expect("teach");
+        }
+        for parts in [1usize, 4, 8] {
+            let mut scene = bg_px.clone();
+            for k in 0..parts {
+                let (cx, cy) = (80.0 + 160.0 * (k % 4) as f32, 120.0 + 240.0 * (k / 4) as f32);
+                let a = (37.0 * k as f32 + 11.0).to_radians();
+                let (sn, cs) = a.sin_cos();
+                let poly: Vec<[f32; 2]> = shapes[k % templates]
+                    .iter()
+                    .map(|p| [p[0] * cs + p[1] * sn, -p[0] * sn + p[1] * cs])
+                    .collect();
+                draw(&mut scene, &poly, cx, cy, if k % 2 == 0 { 40 } else { 210 });
+            }
+            let frame = Frame::new_checked(&scene[..], W, H).expect("frame");
+            let report = rec.process(&frame, &bg, &mut labels).expect("process");
+            assert_eq!(report.detections.len(), parts, "sweep scene must show its parts");
+            g.bench_function(format!("{parts}_parts_{templates}_templates"), |b| {
+                b.iter(|| rec.process(black_box(&frame), &bg, &mut labels).expect("process"))
+            });
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(benches, pipeline, template_sweep);
 criterion_main!(benches);
