@@ -8,90 +8,11 @@
 //! requirements, or from how the inputs were made (a known homography or rigid motion).
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 use serde_json::Value;
 
-/// A private temporary folder, removed on drop.
-struct Scratch {
-    path: PathBuf,
-}
-
-impl Scratch {
-    fn new(tag: &str) -> Scratch {
-        static COUNTER: AtomicUsize = AtomicUsize::new(0);
-        let n = COUNTER.fetch_add(1, Ordering::SeqCst);
-        let path = std::env::temp_dir().join(format!("vorl-stereo-test-{}-{n}-{tag}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&path);
-        std::fs::create_dir_all(&path).expect("create scratch folder");
-        Scratch { path }
-    }
-
-    fn join(&self, p: impl AsRef<Path>) -> PathBuf {
-        self.path.join(p)
-    }
-}
-
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.path);
-    }
-}
-
-/// What one run gave.
-struct Out {
-    code: Option<i32>,
-    stdout: String,
-    stderr: String,
-    cmd: String,
-}
-
-impl Out {
-    fn dump(&self) -> String {
-        format!(
-            "$ {}\nexit {:?}\n--- stdout\n{}\n--- stderr\n{}",
-            self.cmd, self.code, self.stdout, self.stderr
-        )
-    }
-
-    fn success(self) -> Out {
-        assert_eq!(self.code, Some(0), "should succeed:\n{}", self.dump());
-        self.no_panic()
-    }
-
-    fn failure(self) -> Out {
-        assert!(matches!(self.code, Some(c) if c != 0), "should fail:\n{}", self.dump());
-        self.no_panic()
-    }
-
-    fn no_panic(self) -> Out {
-        assert!(!self.stderr.contains("panicked"), "panic:\n{}", self.dump());
-        self
-    }
-
-    /// The `error:` lines of stderr.
-    fn errors(&self) -> Vec<&str> {
-        self.stderr.lines().filter(|l| l.starts_with("error:")).collect()
-    }
-
-    fn json(&self) -> Value {
-        serde_json::from_str(&self.stdout).unwrap_or_else(|e| panic!("stdout is not JSON ({e}):\n{}", self.dump()))
-    }
-}
-
-fn vorl(args: &[&str]) -> Out {
-    let out = Command::new(env!("CARGO_BIN_EXE_vorl"))
-        .args(args)
-        .output()
-        .expect("run vorl");
-    Out {
-        code: out.status.code(),
-        stdout: String::from_utf8_lossy(&out.stdout).into_owned(),
-        stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
-        cmd: format!("vorl {}", args.join(" ")),
-    }
-}
+mod common;
+use common::{vorl, Scratch};
 
 fn s(p: &Path) -> &str {
     p.to_str().expect("utf-8 path")
@@ -100,7 +21,7 @@ fn s(p: &Path) -> &str {
 /// A stereo set of `frames` pairs (`w`×`h`) generated into `dir/name`.
 fn gen_stereo(dir: &Scratch, name: &str, seed: u64, frames: usize, w: u32, h: u32) -> PathBuf {
     let out = dir.join(name);
-    vorl(&[
+    vorl([
         "gen",
         s(&out),
         "--variant",
@@ -130,7 +51,7 @@ fn num(v: &Value, k: &str) -> f64 {
 fn stereo_eval_meets_the_disparity_and_depth_figures() {
     let dir = Scratch::new("eval");
     let set = gen_stereo(&dir, "set", 21, 8, 640, 480);
-    let out = vorl(&["eval", s(&set), "--json"]).success();
+    let out = vorl(["eval", s(&set), "--json"]).success();
     let r = out.json();
     let (refined, centroid) = (&r["disparity"], &r["disparity_centroid"]);
     let parts = num(&r, "truth_parts");
@@ -155,7 +76,7 @@ fn stereo_eval_meets_the_disparity_and_depth_figures() {
     );
     assert!(num(refined, "p95") < num(centroid, "p95"), "{refined} vs {centroid}");
     // The table shows both side by side.
-    let table = vorl(&["eval", s(&set)]).success().stdout;
+    let table = vorl(["eval", s(&set)]).success().stdout;
     assert!(
         table.contains("centroid (paper)") && table.contains("refined"),
         "{table}"
@@ -175,7 +96,7 @@ fn stereo_detect_reports_depth_and_camera_frame_position() {
         num(&cam, "cx"),
         num(&cam, "cy"),
     );
-    let out = vorl(&["detect", s(&set), "--json"]).success();
+    let out = vorl(["detect", s(&set), "--json"]).success();
     let pred = out.json();
     let frames = pred["frames"].as_object().unwrap();
     // Keyed like truth: <name>.png, not left_<name>.png.
@@ -216,7 +137,7 @@ fn stereo_detect_reports_depth_and_camera_frame_position() {
         }
     }
     // The human output says the same.
-    let text = vorl(&["detect", s(&set)]).success().stdout;
+    let text = vorl(["detect", s(&set)]).success().stdout;
     assert!(text.contains("paired") && text.contains("Z "), "{text}");
 }
 
@@ -234,7 +155,7 @@ fn missing_right_frame_names_it_and_keeps_the_others() {
     let dir = Scratch::new("missing");
     let set = small_set(&dir);
     std::fs::remove_file(set.join("frames/right_f001.png")).unwrap();
-    let out = vorl(&["detect", s(&set), "--json"]).failure();
+    let out = vorl(["detect", s(&set), "--json"]).failure();
     let errors = out.errors();
     assert_eq!(errors.len(), 1, "{}", out.dump());
     assert!(
@@ -245,7 +166,7 @@ fn missing_right_frame_names_it_and_keeps_the_others() {
     let frames = out.json()["frames"].as_object().unwrap().clone();
     assert_eq!(frames.keys().collect::<Vec<_>>(), ["f000.png", "f002.png"]);
     // eval too: the pair is not scored, the others are.
-    let out = vorl(&["eval", s(&set), "--json"]).failure();
+    let out = vorl(["eval", s(&set), "--json"]).failure();
     assert!(
         out.errors().iter().any(|e| e.contains("right_f001.png")),
         "{}",
@@ -261,7 +182,7 @@ fn right_frame_of_another_size_names_it_and_keeps_the_others() {
     image::GrayImage::from_pixel(200, 150, image::Luma([128]))
         .save(set.join("frames/right_f002.png"))
         .unwrap();
-    let out = vorl(&["detect", s(&set), "--json"]).failure();
+    let out = vorl(["detect", s(&set), "--json"]).failure();
     let errors = out.errors();
     assert_eq!(errors.len(), 1, "{}", out.dump());
     assert!(
@@ -291,7 +212,7 @@ fn bad_camera_file_is_named_and_frames_still_processed() {
         (r#"{"f_px": 800, "baseline_mm": "#, "does not parse"),
     ] {
         std::fs::write(set.join("camera.json"), text).unwrap();
-        let out = vorl(&["detect", s(&set), "--json"]).failure();
+        let out = vorl(["detect", s(&set), "--json"]).failure();
         let errors = out.errors();
         assert_eq!(errors.len(), 1, "{}", out.dump());
         assert!(
@@ -317,7 +238,7 @@ fn a_part_seen_in_one_view_only_is_reported_without_depth() {
     // f000: the right camera sees the empty platform; f001: the left one does.
     std::fs::copy(set.join("background_right.png"), set.join("frames/right_f000.png")).unwrap();
     std::fs::copy(set.join("background_left.png"), set.join("frames/left_f001.png")).unwrap();
-    let out = vorl(&["detect", s(&set), "--json"]).success();
+    let out = vorl(["detect", s(&set), "--json"]).success();
     let pred = out.json();
     let count = |name: &str| truth["frames"][name].as_array().unwrap().len();
     let f0 = pred["frames"]["f000.png"].as_array().unwrap();
@@ -377,7 +298,7 @@ fn calibrate_homography_then_detect_with_robot_coordinates() {
     let points = dir.join("points.csv");
     std::fs::write(&points, csv).unwrap();
     let cal = dir.join("cal.json");
-    let out = vorl(&["calibrate", "--points", s(&points), "--out", s(&cal)]).success();
+    let out = vorl(["calibrate", "--points", s(&points), "--out", s(&cal)]).success();
     assert!(
         out.stdout.contains("homography") && out.stdout.contains("RMS residual"),
         "{}",
@@ -389,8 +310,8 @@ fn calibrate_homography_then_detect_with_robot_coordinates() {
     assert!(num(&file, "rms") < 1e-3, "{file}");
     // A mono set: the parts' positions are held-back points.
     let set = dir.join("mono");
-    vorl(&["gen", s(&set), "--seed", "5", "--frames", "3"]).success();
-    let pred = vorl(&["detect", s(&set), "--calibration", s(&cal), "--json"])
+    vorl(["gen", s(&set), "--seed", "5", "--frames", "3"]).success();
+    let pred = vorl(["detect", s(&set), "--calibration", s(&cal), "--json"])
         .success()
         .json();
     let (mut n, mut worst) = (0, 0.0f64);
@@ -413,7 +334,7 @@ fn calibrate_homography_then_detect_with_robot_coordinates() {
     assert!(n >= 6, "{pred}");
     eprintln!("homography: {n} held-back part positions, worst mapped error {worst:.2e} mm");
     // The human output shows them too.
-    let text = vorl(&["detect", s(&set), "--calibration", s(&cal)]).success().stdout;
+    let text = vorl(["detect", s(&set), "--calibration", s(&cal)]).success().stdout;
     assert!(text.contains("robot"), "{text}");
 }
 
@@ -446,10 +367,10 @@ fn calibrate_rigid_then_stereo_detect_with_robot_coordinates() {
     let points = dir.join("rig.csv");
     std::fs::write(&points, csv).unwrap();
     let cal = dir.join("cal.json");
-    let out = vorl(&["calibrate", "--points", s(&points), "--out", s(&cal)]).success();
+    let out = vorl(["calibrate", "--points", s(&points), "--out", s(&cal)]).success();
     assert!(out.stdout.contains("rigid"), "{}", out.dump());
     let set = gen_stereo(&dir, "set", 6, 2, 640, 480);
-    let pred = vorl(&["detect", s(&set), "--calibration", s(&cal), "--json"])
+    let pred = vorl(["detect", s(&set), "--calibration", s(&cal), "--json"])
         .success()
         .json();
     for p in pred["frames"]
@@ -472,7 +393,7 @@ fn calibrate_rigid_then_stereo_detect_with_robot_coordinates() {
     }
     // A homography-free rigid calibration on a mono set: no 3-D position, said so.
     let mono = dir.join("mono");
-    vorl(&[
+    vorl([
         "gen",
         s(&mono),
         "--seed",
@@ -485,7 +406,7 @@ fn calibrate_rigid_then_stereo_detect_with_robot_coordinates() {
         "240",
     ])
     .success();
-    let pred = vorl(&["detect", s(&mono), "--calibration", s(&cal), "--json"])
+    let pred = vorl(["detect", s(&mono), "--calibration", s(&cal), "--json"])
         .success()
         .json();
     for p in pred["frames"]
@@ -512,7 +433,7 @@ fn calibrate_rejects_bad_points_with_one_line_naming_the_file() {
         ("u,v,x,y\n1,2,three,4\n", "not a number"),
     ] {
         std::fs::write(&points, text).unwrap();
-        let out = vorl(&["calibrate", "--points", s(&points), "--out", s(&cal)]).failure();
+        let out = vorl(["calibrate", "--points", s(&points), "--out", s(&cal)]).failure();
         let errors = out.errors();
         assert_eq!(errors.len(), 1, "{}", out.dump());
         assert!(
@@ -525,7 +446,7 @@ fn calibrate_rejects_bad_points_with_one_line_naming_the_file() {
     // A calibration file that is not one.
     std::fs::write(&cal, "{\"model\": \"homography\"}").unwrap();
     let set = dir.join("mono");
-    vorl(&[
+    vorl([
         "gen",
         s(&set),
         "--seed",
@@ -538,7 +459,7 @@ fn calibrate_rejects_bad_points_with_one_line_naming_the_file() {
         "240",
     ])
     .success();
-    let out = vorl(&["detect", s(&set), "--calibration", s(&cal)]).failure();
+    let out = vorl(["detect", s(&set), "--calibration", s(&cal)]).failure();
     assert!(
         out.errors().len() == 1 && out.errors()[0].contains("cal.json"),
         "{}",
