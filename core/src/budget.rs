@@ -14,7 +14,7 @@
 //! | label plane | `w·h` |
 //! | contour points | `4·P` |
 //! | contour records | `C·size_of::<Contour>()` + the vector's length word + the store's counter |
-//! | templates | `T·size_of::<Template<M>>()` + the vector's length word, `size_of::<Template<M>>() = word + 28·M + 28` rounded up to the word |
+//! | templates | `T·size_of::<Template<M>>()` + the vector's length word, `size_of::<Template<M>>() = word + 32·M + 28` rounded up to the word |
 //! | DP table | `4·D` (`D ≥ n·(m − n + 1)`) |
 //! | part buffers | `22·M`: points `8·M`, descriptor `4·M`, correspondence `2·M`, sub-pixel edge `8·M` |
 //! | parameters, candidates, padding | `size_of::<Params>()`, the DP candidate list (`MAX_CANDIDATES` index–cost pairs) and the rounding of the recognizer to its alignment |
@@ -63,7 +63,7 @@ impl Layout {
     pub const CORTEX_M: Layout = Layout {
         name: "Cortex-M (32-bit)",
         word: 4,
-        params: 48,
+        params: 52,
         contour: 32,
         contour_align: 8,
     };
@@ -175,12 +175,13 @@ const fn vec_bytes(layout: Layout, size: usize, align: usize, cap: usize) -> usi
     )
 }
 
-/// `size_of::<Template<M>>()`: `m` (a word); `8·M` points, `4·M` descriptor, `8·M` sub-pixel
+/// `size_of::<Template<M>>()`: `m` (a word); `8·M` points, `4·M` descriptor, `4·M` sorted
+/// descriptor, `8·M` sub-pixel
 /// edge points and `8·M` normals; centroid (8), area centroid (8), area (4) and position offset
 /// (8); rounded up to the word.
 pub const fn template_bytes(layout: Layout, m: usize) -> usize {
     round_up(
-        layout.word.saturating_add(m.saturating_mul(28)).saturating_add(28),
+        layout.word.saturating_add(m.saturating_mul(32)).saturating_add(28),
         max(layout.word, 4),
     )
 }
@@ -211,10 +212,13 @@ pub const fn recognizer_bytes(layout: Layout, t: usize, m: usize, p: usize, c: u
 /// correspondence (2) and sub-pixel edge points (8).
 pub const PART_BYTES_PER_POINT: usize = 22;
 
-/// The recognizer's list of DP candidates: [`MAX_CANDIDATES`] pairs of an index (a word) and a
-/// cost (`f32`).
+/// The recognizer's list of DP candidates: [`MAX_CANDIDATES`] triples of a template index (a word),
+/// a cost (`f32`) and a start (a word).
 pub const fn candidates_bytes(layout: Layout) -> usize {
-    MAX_CANDIDATES.saturating_mul(round_up(layout.word.saturating_add(4), max(layout.word, 4)))
+    MAX_CANDIDATES.saturating_mul(round_up(
+        layout.word.saturating_mul(2).saturating_add(4),
+        max(layout.word, 4),
+    ))
 }
 
 /// The budget of a configuration on a target.
@@ -344,8 +348,8 @@ mod tests {
             let fixed = layout.params + candidates_bytes(layout);
             assert!(b.other >= fixed && b.other < fixed + 16);
         }
-        // 32-bit: 8 templates of (4 + 28·96 + 28) bytes and the length word.
-        assert_eq!(budget(Layout::CORTEX_M, caps).templates, 4 + 8 * 2720);
+        // 32-bit: 8 templates of (4 + 32·96 + 28) bytes and the length word.
+        assert_eq!(budget(Layout::CORTEX_M, caps).templates, 4 + 8 * 3104);
     }
 
     #[test]

@@ -272,7 +272,21 @@ pub fn trace_borders<const P: usize, const C: usize>(
     let mut nbd: u8 = 1;
     for y in 0..height as i32 {
         let mut lnbd: u8 = 1;
-        for x in 0..width as i32 {
+        let row = y as usize * width;
+        let mut x = -1i32;
+        loop {
+            x += 1;
+            // Background pixels start nothing and change nothing: skip the run of them (a
+            // plain search the compiler vectorises). The row is read afresh, as tracing writes
+            // labels into it.
+            let Some(skip) = plane
+                .px
+                .get(row + x as usize..row + width)
+                .and_then(|r| r.iter().position(|&b| b != 0))
+            else {
+                break;
+            };
+            x += skip as i32;
             let v = plane.at(x, y);
             if v == 0 {
                 continue;
@@ -325,6 +339,14 @@ pub fn trace_borders<const P: usize, const C: usize>(
             if v != 1 {
                 lnbd = label_abs(v);
             }
+            // So do unlabelled interior pixels (1) between two foreground neighbours: no border
+            // starts there and LNBD stays. Skip their run too.
+            let interior = plane.px.get(row + x as usize + 1..row + width).map_or(0, |r| {
+                r.windows(2)
+                    .take_while(|w| w.first() == Some(&1) && w.get(1) != Some(&0))
+                    .count()
+            });
+            x += interior as i32;
         }
     }
     Ok(stats)

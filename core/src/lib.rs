@@ -53,6 +53,7 @@ pub mod mask;
 pub mod matching;
 pub mod math;
 pub mod params;
+pub mod partial_volume;
 pub mod pose;
 pub mod recognizer;
 pub mod refine;

@@ -164,6 +164,120 @@ pub fn best_cost(part: &[f32], template: &[f32], bound: f32, row: &mut [f32]) ->
     Ok(plain_best_cost(part, template, bound, row))
 }
 
+/// A lower bound on [`best_cost`] from the descriptor values alone, or `None` when it is not
+/// below `bound` (then no start can beat `bound`).
+///
+/// `part` and `template` hold the same values as for [`best_cost`] but sorted ascending. Every
+/// cyclic order-preserving match is a one-to-one map of the part's values into the template's;
+/// the cheapest one-to-one map under `|c − c'|` pairs the sorted values in order (an exchange of
+/// two crossing pairs never costs more), so one DP over the sorted values, with the same band
+/// of `m − n + 1` cells and no start to try, gives a total no match can undercut: `O(n·(m−n+1))`
+/// instead of a search over all starts. Used to order a library and to skip templates that
+/// cannot enter the best few.
+///
+/// ```
+/// use vorl_core::matching::{best_cost, sorted_lower_bound};
+/// let template = [0.0f32, 3.0, 1.0, 4.0, 2.0, 5.0];
+/// let part = [5.0f32, 0.5, 3.0, 1.0];
+/// let (mut ts, mut ps) = (template, part);
+/// ts.sort_by(f32::total_cmp);
+/// ps.sort_by(f32::total_cmp);
+/// let mut row = [0.0f32; 3];
+/// let bound = sorted_lower_bound(&ps, &ts, f32::INFINITY, &mut row).unwrap().unwrap();
+/// let exact = best_cost(&part, &template, f32::INFINITY, &mut row).unwrap().unwrap();
+/// assert!(bound <= exact.cost);
+/// ```
+///
+/// # Errors
+/// [`Error::PointCounts`] when `n ≤ m < 2n` fails, [`Error::BufferTooSmall`] for `row`.
+pub fn sorted_lower_bound(part: &[f32], template: &[f32], bound: f32, row: &mut [f32]) -> Result<Option<f32>> {
+    let (n, m) = (part.len(), template.len());
+    check_counts(n, m)?;
+    let width = m - n + 1;
+    let Some(row) = row.get_mut(..width) else {
+        return Err(Error::BufferTooSmall {
+            needed: width,
+            got: row.len(),
+        });
+    };
+    // Row i holds part value i matched to template value i + δ, δ < width (never past m − 1);
+    // unlike a start's DP, the first row is free too.
+    let Some((&first, rest)) = part.split_first() else {
+        return Ok(None);
+    };
+    for (cell, &t) in row.iter_mut().zip(template) {
+        *cell = (first - t).abs();
+    }
+    for (i, &ci) in rest.iter().enumerate() {
+        if dp_row(row, template, i + 1, ci) >= bound {
+            return Ok(None);
+        }
+    }
+    Ok(row.iter().copied().reduce(f32::min).filter(|&total| total < bound))
+}
+
+/// The correspondence of one start (e.g. [`Match::start`] from [`best_cost`]): fills
+/// `assignment` and returns that start's cost, in `O(n·(m−n+1))` with the full table of
+/// [`table_cells`]`(n, m)` cells.
+///
+/// ```
+/// use vorl_core::matching::{best_cost, match_at_start};
+/// let template = [0.0f32, 1.0, 2.0, 3.0, 4.0, 5.0];
+/// let part = [2.0f32, 3.0, 5.0, 0.0];
+/// let mut table = [0.0f32; 12];
+/// let best = best_cost(&part, &template, f32::INFINITY, &mut table).unwrap().unwrap();
+/// let mut assignment = [0u16; 4];
+/// let m = match_at_start(&part, &template, best.start, &mut table, &mut assignment).unwrap();
+/// assert_eq!((m.cost, assignment), (0.0, [2, 3, 5, 0]));
+/// ```
+///
+/// # Errors
+/// [`Error::PointCounts`], [`Error::BufferTooSmall`] for `table` or `assignment`,
+/// [`Error::Parameter`] for a start not below `m`, and [`Error::DegenerateContour`] when the
+/// cost is not finite.
+pub fn match_at_start(
+    part: &[f32],
+    template: &[f32],
+    start: usize,
+    table: &mut [f32],
+    assignment: &mut [u16],
+) -> Result<Match> {
+    let (n, m) = (part.len(), template.len());
+    check_counts(n, m)?;
+    if start >= m {
+        return Err(Error::Parameter {
+            name: "start",
+            value: start as f32,
+        });
+    }
+    let width = m - n + 1;
+    let cells = table_cells(n, m);
+    let Some(table) = table.get_mut(..cells) else {
+        return Err(Error::BufferTooSmall {
+            needed: cells,
+            got: table.len(),
+        });
+    };
+    let Some(assignment) = assignment.get_mut(..n) else {
+        return Err(Error::BufferTooSmall {
+            needed: n,
+            got: assignment.len(),
+        });
+    };
+    fill_table(part, template, start, table, width);
+    let cost = table
+        .get((n - 1) * width..)
+        .and_then(|r| r.iter().copied().reduce(f32::min))
+        .filter(|c| c.is_finite())
+        .ok_or(Error::DegenerateContour { points: n })?;
+    backtrack(table, width, n, m, start, assignment);
+    Ok(Match {
+        cost,
+        normalized: cost / n as f32,
+        start,
+    })
+}
+
 /// The plain search: every start in turn on one row of `m − n + 1` cells, with row-minimum
 /// pruning.
 fn plain_best_cost(part: &[f32], template: &[f32], bound: f32, row: &mut [f32]) -> Option<Match> {
@@ -218,15 +332,28 @@ fn run_start(part: &[f32], template: &[f32], s: usize, bound: f32, row: &mut [f3
 #[inline]
 fn dp_row(row: &mut [f32], template: &[f32], j0: usize, ci: f32) -> f32 {
     let (tail, head) = template.split_at(j0.min(template.len()));
-    let mut running = f32::INFINITY;
+    if head.len() >= row.len() {
+        // No wrap: one slice, a tighter loop.
+        return dp_cells(row, head, f32::INFINITY, ci).1;
+    }
+    let (first, second) = row.split_at_mut(head.len());
+    let (running, min_first) = dp_cells(first, head, f32::INFINITY, ci);
+    let (_, min_second) = dp_cells(second, tail, running, ci);
+    lesser(min_first, min_second)
+}
+
+/// [`dp_row`] over cells whose template values are one slice, the running minimum of the
+/// previous row starting at `running`; returns the running minimum and the new cells' minimum.
+#[inline(always)]
+fn dp_cells(row: &mut [f32], template: &[f32], mut running: f32, ci: f32) -> (f32, f32) {
     let mut row_min = f32::INFINITY;
-    for (cell, &t) in row.iter_mut().zip(head.iter().chain(tail)) {
+    for (cell, &t) in row.iter_mut().zip(template) {
         running = lesser(running, *cell);
         let v = (ci - t).abs() + running;
         *cell = v;
         row_min = lesser(row_min, v);
     }
-    row_min
+    (running, row_min)
 }
 
 /// `min(acc, v)` for an accumulator that is never NaN, in one comparison (a NaN `v` is ignored,

@@ -41,10 +41,14 @@ pub fn floor(x: f32) -> f32 {
     libm::floorf(x)
 }
 
-/// Euclidean length of `(x, y)` without undue overflow.
+/// Euclidean length of `(x, y)`, as `√(x² + y²)` in `f32`.
+///
+/// Not `libm::hypotf`: that one computes in `f64`, which a Cortex-M4F emulates in software
+/// (about ten times the instructions). The core's arguments are pixel offsets and descriptor
+/// terms, far from where `x²` overflows (`|x| > 1.8·10¹⁹`).
 #[inline]
 pub fn hypot(x: f32, y: f32) -> f32 {
-    libm::hypotf(x, y)
+    sqrt(x * x + y * y)
 }
 
 /// Degrees from radians.

@@ -34,7 +34,7 @@ pub enum Refine {
 pub enum Position {
     /// The paper's: area centroid of the border polygon through pixel centres.
     Polygon,
-    /// Partial-volume area centroid of the part's pixels ([`crate::refine::partial_volume_centroid`]).
+    /// Partial-volume area centroid of the part's pixels ([`crate::partial_volume::partial_volume_centroid`]).
     PartialVolume,
     /// The template's silhouette centroid carried into the frame by the aligned pose.
     Pose,
@@ -78,6 +78,11 @@ pub struct Params {
     pub refine: Refine,
     /// DP candidates verified per part (1..=8).
     pub candidates: usize,
+    /// Only templates whose DP cost is below this multiple of the best template's are
+    /// candidates (`≥ 1`; `+∞` keeps the `candidates` best whatever their cost). A template the
+    /// DP rates far worse than the best rarely wins the verification, and the bound lets the DP
+    /// reject it after a few rows, so most parts have a single candidate to align.
+    pub candidate_ratio: f32,
     /// Verification threshold, px: a part whose best score is at or above it is unknown.
     pub verify_threshold: f32,
     /// How the position is measured.
@@ -100,6 +105,7 @@ impl Params {
         angle: AngleEstimator::Signed,
         refine: Refine::Verify,
         candidates: 3,
+        candidate_ratio: 2.0,
         verify_threshold: 0.6,
         position: Position::PartialVolume,
     };
@@ -138,6 +144,12 @@ impl Params {
             return Err(Error::Parameter {
                 name: "candidates",
                 value: self.candidates as f32,
+            });
+        }
+        if !(self.candidate_ratio >= 1.0) {
+            return Err(Error::Parameter {
+                name: "candidate_ratio",
+                value: self.candidate_ratio,
             });
         }
         if !(self.verify_threshold > 0.0) || !self.verify_threshold.is_finite() {

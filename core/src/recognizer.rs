@@ -25,14 +25,12 @@ use crate::descriptor::describe;
 use crate::error::{Error, Result};
 use crate::frame::Frame;
 use crate::mask::{foreground_mask, MaskStats};
-use crate::matching::{best_cost, match_with_assignment, table_cells};
+use crate::matching::{best_cost, match_at_start, sorted_lower_bound, table_cells};
 use crate::math;
 use crate::params::{AngleEstimator, Params, Position, Refine};
+use crate::partial_volume::{partial_volume_centroid, Rect};
 use crate::pose::{angle_paper, angle_signed_refined, area_centroid};
-use crate::refine::{
-    align, mean_distance_to_outline, outward_normal, partial_volume_centroid, Alignment, Difference, Pose, Rect,
-    RefineParams,
-};
+use crate::refine::{align, outward_normal, Alignment, Difference, Outline, Pose, RefineParams};
 use crate::resample::resample;
 use crate::template::Template;
 
@@ -172,7 +170,8 @@ pub struct Recognizer<const T: usize, const M: usize, const P: usize, const C: u
     assignment: [u16; M],
     table: [f32; D],
     part_edges: [[f32; 2]; M],
-    cands: [(usize, f32); MAX_CANDIDATES],
+    /// The best DP candidates: template index, cost, winning start.
+    cands: [(usize, f32, usize); MAX_CANDIDATES],
 }
 
 impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: usize> Default
@@ -195,7 +194,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             assignment: [0; M],
             table: [0.0; D],
             part_edges: [[0.0; 2]; M],
-            cands: [(0, 0.0); MAX_CANDIDATES],
+            cands: [(0, 0.0, 0); MAX_CANDIDATES],
         }
     }
 
@@ -318,7 +317,8 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             trace,
             ..Report::default()
         };
-        // From here on the label plane is the plain 0/1 mask (the refine stage uses bits 1–5).
+        // From here on the label plane is the plain 0/1 mask (the partial-volume centroid uses
+        // its other bits as scratch and clears them again).
         for v in labels.iter_mut() {
             *v = (*v != 0) as u8;
         }
@@ -394,7 +394,13 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             area: contour.area(),
             touches_edge: contour.touches_edge,
         };
-        let count = self.candidates(n, params.candidates.clamp(1, MAX_CANDIDATES));
+        // Only verification looks past the DP's best template.
+        let wanted = if params.refine == Refine::Verify {
+            params.candidates.clamp(1, MAX_CANDIDATES)
+        } else {
+            1
+        };
+        let count = self.candidates(n, wanted, params.candidate_ratio);
         let diff = Difference::new(frame, background, params.alpha());
         if params.refine != Refine::Off && count > 0 {
             self.part_edge(n, contour.area2 < 0, &diff);
@@ -403,13 +409,13 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let mut best_verify = f32::INFINITY;
         let mut best_pose: Option<(usize, Pose)> = None;
         for c in 0..count {
-            let Some((ti, _)) = self.cands.get(c).copied() else {
+            let Some((ti, _, start)) = self.cands.get(c).copied() else {
                 continue;
             };
             let Some(t) = self.templates.get(ti) else { continue };
             let part_desc = self.descriptor.get(..n).unwrap_or(&[]);
             let assignment = self.assignment.get_mut(..n).unwrap_or(&mut []);
-            let Ok(m) = match_with_assignment(part_desc, t.descriptor(), &mut self.table, assignment) else {
+            let Ok(m) = match_at_start(part_desc, t.descriptor(), start, &mut self.table, assignment) else {
                 continue;
             };
             let part_pts = self.points.get(..n).unwrap_or(&[]);
@@ -444,7 +450,12 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 },
             };
             let aligned = align(&diff, t.edge(), t.normals(), seed, &refine_params);
-            let verify = verify_score(&aligned, t, self.part_edges.get(..n).unwrap_or(&[]), &refine_params);
+            // A pose that did not settle fails the verification.
+            let verify = if aligned.settled {
+                verify_score(&aligned, t, self.part_edges.get(..n).unwrap_or(&[]), &refine_params)
+            } else {
+                f32::INFINITY
+            };
             if params.refine == Refine::Pose {
                 // Refined pose of the paper's choice only.
                 best_pose = Some((ti, aligned.pose));
@@ -459,6 +470,10 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 detection.angle_paper_deg = paper;
                 detection.angle_dp_deg = signed;
             }
+        }
+        if params.refine == Refine::Verify && best_pose.is_none() {
+            // No candidate's pose settled: nothing verified, the part is unknown.
+            detection.template = None;
         }
         if let Some((ti, pose)) = best_pose {
             detection.angle_deg = math::wrap_degrees(math::degrees(pose.angle));
@@ -504,23 +519,70 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         }
     }
 
-    /// Fills `self.cands` with the `k` templates of lowest DP cost, best first (each DP bounded
-    /// by the k-th best so far: exact early rejection); returns how many.
-    fn candidates(&mut self, n: usize, k: usize) -> usize {
+    /// Fills `self.cands` with the `k` templates of lowest DP cost among those below `ratio`
+    /// times the lowest, best first; returns how many.
+    ///
+    /// Exact early rejection: each template's [`sorted_lower_bound`] is computed first (one
+    /// `n·(m−n+1)` DP on sorted values), the templates are searched in ascending order of it,
+    /// each search bounded by the `k`-th best cost so far and by `ratio` times the best, and the
+    /// rest are skipped once their lower bound reaches that. The result is the same as
+    /// searching every template.
+    fn candidates(&mut self, n: usize, k: usize, ratio: f32) -> usize {
         let Some(part) = self.descriptor.get(..n) else { return 0 };
-        let mut count = 0usize;
+        let mut sorted = [0.0f32; M];
+        let Some(sorted) = sorted.get_mut(..n) else { return 0 };
+        sorted.copy_from_slice(part);
+        sorted.sort_unstable_by(f32::total_cmp);
+        // (lower bound, template index), ascending.
+        let mut order = [(f32::INFINITY, 0usize); T];
+        let mut listed = 0usize;
         for (ti, t) in self.templates.iter().enumerate() {
-            let bound = if count == k {
+            let Ok(Some(lb)) = sorted_lower_bound(sorted, t.sorted_descriptor(), f32::INFINITY, &mut self.table) else {
+                continue;
+            };
+            let mut pos = listed;
+            while pos > 0 && order.get(pos - 1).is_some_and(|o| o.0 > lb) {
+                if let Some(prev) = order.get(pos - 1).copied() {
+                    if let Some(slot) = order.get_mut(pos) {
+                        *slot = prev;
+                    }
+                }
+                pos -= 1;
+            }
+            if let Some(slot) = order.get_mut(pos) {
+                *slot = (lb, ti);
+                listed += 1;
+            }
+        }
+        let mut count = 0usize;
+        for &(lb, ti) in order.get(..listed).unwrap_or(&[]) {
+            let kth = if count == k {
                 self.cands.get(k - 1).map_or(f32::INFINITY, |c| c.1)
             } else {
                 f32::INFINITY
             };
+            let near = if count > 0 {
+                self.cands.first().map_or(f32::INFINITY, |c| c.1 * ratio)
+            } else {
+                f32::INFINITY
+            };
+            let bound = kth.min(near);
+            // The bound and the search round differently; a margin keeps near ties searched.
+            if lb * (1.0 - LOWER_BOUND_MARGIN) >= bound {
+                break;
+            }
+            let Some(t) = self.templates.get(ti) else { continue };
             let Ok(Some(m)) = best_cost(part, t.descriptor(), bound, &mut self.table) else {
                 continue;
             };
-            // Insert in order.
+            // Insert in order of cost (ties: the earlier template first, as in the library).
             let mut pos = count.min(k);
-            while pos > 0 && self.cands.get(pos - 1).is_some_and(|c| c.1 > m.cost) {
+            while pos > 0
+                && self
+                    .cands
+                    .get(pos - 1)
+                    .is_some_and(|c| c.1 > m.cost || (c.1 == m.cost && c.0 > ti))
+            {
                 pos -= 1;
             }
             if pos >= k {
@@ -536,13 +598,22 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 i -= 1;
             }
             if let Some(slot) = self.cands.get_mut(pos) {
-                *slot = (ti, m.cost);
+                *slot = (ti, m.cost, m.start);
             }
             count = (count + 1).min(k);
+        }
+        // A better template found later may leave earlier ones beyond the ratio.
+        let near = self.cands.first().map_or(f32::INFINITY, |c| c.1 * ratio);
+        while count > 1 && self.cands.get(count - 1).is_some_and(|c| !(c.1 < near)) {
+            count -= 1;
         }
         count
     }
 }
+
+/// Relative margin by which a template's sorted lower bound must exceed the `k`-th best DP cost
+/// before the template is skipped (the two are rounded differently in `f32`).
+const LOWER_BOUND_MARGIN: f32 = 1e-5;
 
 /// Verification score of an alignment, px: the mean of the template → part and part → template
 /// distances (capped) plus a penalty for a scale far from 1.
@@ -553,18 +624,18 @@ fn verify_score<const M: usize>(a: &Alignment, t: &Template<M>, part_edges: &[[f
     let back = if valid == 0 {
         params.cap
     } else {
+        // Distances are measured in the template's frame (the part's edge mapped back by the
+        // pose) and scaled back, so the template outline needs no mapping.
+        let scale = pose.scale;
+        let cap = params.cap / scale;
+        let outline = Outline::new(edge);
+        let sc = math::sin_cos(pose.angle);
         let mut sum = 0.0f32;
         for e in part_edges {
-            if !e[0].is_finite() {
-                sum += params.cap;
-                continue;
+            match pose.invert_sc(sc, *e).filter(|_| e[0].is_finite() && cap.is_finite()) {
+                Some(q) => sum += scale * outline.capped_distance(q, cap),
+                None => sum += params.cap,
             }
-            sum += mean_distance_to_outline(
-                core::slice::from_ref(e),
-                |i| pose.apply(edge.get(i).copied().unwrap_or([0.0; 2])),
-                edge.len(),
-                params.cap,
-            );
         }
         sum / part_edges.len().max(1) as f32
     };
@@ -575,4 +646,86 @@ fn verify_score<const M: usize>(a: &Alignment, t: &Template<M>, part_edges: &[[f
 impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: usize> Recognizer<T, M, P, C, D> {
     /// Candidates kept per part (capacity of the list).
     pub const MAX_CANDIDATES: usize = MAX_CANDIDATES;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Smooth descriptor-like values with a little noise, from a seed.
+    fn values(seed: u64, len: usize, out: &mut [f32]) {
+        let mut x = seed | 1;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x % 10_000) as f32 / 10_000.0
+        };
+        let (phase, freq, amp) = (next() * 6.0, 0.1 + next() * 0.3, 0.1 + next() * 0.4);
+        for (i, v) in out.iter_mut().take(len).enumerate() {
+            *v = 1.0 + amp * libm::sinf(phase + i as f32 * freq) + 0.05 * next();
+        }
+    }
+
+    #[test]
+    fn skipping_by_sorted_bound_keeps_the_best_candidates() {
+        const N: usize = 24;
+        const MM: usize = 36;
+        let params = Params {
+            n: N,
+            m: MM,
+            k: 2,
+            ..Params::DEFAULT
+        };
+        let mut skippable = 0;
+        for seed in 1..40u64 {
+            let mut r: Recognizer<12, MM, 64, 4, { N * (MM - N + 1) }> = Recognizer::new();
+            r.set_params(params).unwrap();
+            for t in 0..12u64 {
+                let mut desc = [0.0f32; MM];
+                values(seed * 100 + t, MM, &mut desc);
+                let pts = (0..MM).map(|j| {
+                    let a = j as f32 * core::f32::consts::TAU / MM as f32;
+                    [libm::cosf(a) * 10.0, libm::sinf(a) * 10.0]
+                });
+                let tpl = Template::from_parts(pts, desc, [0.0; 2], [0.0; 2], 314.0).unwrap();
+                r.add_template(tpl).unwrap();
+            }
+            values(seed * 7 + 3, N, &mut r.descriptor);
+            // Every template searched without a bound, sorted by cost (ties: library order).
+            let mut all = [(0usize, f32::INFINITY); 12];
+            for (ti, t) in r.templates.iter().enumerate() {
+                let mut table = [0.0f32; N * (MM - N + 1)];
+                let m = best_cost(&r.descriptor[..N], t.descriptor(), f32::INFINITY, &mut table)
+                    .unwrap()
+                    .unwrap();
+                all[ti] = (ti, m.cost);
+            }
+            all.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+            // Templates whose sorted bound already rules them out of the best 3.
+            let mut sorted = r.descriptor;
+            sorted[..N].sort_by(f32::total_cmp);
+            for t in r.templates.iter() {
+                let mut row = [0.0f32; MM];
+                let lb = sorted_lower_bound(&sorted[..N], t.sorted_descriptor(), f32::INFINITY, &mut row);
+                skippable += lb.unwrap().is_some_and(|lb| lb > all[2].1) as usize;
+            }
+            for k in [1usize, 3, 8] {
+                let count = r.candidates(N, k, f32::INFINITY);
+                assert_eq!(count, k);
+                for (c, (&(ti, cost, start), want)) in r.cands.iter().zip(&all).take(k).enumerate() {
+                    assert_eq!(ti, want.0, "seed {seed} k {k} rank {c}");
+                    assert!((cost - want.1).abs() <= 1e-5 * cost.max(1.0));
+                    // The start is the one whose correspondence costs that much.
+                    let mut table = [0.0f32; N * (MM - N + 1)];
+                    let mut asg = [0u16; N];
+                    let t = r.templates[ti].descriptor();
+                    let at = match_at_start(&r.descriptor[..N], t, start, &mut table, &mut asg).unwrap();
+                    assert!((at.cost - cost).abs() <= 1e-5 * cost.max(1.0));
+                }
+            }
+        }
+        // The bound must have had something to skip for the test to mean anything.
+        assert!(skippable > 40, "only {skippable} of 468 templates were skippable");
+    }
 }

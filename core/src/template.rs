@@ -6,7 +6,7 @@
 //! [`Template::from_silhouette`] takes the largest outer border of a silhouette image (part 255,
 //! rest 0; `docs/pipeline-spec.md` §9).
 //!
-//! Memory: `28·M + 40` bytes per template of capacity `M` (see `vorl budget`).
+//! Memory: `32·M + 40` bytes per template of capacity `M` (see `vorl budget`).
 
 use crate::contour::{trace_borders, BorderFilter, ContourStore, Point};
 use crate::descriptor::describe;
@@ -23,6 +23,8 @@ pub struct Template<const M: usize> {
     m: usize,
     points: [[f32; 2]; M],
     descriptor: [f32; M],
+    /// The descriptor values in ascending order (for [`crate::matching::sorted_lower_bound`]).
+    sorted: [f32; M],
     centroid: [f32; 2],
     area_centroid: [f32; 2],
     area: f32,
@@ -42,6 +44,7 @@ impl<const M: usize> Template<M> {
             m: 0,
             points: [[0.0; 2]; M],
             descriptor: [0.0; M],
+            sorted: [0.0; M],
             centroid: [0.0; 2],
             area_centroid: [0.0; 2],
             area: 0.0,
@@ -69,6 +72,7 @@ impl<const M: usize> Template<M> {
         t.m = m;
         resample(border, &mut t.points[..m])?;
         t.centroid = describe(&t.points[..m], params.descriptor(m), &mut t.descriptor[..m])?;
+        t.sort_descriptor();
         let ac = area_centroid(border, holes).ok_or(Error::DegenerateContour { points: border.len() })?;
         t.area_centroid = ac;
         let mut a2 = 0i64;
@@ -238,6 +242,7 @@ impl<const M: usize> Template<M> {
             });
         }
         t.m = m;
+        t.sort_descriptor();
         t.centroid = centroid;
         t.area_centroid = area_centroid;
         t.area = area;
@@ -303,6 +308,20 @@ impl<const M: usize> Template<M> {
     /// The `m` descriptor values `c'_j`.
     pub fn descriptor(&self) -> &[f32] {
         self.descriptor.get(..self.m).unwrap_or(&[])
+    }
+
+    /// The `m` descriptor values in ascending order.
+    pub fn sorted_descriptor(&self) -> &[f32] {
+        self.sorted.get(..self.m).unwrap_or(&[])
+    }
+
+    /// Fills `sorted` from the first `m` descriptor values.
+    fn sort_descriptor(&mut self) {
+        let m = self.m.min(M);
+        if let (Some(dst), Some(src)) = (self.sorted.get_mut(..m), self.descriptor.get(..m)) {
+            dst.copy_from_slice(src);
+            dst.sort_unstable_by(f32::total_cmp);
+        }
     }
 
     /// Mean of the resampled points (the `C'` of eqs. 4.1–4.2 and 6.3).

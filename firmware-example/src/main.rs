@@ -9,7 +9,8 @@
 //!    `vorl templates export`) with full validation and loads it into the recognizer;
 //! 3. learns the mean background from the empty-platform fixture frames;
 //! 4. runs every QVGA fixture frame through the recognizer, timing each stage, then again with
-//!    `refine = Off` (the paper's path) for the cost of the refine-and-verify stage;
+//!    `refine = Off` (the paper's path) for the cost of the refine-and-verify stage, and with
+//!    `candidates = 1` (only the DP's best template aligned and verified);
 //! 5. prints every line over semihosting in the stable format below and exits with status 0
 //!    (any error: status 1; a panic: its message and status 1).
 //!
@@ -34,6 +35,7 @@
 //! det frame=frame_0 part=0 template=0 class=arrow x=… y=… angle=… angle_paper=… score=… area=… edge=0
 //! instructions frame=frame_0 mask=… borders=… descriptors_matching=… total=… [instructions, not cycles]
 //! instructions_refine_off frame=frame_0 mask=… borders=… descriptors_matching=… total=… [instructions, not cycles]
+//! instructions_one_candidate frame=frame_0 mask=… borders=… descriptors_matching=… total=… [instructions, not cycles]
 //! summary frames=3 detections=12 instructions_total=… stack_peak=… stack_peak_frames=…
 //! ```
 //!
@@ -423,25 +425,34 @@ fn run() -> Result<(), Failure> {
         detections += report.detections.len();
         total += counts.total;
     }
-    // The paper's path for comparison: no alignment or verification after the DP (the cost of
-    // the refine-and-verify stage is the difference). The detections of this pass are not printed.
+    // Two cheaper configurations for comparison (their detections are not printed): the paper's
+    // path, with no alignment or verification after the DP (the cost of the refine-and-verify
+    // stage is the difference), and verification of the DP's best template only.
     let stack_after_frames = stack_peak();
     let default = *rec.params();
-    rec.set_params(Params {
-        refine: Refine::Off,
-        ..default
-    })?;
-    for (name, pixels) in FRAMES.iter() {
-        let frame = Frame::new_checked(&pixels.0[..], W, H)?;
-        let (_, counts) = timed(rec, &frame, &background, &mut labels[..])?;
-        hprintln!(
-            "instructions_refine_off frame={} mask={} borders={} descriptors_matching={} total={} [instructions, not cycles]",
-            name,
-            counts.mask,
-            counts.borders,
-            counts.parts,
-            counts.total
-        );
+    let lighter = [
+        ("instructions_refine_off", Refine::Off, default.candidates),
+        ("instructions_one_candidate", Refine::Verify, 1),
+    ];
+    for (label, refine, candidates) in lighter {
+        rec.set_params(Params {
+            refine,
+            candidates,
+            ..default
+        })?;
+        for (name, pixels) in FRAMES.iter() {
+            let frame = Frame::new_checked(&pixels.0[..], W, H)?;
+            let (_, counts) = timed(rec, &frame, &background, &mut labels[..])?;
+            hprintln!(
+                "{} frame={} mask={} borders={} descriptors_matching={} total={} [instructions, not cycles]",
+                label,
+                name,
+                counts.mask,
+                counts.borders,
+                counts.parts,
+                counts.total
+            );
+        }
     }
     rec.set_params(default)?;
     hprintln!(

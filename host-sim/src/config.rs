@@ -36,6 +36,9 @@ pub struct Config {
     pub refine: RefineSetting,
     /// DP candidates verified per part, 1..8.
     pub candidates: usize,
+    /// Only templates whose DP cost is below this multiple of the best one's are candidates
+    /// (≥ 1; inf: the `candidates` best whatever their cost).
+    pub candidate_ratio: f32,
     /// Verification threshold in px: unknown at or above it.
     pub verify_threshold: f32,
     /// Position: "polygon" (the paper's border centroid), "partial-volume", or "pose".
@@ -143,6 +146,7 @@ impl Config {
                 Refine::Verify => RefineSetting::Verify,
             },
             candidates: p.candidates,
+            candidate_ratio: p.candidate_ratio,
             verify_threshold: p.verify_threshold,
             position: match p.position {
                 Position::Polygon => PositionSetting::Polygon,
@@ -185,6 +189,7 @@ impl Config {
                 RefineSetting::Verify => Refine::Verify,
             },
             candidates: self.candidates,
+            candidate_ratio: self.candidate_ratio,
             verify_threshold: self.verify_threshold,
             position: match self.position {
                 PositionSetting::Polygon => Position::Polygon,
@@ -246,13 +251,28 @@ impl Config {
              refine = \"{}\"\n\
              # DP candidates verified per part (1..8).\n\
              candidates = {}\n\
+             # Only templates whose DP cost is below this multiple of the best one's are candidates (≥ 1; inf: no limit).\n\
+             candidate_ratio = {}\n\
              # Verification threshold, px (mean distance between the aligned outlines, both ways, plus a scale penalty).\n\
              verify_threshold = {:?}\n\
              # Position: \"polygon\" (the paper's border centroid), \"partial-volume\" (edge pixels by coverage), \"pose\" (template centroid through the aligned pose).\n\
              position = \"{}\"\n",
             d.alpha, thr, setting_name(&d.cleanup), d.min_points, d.min_area, d.n, d.m, d.k, d.omega, d.epsilon, angle,
-            setting_name(&d.refine), d.candidates, d.verify_threshold, setting_name(&d.position)
+            setting_name(&d.refine), d.candidates, toml_float(d.candidate_ratio), d.verify_threshold, setting_name(&d.position)
         )
+    }
+}
+
+/// A float as TOML writes it (`inf` for infinity).
+fn toml_float(v: f32) -> String {
+    if v.is_infinite() {
+        if v > 0.0 {
+            "inf".into()
+        } else {
+            "-inf".into()
+        }
+    } else {
+        format!("{v:?}")
     }
 }
 

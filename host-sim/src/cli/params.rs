@@ -47,6 +47,10 @@ pub struct ParamArgs {
     /// DP candidates verified per part.
     #[arg(long)]
     pub candidates: Option<usize>,
+    /// Only templates whose DP cost is below this multiple of the best one's are candidates
+    /// (≥ 1; "inf" for no limit).
+    #[arg(long)]
+    pub candidate_ratio: Option<f32>,
     /// Verification threshold, px.
     #[arg(long)]
     pub verify_threshold: Option<f32>,
@@ -88,6 +92,7 @@ impl ParamArgs {
             angle,
             refine,
             candidates,
+            candidate_ratio,
             verify_threshold,
             position
         );
