@@ -17,7 +17,7 @@
 //! | templates | `T·size_of::<Template<M>>()` + the vector's length word, `size_of::<Template<M>>() = word + 32·M + 28` rounded up to the word |
 //! | DP table | `4·D` (`D ≥ n·(m − n + 1)`) |
 //! | part buffers | `22·M`: points `8·M`, descriptor `4·M`, correspondence `2·M`, sub-pixel edge `8·M` |
-//! | parameters, candidates, padding | `size_of::<Params>()`, the DP candidate list (`MAX_CANDIDATES` index–cost pairs) and the rounding of the recognizer to its alignment |
+//! | parameters, candidates, padding | `size_of::<Params>()`, the DP candidate list (`MAX_CANDIDATES` index–cost–start triples) and the rounding of the recognizer to its alignment |
 //!
 //! The frame itself is not counted: in the firmware example it is in flash; on a camera it is the
 //! sensor's DMA buffer (`w·h` more bytes of RAM, [`Budget::frame`]). The stack is not counted

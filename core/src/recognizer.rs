@@ -450,12 +450,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 },
             };
             let aligned = align(&diff, t.edge(), t.normals(), seed, &refine_params);
-            // A pose that did not settle fails the verification.
-            let verify = if aligned.settled {
-                verify_score(&aligned, t, self.part_edges.get(..n).unwrap_or(&[]), &refine_params)
-            } else {
-                f32::INFINITY
-            };
+            let verify = verify_score(&aligned, t, self.part_edges.get(..n).unwrap_or(&[]), &refine_params);
             if params.refine == Refine::Pose {
                 // Refined pose of the paper's choice only.
                 best_pose = Some((ti, aligned.pose));
@@ -470,10 +465,6 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 detection.angle_paper_deg = paper;
                 detection.angle_dp_deg = signed;
             }
-        }
-        if params.refine == Refine::Verify && best_pose.is_none() {
-            // No candidate's pose settled: nothing verified, the part is unknown.
-            detection.template = None;
         }
         if let Some((ti, pose)) = best_pose {
             detection.angle_deg = math::wrap_degrees(math::degrees(pose.angle));

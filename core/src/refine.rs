@@ -16,14 +16,14 @@
 //!   step, until an update moves the points along their normals by less than 0.05 px (root mean
 //!   square) or they lie within 0.25 px of the edge, then steps on every point at the full sampling until they move by less than
 //!   0.001 px (the right template converges in 3–5 steps from the DP's seed; a wrong one
-//!   reaches the step limit without settling, and is neither refined nor measured further). The profiles are scanned from the point outwards and stop at
+//!   reaches the step limit without settling and is not refined further). The profiles are scanned from the point outwards and stop at
 //!   the nearest crossing, so a pose near the edge reads about 9 of a profile's 25 samples.
 //!   Time `O(m·search/step)` per step, no memory beyond a few numbers.
 //! - **Verification**: the mean of the capped normal distances (profiles that find no edge count
 //!   the cap), plus how far the part's own border lies from the aligned template outline, plus a
 //!   penalty for a scale far from 1 — both ways, so a template that covers only part of the
 //!   outline cannot look good. The lowest score among the DP's best candidates wins; above a
-//!   threshold, or when no candidate's pose settled, the part is unknown.
+//!   threshold the part is unknown.
 //!
 //! The part's position is measured separately, by [`crate::partial_volume`].
 //!
@@ -301,8 +301,8 @@ pub struct Alignment {
     pub distance: f32,
     /// Fraction of profiles that found an edge.
     pub coverage: f32,
-    /// Whether the pose settled (the coarse stage's updates fell below 0.05 px). An unsettled
-    /// pose is not measured: `distance` is the cap and `coverage` 0.
+    /// Whether the pose settled (the coarse stage's updates fell below 0.05 px or its points
+    /// came within 0.25 px of the edge); an unsettled pose is not refined by the fine stage.
     pub settled: bool,
 }
 
@@ -348,14 +348,6 @@ pub fn align<B: AsRef<[u8]>>(
         settled_once = true;
         left = left.max(FINE_ITERATIONS.min(params.iterations));
     }
-    if !settled_once {
-        return Alignment {
-            pose,
-            distance: params.cap,
-            coverage: 0.0,
-            settled: false,
-        };
-    }
     // Final distances at the converged pose.
     let (mut sum, mut found) = (0.0f32, 0usize);
     let sc = math::sin_cos(pose.angle);
@@ -375,7 +367,7 @@ pub fn align<B: AsRef<[u8]>>(
         pose,
         distance: sum / count,
         coverage: found as f32 / count,
-        settled: true,
+        settled: settled_once,
     }
 }
 
@@ -456,7 +448,7 @@ fn gauss_newton_step<B: AsRef<[u8]>>(
     // A touch of damping keeps a direction the edge cannot fix (the rotation of a round part)
     // from making the system singular; it then gets no update instead of noise.
     let undamped = ata;
-    let damping = 1e-6 * (ata[0][0] + ata[1][1] + ata[2][2] + ata[3][3]) + 1e-12;
+    let damping = 1e-3 * (ata[0][0] + ata[1][1] + ata[2][2] + ata[3][3]) / 4.0 + 1e-12;
     for (d, row) in ata.iter_mut().enumerate() {
         if let Some(v) = row.get_mut(d) {
             *v += damping;
@@ -809,6 +801,7 @@ mod tests {
                 a.pose
             );
             assert!((a.pose.angle.to_degrees() - deg).abs() < 0.3, "{deg}°: {:?}", a.pose);
+            assert!(a.settled, "{deg}°: {a:?}");
             assert!(
                 (a.pose.scale - 1.0).abs() < 0.01 && a.distance < 0.2 && a.coverage > 0.9,
                 "{a:?}"

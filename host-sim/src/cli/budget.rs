@@ -281,7 +281,7 @@ fn print_detail(r: &Row, layout: Layout) {
         (
             "templates",
             b.templates,
-            format!("T·{tpl} + length word ({tpl} = {} + 28·M + 28)", layout.word),
+            format!("T·{tpl} + length word ({tpl} = {} + 32·M + 28)", layout.word),
         ),
         ("DP table", b.dp_table, "4·D".into()),
         (
