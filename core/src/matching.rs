@@ -75,6 +75,14 @@
 //! power of two) it is identical. A bound never changes the result: the search returns the
 //! same total with a bound as without whenever that total beats the bound.
 //!
+//! # Across templates
+//!
+//! [`sorted_lower_bound`] bounds a template's optimum from the descriptor values alone (the
+//! cheapest one-to-one map of sorted values, one `n·w` DP over no starts), so a library can be
+//! searched best bound first and cut off exactly; [`match_at_start`] reads one start's
+//! correspondence (e.g. the winner's from [`best_cost`]) in `n·w` cells instead of a second
+//! search.
+//!
 //! # Memory
 //!
 //! Everything lives in the caller's `f32` buffer: [`search_cells`]`(n, m)` cells (the doubled

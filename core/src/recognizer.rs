@@ -5,19 +5,25 @@
 //! with the frame itself in flash or a DMA buffer). Its capacities are const generics, so its
 //! size is known at compile time and `vorl budget` can add it up:
 //!
-//! | parameter | meaning | bytes |
+//! | parameter | meaning | bytes (32-bit) |
 //! |---|---|---|
-//! | `T` | templates in the library | `T·(12·M + 32)` |
-//! | `M` | points of a template (≥ `m`, and ≥ `n`) | part buffers `14·M` |
+//! | `T` | templates in the library | `T·(32·M + 32)` |
+//! | `M` | points of a template (≥ `m`, and ≥ `n`) | part buffers `22·M` |
 //! | `P` | border points stored per frame | `4·P` |
-//! | `C` | borders kept per frame | `C·40` |
+//! | `C` | borders kept per frame | `32·C + 16` |
 //! | `D` | DP table cells, ≥ `n·(m − n + 1)` | `4·D` |
 //!
-//! Each kept outer border is a part: resampled to `n` points, described, and matched against
-//! every template (the cyclic DP, with a bound from the best template so far so hopeless starts
-//! are abandoned early); the best template is its class when `f' < ε`, otherwise it is unknown.
-//! The rotation comes from the best template's correspondence, the position is the area
-//! centroid. A border that cannot be described is reported as a [`Skip`] with the reason.
+//! (`crate::budget` has the exact formulas for any target.) Each kept outer border is a part:
+//! resampled to `n` points and described; every template is bounded by
+//! [`crate::matching::sorted_lower_bound`], and the templates are searched by the cyclic DP in
+//! ascending order of that bound, each search bounded by the best costs so far, until the
+//! bound rules the rest out (exact: the same best templates as searching all). With the default
+//! `refine = Verify`, the best few (`candidates`, among those below `candidate_ratio` times the
+//! best cost) are aligned on the frame and verified, the lowest verification score wins and is
+//! the class when below `verify_threshold`; on the paper's path (`refine = Off`) the DP's best
+//! template is the class when `f' < ε`. The rotation comes from the aligned pose (or the best
+//! template's correspondence), the position from the partial-volume centroid (or the border's
+//! area centroid). A border that cannot be described is reported as a [`Skip`] with the reason.
 
 use crate::background::Background;
 use crate::contour::{trace_borders, BorderKind, ContourStore, TraceStats};

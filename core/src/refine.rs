@@ -249,7 +249,9 @@ impl<'a, B: AsRef<[u8]>> Difference<'a, B> {
     /// the same distance the inner one wins.
     pub fn edge_offset(&self, p: [f32; 2], normal: [f32; 2], params: &RefineParams) -> Option<f32> {
         let steps = (params.search / params.step) as i32;
-        if steps < 2 {
+        // A profile of more than MAX_PROFILE_STEPS samples a side (a step of 0 or NaN included)
+        // is a misconfiguration, not a profile.
+        if !(2..=MAX_PROFILE_STEPS).contains(&steps) || !(params.step > 0.0) {
             return None;
         }
         let sample = |k: i32| {
@@ -290,6 +292,9 @@ impl<'a, B: AsRef<[u8]>> Difference<'a, B> {
         best
     }
 }
+
+/// Most samples on each side of a profile ([`Difference::edge_offset`] finds no edge beyond).
+pub const MAX_PROFILE_STEPS: i32 = 1024;
 
 /// The result of [`align`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -735,6 +740,17 @@ mod tests {
                     found += fast.is_some() as usize;
                 }
             }
+        }
+        // Degenerate sampling finds nothing instead of looping for ever.
+        let p0 = [16.0, 16.0];
+        for step in [0.0, -0.25, f32::NAN, 1e-9] {
+            let prm = RefineParams {
+                step,
+                ..RefineParams::DEFAULT
+            };
+            let frame = Frame::new_checked(&[0u8; 1024][..], 32, 32).unwrap();
+            let diff = Difference::new(&frame, &[0u8; 1024][..], Alpha::ONE);
+            assert_eq!(diff.edge_offset(p0, [1.0, 0.0], &prm), None, "step {step}");
         }
         // The test must exercise real crossings, not only profiles without an edge.
         assert!(found > 4000, "only {found} profiles held an edge");

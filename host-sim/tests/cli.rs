@@ -1068,3 +1068,28 @@ fn top_level_help_has_examples() {
     let out = vorl(["--help"]).success();
     assert!(out.stdout.contains("Examples"), "{}", out.stdout);
 }
+
+/// A candidate ratio below 1 (or not a number) is refused with the parameter's name; `inf`
+/// (no limit) is accepted.
+#[test]
+fn candidate_ratio_is_checked() {
+    let set = small_set();
+    for bad in ["0.5", "nan"] {
+        let out = vorl([
+            OsStr::new("detect"),
+            set.root().as_os_str(),
+            OsStr::new("--candidate-ratio"),
+            OsStr::new(bad),
+        ])
+        .failure();
+        assert_error_names(&out, "candidate_ratio", &["out of range"]);
+    }
+    vorl([
+        OsStr::new("detect"),
+        set.root().as_os_str(),
+        OsStr::new("--candidate-ratio"),
+        OsStr::new("inf"),
+        OsStr::new("--json"),
+    ])
+    .success();
+}
