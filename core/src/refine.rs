@@ -323,16 +323,19 @@ pub fn align<B: AsRef<[u8]>>(
     let coarse_stride = if edge.len() >= 4 * COARSE_POINTS { 4 } else { 1 };
     let mut pose = seed;
     let mut left = params.iterations;
-    // Coarse: every 4th point until the pose settles; fine: every point until it converges.
-    // A pose that has not settled when the steps run out is not refined further (a wrong
-    // template does not converge; its distances below say so).
-    // The coarse stage also samples its profiles half as densely.
+    // Coarse: every 4th point, profiles sampled half as densely, until the pose settles; fine:
+    // every point until it converges. A pose that has not settled when the steps run out is not
+    // refined further (a wrong template does not converge; its distances below say so).
     let coarse = RefineParams {
         step: params.step * 2.0,
         ..*params
     };
     let mut settled_once = false;
-    'stages: for (stride, settled, prm) in [(coarse_stride, COARSE_SETTLED, &coarse), (1, CONVERGED, params)] {
+    let stages = [
+        (true, coarse_stride, COARSE_SETTLED, &coarse),
+        (false, 1, CONVERGED, params),
+    ];
+    'stages: for (coarse_stage, stride, settled, prm) in stages {
         let mut calm = false;
         while left > 0 {
             left -= 1;
@@ -342,7 +345,7 @@ pub fn align<B: AsRef<[u8]>>(
             pose = next;
             // Settled: the update is small, or (coarse stage) the points already sit on the edge
             // and only a direction the edge cannot fix moves (a round part's rotation).
-            if moved < settled || (stride > 1 && fit < FIT_SETTLED) {
+            if moved < settled || (coarse_stage && fit < FIT_SETTLED) {
                 calm = true;
                 break;
             }
