@@ -569,8 +569,8 @@ mod tests {
         out
     }
 
-    /// The implementation before the bit-packed clean-up (commit 4e286b2), kept verbatim as the
-    /// oracle: D into the plane, threshold, byte-wise separable erosion and dilation.
+    /// The implementation before the bit-packed clean-up (commit 4e286b2) as the oracle: D into
+    /// the plane, threshold, byte-wise separable erosion and dilation.
     fn reference_mask<B: AsRef<[u8]>, S: AsRef<[u8]> + AsMut<[u8]>>(
         frame: &Frame<B>,
         background: &Background<S>,
@@ -619,58 +619,21 @@ mod tests {
         for d in labels.iter_mut() {
             *d = (*d > tau) as u8;
         }
+        // The byte-wise passes of that implementation live on unchanged as `morph` (the
+        // clean-up of images narrower than 8 pixels).
         if cleanup != Cleanup::Off {
-            reference_morph(labels, w, h, true);
-            reference_morph(labels, w, h, false);
+            morph(labels, w, h, true);
+            morph(labels, w, h, false);
         }
         if cleanup == Cleanup::OpenClose {
-            reference_morph(labels, w, h, false);
-            reference_morph(labels, w, h, true);
+            morph(labels, w, h, false);
+            morph(labels, w, h, true);
         }
         let foreground = labels.iter().filter(|&&v| v != 0).count();
         Ok(MaskStats {
             threshold: tau,
             foreground,
         })
-    }
-
-    fn reference_morph(plane: &mut [u8], w: usize, h: usize, erode: bool) {
-        if w == 0 || h == 0 {
-            return;
-        }
-        for row in plane.chunks_exact_mut(w).take(h) {
-            let mut prev = row.first().map_or(0, |v| v & 1);
-            let len = row.len();
-            for x in 0..len {
-                let cur = row.get(x).map_or(0, |v| v & 1);
-                let next = if x + 1 < len {
-                    row.get(x + 1).map_or(0, |v| v & 1)
-                } else {
-                    cur
-                };
-                let v = if erode { prev & cur & next } else { prev | cur | next };
-                if let Some(p) = row.get_mut(x) {
-                    *p = (*p & 1) | (v << 1);
-                }
-                prev = cur;
-            }
-        }
-        for y in 0..h {
-            let (before, rest) = plane.split_at_mut(y * w);
-            let (cur, after) = rest.split_at_mut(w.min(rest.len()));
-            let up = if y > 0 { before.get((y - 1) * w..) } else { None };
-            let down = if y + 1 < h { after.get(..w) } else { None };
-            for (x, p) in cur.iter_mut().enumerate() {
-                let c = (*p >> 1) & 1;
-                let u = up.and_then(|r| r.get(x)).map_or(c, |v| (v >> 1) & 1);
-                let d = down.and_then(|r| r.get(x)).map_or(c, |v| (v >> 1) & 1);
-                let v = if erode { u & c & d } else { u | c | d };
-                *p = (*p & 2) | v;
-            }
-        }
-        for p in plane.iter_mut() {
-            *p &= 1;
-        }
     }
 
     /// xorshift64*: deterministic test data without a dependency.

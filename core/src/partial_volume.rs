@@ -1697,23 +1697,14 @@ mod tests {
     }
 
     mod reference {
-        use super::super::Rect;
+        use super::super::{any_neighbour, per_pixel, Rect, COMPONENT};
         use crate::refine::Difference;
-        /// Below this fraction of the part's contrast an interior pixel is taken for platform (a filled
-        /// hole).
-        const HOLE_RATIO: f32 = 0.2;
 
-        /// Bits of the label plane used while measuring one part (bit 0 is the mask).
-        const COMPONENT: u8 = 1 << 1;
-        const GROWN: u8 = 1 << 2;
-        const SHRUNK: u8 = 1 << 3;
-        const SCRATCH: u8 = 1 << 4;
-        const RING: u8 = 1 << 5;
-
-        /// The implementation before the bit-row rewrite, kept verbatim: the partial-volume area centroid of the part whose border passes through `seed` (a foreground
-        /// pixel), within `bbox` (the border's bounding box; a 6 px margin is added, clipped to the
-        /// image). `mask` is the 0/1 plane (only bit 0 is read; bits 1–5 are used as scratch inside the
-        /// box and cleared again). `None` when the part has no weight.
+        /// The implementation before the bit-row rewrite as the oracle: the partial-volume area
+        /// centroid of the part whose border passes through `seed` (a foreground pixel), within
+        /// `bbox` plus a 6 px margin. Its component fill is kept here verbatim (but for the flag
+        /// bit); its morphology and weights live on unchanged as `per_pixel::centroid`, the path
+        /// of boxes wider than the bit rows.
         pub fn reference_partial_volume_centroid<B: AsRef<[u8]>>(
             diff: &Difference<'_, B>,
             mask: &mut [u8],
@@ -1735,173 +1726,7 @@ mod tests {
                 return None;
             }
             mark_component(mask, w, r, seed);
-            // Band = grown by 2 minus shrunk by 2; ring = shrunk by 3 minus shrunk by 5.
-            morph_bits(mask, w, r, COMPONENT, GROWN, false);
-            morph_bits(mask, w, r, GROWN, SCRATCH, false);
-            move_bit(mask, w, r, SCRATCH, GROWN);
-            morph_bits(mask, w, r, COMPONENT, SHRUNK, true);
-            morph_bits(mask, w, r, SHRUNK, SCRATCH, true);
-            move_bit(mask, w, r, SCRATCH, SHRUNK);
-            morph_bits(mask, w, r, SHRUNK, RING, true);
-            morph_bits(mask, w, r, RING, SCRATCH, true);
-            morph_bits(mask, w, r, SCRATCH, RING, true);
-            // RING now = shrunk by 5; ring = shrunk by 3 (SCRATCH after one more) minus shrunk by 5.
-            morph_bits(mask, w, r, SHRUNK, SCRATCH, true); // shrunk by 3
-                                                           // Contrast: median of D over the ring (signed, from a histogram).
-            let mut hist = [0u16; 511];
-            let mut ring_count = 0usize;
-            for y in r.y0..r.y1 {
-                for x in r.x0..r.x1 {
-                    let v = mask.get(y * w + x).copied().unwrap_or(0);
-                    if v & SCRATCH != 0 && v & RING == 0 {
-                        let d = diff.at(x as isize, y as isize);
-                        let bin = (d as i32 + 255).clamp(0, 510) as usize;
-                        if let Some(hb) = hist.get_mut(bin) {
-                            *hb = hb.saturating_add(1);
-                        }
-                        ring_count += 1;
-                    }
-                }
-            }
-            let contrast = if ring_count > 0 {
-                let mut acc = 0usize;
-                let mut med = 0.0f32;
-                for (bin, &c) in hist.iter().enumerate() {
-                    acc += c as usize;
-                    if 2 * acc >= ring_count {
-                        med = bin as f32 - 255.0;
-                        break;
-                    }
-                }
-                med
-            } else {
-                0.0
-            };
-            // f32 sums of coordinates relative to the box's corner (small numbers, so single precision
-            // keeps the centroid to about 1e-4 px; the MCU has no double-precision FPU).
-            let (mut sw, mut sx, mut sy) = (0.0f32, 0.0f32, 0.0f32);
-            if contrast.abs() >= 1.0 {
-                for y in r.y0..r.y1 {
-                    for x in r.x0..r.x1 {
-                        let v = mask.get(y * w + x).copied().unwrap_or(0);
-                        let weight = if v & SHRUNK != 0 {
-                            // Inside counts 1, unless the pixel looks like the platform: a small hole or a
-                            // narrow gap that the mask's closing filled. Printed labels keep at least a
-                            // third of the part's contrast, holes keep none.
-                            let ratio = diff.at(x as isize, y as isize) / contrast;
-                            if ratio >= HOLE_RATIO {
-                                1.0
-                            } else {
-                                ratio.clamp(0.0, 1.0)
-                            }
-                        } else if v & GROWN != 0 {
-                            // The local contrast: mean D of the ring pixels within 4 px (shading across the
-                            // part changes it from one side to the other), else the part's median.
-                            let local = local_ring_mean(diff, mask, w, r, x, y)
-                                .filter(|c| c.abs() >= 1.0 && c.signum() == contrast.signum());
-                            (diff.at(x as isize, y as isize) / local.unwrap_or(contrast)).clamp(0.0, 1.0)
-                        } else {
-                            0.0
-                        };
-                        if weight > 0.0 {
-                            sw += weight;
-                            sx += weight * (x - r.x0) as f32;
-                            sy += weight * (y - r.y0) as f32;
-                        }
-                    }
-                }
-            }
-            // Clear the scratch bits (1–6).
-            for y in r.y0..r.y1 {
-                for x in r.x0..r.x1 {
-                    if let Some(v) = mask.get_mut(y * w + x) {
-                        *v &= 1;
-                    }
-                }
-            }
-            (sw > 0.0).then(|| [r.x0 as f32 + sx / sw, r.y0 as f32 + sy / sw])
-        }
-
-        /// Mean `D` of the ring pixels (bit `SCRATCH` set, `RING` clear) within 4 px of `(x, y)`.
-        fn local_ring_mean<B: AsRef<[u8]>>(
-            diff: &Difference<'_, B>,
-            mask: &[u8],
-            w: usize,
-            r: Rect,
-            x: usize,
-            y: usize,
-        ) -> Option<f32> {
-            const RADIUS: usize = 4;
-            let (mut sum, mut count) = (0.0f32, 0usize);
-            for yy in y.saturating_sub(RADIUS).max(r.y0)..(y + RADIUS + 1).min(r.y1) {
-                for xx in x.saturating_sub(RADIUS).max(r.x0)..(x + RADIUS + 1).min(r.x1) {
-                    let v = mask.get(yy * w + xx).copied().unwrap_or(0);
-                    if v & SCRATCH != 0 && v & RING == 0 {
-                        sum += diff.at(xx as isize, yy as isize);
-                        count += 1;
-                    }
-                }
-            }
-            (count > 0).then(|| sum / count as f32)
-        }
-
-        fn any_neighbour(mask: &[u8], w: usize, r: Rect, x: usize, y: usize, bit: u8) -> bool {
-            for dy in -1isize..=1 {
-                for dx in -1isize..=1 {
-                    let (nx, ny) = (x as isize + dx, y as isize + dy);
-                    if nx < r.x0 as isize || ny < r.y0 as isize || nx >= r.x1 as isize || ny >= r.y1 as isize {
-                        continue;
-                    }
-                    if mask.get(ny as usize * w + nx as usize).is_some_and(|v| v & bit != 0) {
-                        return true;
-                    }
-                }
-            }
-            false
-        }
-
-        /// Horizontal scratch bit of the separable 3×3 passes.
-        const HORIZONTAL: u8 = 1 << 6;
-
-        /// `dst` bit = 3×3 erosion (or dilation) of the `src` bit inside `r` (outside `r` counts as 0),
-        /// as a horizontal then a vertical 3-tap pass.
-        fn morph_bits(mask: &mut [u8], w: usize, r: Rect, src: u8, dst: u8, erode: bool) {
-            let width = r.x1.saturating_sub(r.x0);
-            if width == 0 {
-                return;
-            }
-            for y in r.y0..r.y1 {
-                let Some(row) = mask.get_mut(y * w + r.x0..y * w + r.x1) else {
-                    continue;
-                };
-                let mut prev = false; // outside r
-                for x in 0..width {
-                    let cur = row.get(x).is_some_and(|v| v & src != 0);
-                    let next = x + 1 < width && row.get(x + 1).is_some_and(|v| v & src != 0);
-                    let on = if erode {
-                        prev && cur && next
-                    } else {
-                        prev || cur || next
-                    };
-                    if let Some(v) = row.get_mut(x) {
-                        *v = if on { *v | HORIZONTAL } else { *v & !HORIZONTAL };
-                    }
-                    prev = cur;
-                }
-            }
-            for y in r.y0..r.y1 {
-                for x in r.x0..r.x1 {
-                    let at = |yy: usize| mask.get(yy * w + x).is_some_and(|v| v & HORIZONTAL != 0);
-                    let up = y > r.y0 && at(y - 1);
-                    let cur = at(y);
-                    let down = y + 1 < r.y1 && at(y + 1);
-                    let on = if erode { up && cur && down } else { up || cur || down };
-                    if let Some(v) = mask.get_mut(y * w + x) {
-                        *v = if on { *v | dst } else { *v & !dst };
-                    }
-                }
-            }
-            // HORIZONTAL is left set on some pixels; the caller clears bits 1.. at the end.
+            per_pixel::centroid(diff, mask, w, r)
         }
 
         /// Marks the 8-connected foreground component of `seed` (inside `r`) with [`COMPONENT`]: a
@@ -1982,20 +1807,6 @@ mod tests {
                     }
                 }
                 passes += 1;
-            }
-        }
-
-        fn move_bit(mask: &mut [u8], w: usize, r: Rect, from: u8, to: u8) {
-            for y in r.y0..r.y1 {
-                for x in r.x0..r.x1 {
-                    if let Some(v) = mask.get_mut(y * w + x) {
-                        *v = if *v & from != 0 {
-                            (*v | to) & !from
-                        } else {
-                            *v & !(to | from)
-                        };
-                    }
-                }
             }
         }
     }

@@ -193,9 +193,12 @@ impl<'a, B: AsRef<[u8]>> Difference<'a, B> {
     /// `D` at a sub-pixel position, bilinear.
     #[inline]
     pub fn bilinear(&self, x: f32, y: f32) -> f32 {
-        if let Some(v) = self.bilinear_inside(x, y) {
-            return v;
-        }
+        self.bilinear_inside(x, y)
+            .unwrap_or_else(|| self.bilinear_by_pixels(x, y))
+    }
+
+    /// [`Self::bilinear`] from four [`Self::at`] values: any α, any position.
+    fn bilinear_by_pixels(&self, x: f32, y: f32) -> f32 {
         // Beyond a pixel outside the image every neighbour clamps to the border anyway; the
         // clamp keeps the integer coordinates from overflowing.
         let (x, y) = (
@@ -651,20 +654,6 @@ mod tests {
         best
     }
 
-    /// Bilinear interpolation of `at` (the clamped per-pixel difference), as first written.
-    fn bilinear_by_pixels<B: AsRef<[u8]>>(diff: &Difference<'_, B>, x: f32, y: f32) -> f32 {
-        let (x, y) = (
-            x.clamp(-2.0, diff.width() as f32 + 1.0),
-            y.clamp(-2.0, diff.height() as f32 + 1.0),
-        );
-        let (fx, fy) = (math::floor(x), math::floor(y));
-        let (tx, ty) = (x - fx, y - fy);
-        let (ix, iy) = (fx as isize, fy as isize);
-        let top = diff.at(ix, iy) * (1.0 - tx) + diff.at(ix + 1, iy) * tx;
-        let bottom = diff.at(ix, iy + 1) * (1.0 - tx) + diff.at(ix + 1, iy + 1) * tx;
-        top * (1.0 - ty) + bottom * ty
-    }
-
     #[test]
     fn bilinear_fast_path_equals_pixel_interpolation() {
         let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
@@ -679,7 +668,7 @@ mod tests {
                     let y = rng.unit() * (h as f32 + 4.0) - 2.0;
                     assert_eq!(
                         diff.bilinear(x, y),
-                        bilinear_by_pixels(&diff, x, y),
+                        diff.bilinear_by_pixels(x, y),
                         "{w}×{h} at ({x}, {y})"
                     );
                 }
@@ -689,7 +678,7 @@ mod tests {
                     (-1e30, 1e30),
                     (w as f32 - 1.0, 0.0),
                 ] {
-                    let (a, b) = (diff.bilinear(x, y), bilinear_by_pixels(&diff, x, y));
+                    let (a, b) = (diff.bilinear(x, y), diff.bilinear_by_pixels(x, y));
                     assert!(a == b || (a.is_nan() && b.is_nan()), "({x}, {y}): {a} vs {b}");
                 }
             }
