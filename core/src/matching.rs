@@ -106,8 +106,21 @@ pub const fn table_cells(n: usize, m: usize) -> usize {
     }
 }
 
-/// Bits of the backtracking record kept in one `f32` cell (as an exact integer).
+/// Bits of the backtracking record kept in one `f32` cell (stored as the cell's bit pattern).
 const BITS_PER_CELL: usize = 16;
+
+/// A small integer (a path's `δ` or a word of backtracking bits) kept in an `f32` cell of the
+/// caller's buffer as the cell's bit pattern: no conversion on either side.
+#[inline(always)]
+fn pack(v: usize) -> f32 {
+    f32::from_bits(v as u32)
+}
+
+/// The integer [`pack`] stored.
+#[inline(always)]
+fn unpack(v: f32) -> usize {
+    v.to_bits() as usize
+}
 
 /// `⌈log2 m⌉` (0 for `m ≤ 1`).
 const fn ceil_log2(m: usize) -> usize {
@@ -492,6 +505,12 @@ struct Edge {
     slot: usize,
 }
 
+/// The stored path of edge `e` among `paths` (its `n` values of `δ`) and its start.
+#[inline]
+fn path_of(paths: &[f32], n: usize, e: Option<Edge>) -> Option<(&[f32], usize)> {
+    e.and_then(|e| paths.get(e.slot * n..(e.slot + 1) * n).map(|p| (p, e.start)))
+}
+
 /// The state of one divide-and-conquer search.
 struct Search<'a> {
     part: &'a [f32],
@@ -591,7 +610,7 @@ impl Search<'_> {
     /// Row `i` of path `e` in `d` coordinates.
     #[inline]
     fn edge(&self, e: Edge, i: usize) -> Option<usize> {
-        self.paths.get(e.slot * self.n + i).map(|&v| e.start + v as usize)
+        self.paths.get(e.slot * self.n + i).map(|&v| e.start + unpack(v))
     }
 
     /// The band of start `s` in row `i`, as `δ` (relative to `s`) bounds; whole rows where an
@@ -663,14 +682,7 @@ impl Search<'_> {
     /// these, so the result is a lower bound on their optima; `+∞` once its row minimum reaches
     /// the best so far (none of them can win).
     fn relaxed(&mut self, first: usize, last: usize, lower: Option<Edge>, upper: Option<Edge>) -> f32 {
-        let (n, w) = (self.n, self.w);
-        let end = last + w - 1;
-        // Band of row `i ≥ 1` relative to `first` (row 0 is `[0, last − first]`).
-        let band = |st: &Self, i: usize| -> (usize, usize) {
-            let a = lower.and_then(|e| st.edge(e, i)).map_or(first, |d| d.max(first));
-            let b = upper.and_then(|e| st.edge(e, i)).map_or(end, |d| d.min(end));
-            (a - first, b.max(a) - first)
-        };
+        let end = last + self.w - 1;
         let b0 = last - first;
         let c0 = self.part.first().copied().unwrap_or(0.0);
         let mut row_min = f32::INFINITY;
@@ -686,11 +698,15 @@ impl Search<'_> {
             return f32::INFINITY;
         }
         let (mut pa, mut pb) = (0, b0);
-        for i in 1..n {
-            let (a, b) = band(self, i);
-            let ci = self.part.get(i).copied().unwrap_or(0.0);
-            let t = self.t2.get(first + i..).unwrap_or(&[]);
-            let row_min = step::<false>(self.row, t, ci, pa, pb, a, b, &mut []);
+        let lower_path = path_of(self.paths, self.n, lower);
+        let upper_path = path_of(self.paths, self.n, upper);
+        let t = self.t2.get(first..).unwrap_or(&[]);
+        for (i, &ci) in self.part.iter().enumerate().skip(1) {
+            // The band in `d`, clipped to the starts' reach, relative to `first`.
+            let a = lower_path.map_or(first, |(p, e)| p.get(i).map_or(first, |&v| (e + unpack(v)).max(first)));
+            let b = upper_path.map_or(end, |(p, e)| p.get(i).map_or(end, |&v| (e + unpack(v)).min(end)));
+            let (a, b) = (a - first, b.max(a) - first);
+            let row_min = step::<false>(self.row, t.get(i..).unwrap_or(&[]), ci, pa, pb, a, b, &mut []);
             self.cells += (b + 1).saturating_sub(pa);
             if row_min >= self.best {
                 return f32::INFINITY;
@@ -726,12 +742,26 @@ impl Search<'_> {
             return false;
         }
         let (mut pa, mut pb) = (0, 0);
-        for i in 1..n {
-            let (a, b) = self.band(s, lower, upper, i);
-            let ci = self.part.get(i).copied().unwrap_or(0.0);
-            let t = self.t2.get(s + i..).unwrap_or(&[]);
-            let bits = self.bits.get_mut(i * chunks..(i + 1) * chunks).unwrap_or(&mut []);
-            let row_min = step::<true>(self.row, t, ci, pa, pb, a, b, bits);
+        let top = self.w - 1;
+        let lower_path = path_of(self.paths, self.n, lower);
+        let upper_path = path_of(self.paths, self.n, upper);
+        let t = self.t2.get(s..).unwrap_or(&[]);
+        let rows = self
+            .part
+            .iter()
+            .zip(self.bits.chunks_exact_mut(chunks))
+            .enumerate()
+            .skip(1);
+        for (i, (&ci, bits)) in rows {
+            // The band in δ: between the edges' rows, shifted to start `s`.
+            let a = lower_path.map_or(0, |(p, e)| {
+                p.get(i).map_or(0, |&v| (e + unpack(v)).saturating_sub(s)).min(top)
+            });
+            let b = upper_path.map_or(top, |(p, e)| {
+                p.get(i).map_or(top, |&v| (e + unpack(v)).saturating_sub(s)).min(top)
+            });
+            let b = b.max(a);
+            let row_min = step::<true>(self.row, t.get(i..).unwrap_or(&[]), ci, pa, pb, a, b, bits);
             self.cells += (b + 1).saturating_sub(pa);
             if abandon && row_min >= self.best {
                 return false;
@@ -767,7 +797,7 @@ impl Search<'_> {
         if report {
             let m = self.m;
             for (i, (o, &d)) in self.out.iter_mut().zip(self.row.iter()).enumerate() {
-                *o = ((s + i + d as usize) % m) as u16;
+                *o = ((s + i + unpack(d)) % m) as u16;
             }
         }
         keep.is_some()
@@ -778,7 +808,7 @@ impl Search<'_> {
         let (n, chunks) = (self.n, self.chunks);
         let mut d = end;
         if let Some(cell) = self.row.get_mut(n - 1) {
-            *cell = d as f32;
+            *cell = pack(d);
         }
         for i in (1..n).rev() {
             // δ_{i−1}: the first minimum of row i − 1 up to δ_i, within that row's band.
@@ -786,7 +816,7 @@ impl Search<'_> {
             let bits = self.bits.get(i * chunks..(i + 1) * chunks).unwrap_or(&[]);
             d = last_bit(bits, d.min(pb), pa);
             if let Some(cell) = self.row.get_mut(i - 1) {
-                *cell = d as f32;
+                *cell = pack(d);
             }
         }
     }
@@ -800,7 +830,7 @@ fn last_bit(bits: &[f32], at: usize, floor: usize) -> usize {
     let mut chunk = at / BITS_PER_CELL;
     let mut mask = u32::MAX >> (31 - (at % BITS_PER_CELL) as u32);
     loop {
-        let word = bits.get(chunk).map_or(0, |&v| v as u32) & mask;
+        let word = bits.get(chunk).map_or(0, |&v| unpack(v) as u32) & mask;
         if word != 0 {
             let pos = chunk * BITS_PER_CELL + (31 - word.leading_zeros()) as usize;
             return pos.max(floor);
@@ -817,6 +847,10 @@ fn last_bit(bits: &[f32], at: usize, floor: usize) -> usize {
 /// (`pa ≤ a ≤ b`), `t[x]` the template value of cell `x`. Returns the new band's minimum.
 /// With `BITS`, bit `x` of `bits` is set where the running minimum of the previous row strictly
 /// decreases (for `x` in `[pa, min(pb, b)]`; the chunks covering them are overwritten).
+///
+/// The previous band is read in blocks of up to 64 positions (one block for rows up to 49
+/// cells wide) so the bits gather in one register; cells below `a` only feed the running
+/// minimum (they leave the band and are never read again).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn step<const BITS: bool>(
@@ -829,48 +863,59 @@ fn step<const BITS: bool>(
     b: usize,
     bits: &mut [f32],
 ) -> f32 {
+    const BLOCK: usize = 64;
     let e = pb.min(b);
     let mut running = f32::INFINITY;
     let mut row_min = f32::INFINITY;
-    // Cells of the previous band: the running minimum. Cells below `a` are written too (they
-    // lie outside the new band and are never read again) but not counted in the minimum.
     let mut from = pa;
     while from <= e {
-        let to = if BITS {
-            (from / BITS_PER_CELL * BITS_PER_CELL + BITS_PER_CELL - 1).min(e)
-        } else {
-            e
-        };
-        let mut word = 0u32;
-        if let (Some(cells), Some(ts)) = (row.get_mut(from..=to), t.get(from..=to)) {
-            for (x, (cell, &tv)) in (from..).zip(cells.iter_mut().zip(ts)) {
+        let base = from / BITS_PER_CELL * BITS_PER_CELL;
+        let to = if BITS { (base + BLOCK - 1).min(e) } else { e };
+        let mid = a.clamp(from, to + 1);
+        let mut word = 0u64;
+        let mut bit = 1u64 << ((from - base) % BLOCK);
+        if let Some(cells) = row.get(from..mid) {
+            for &p in cells {
+                let lower = p < running;
+                running = if lower { p } else { running };
+                if BITS {
+                    word |= if lower { bit } else { 0 };
+                    bit <<= 1;
+                }
+            }
+        }
+        if let (Some(cells), Some(ts)) = (row.get_mut(mid..=to), t.get(mid..=to)) {
+            for (cell, &tv) in cells.iter_mut().zip(ts) {
                 let p = *cell;
                 let lower = p < running;
-                if BITS {
-                    word |= u32::from(lower) << (x % BITS_PER_CELL);
-                }
                 running = if lower { p } else { running };
+                if BITS {
+                    word |= if lower { bit } else { 0 };
+                    bit <<= 1;
+                }
                 let v = (ci - tv).abs() + running;
                 *cell = v;
-                row_min = if x >= a { lesser(row_min, v) } else { row_min };
+                row_min = lesser(row_min, v);
             }
         }
         if BITS {
-            if let Some(cell) = bits.get_mut(from / BITS_PER_CELL) {
-                *cell = word as f32;
+            let first = base / BITS_PER_CELL;
+            let last = to / BITS_PER_CELL;
+            if let Some(cells) = bits.get_mut(first..=last) {
+                for (k, cell) in cells.iter_mut().enumerate() {
+                    *cell = pack(((word >> (k * BITS_PER_CELL)) & ((1 << BITS_PER_CELL) - 1)) as usize);
+                }
             }
         }
         from = to + 1;
     }
     // Cells past the previous band: the running minimum is final.
     let from = a.max(e + 1);
-    if from <= b {
-        if let (Some(cells), Some(ts)) = (row.get_mut(from..=b), t.get(from..=b)) {
-            for (cell, &tv) in cells.iter_mut().zip(ts) {
-                let v = (ci - tv).abs() + running;
-                *cell = v;
-                row_min = lesser(row_min, v);
-            }
+    if let (Some(cells), Some(ts)) = (row.get_mut(from..=b), t.get(from..=b)) {
+        for (cell, &tv) in cells.iter_mut().zip(ts) {
+            let v = (ci - tv).abs() + running;
+            *cell = v;
+            row_min = lesser(row_min, v);
         }
     }
     row_min
