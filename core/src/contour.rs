@@ -17,7 +17,12 @@
 //! Pixels outside the image count as background, which is what `imageproc`'s `find_contours`
 //! gives on the mask padded with a one-pixel zero frame (`docs/pipeline-spec.md` §4).
 //!
-//! Time: one raster scan plus `O(border length)` per border (twice for a subsampled one).
+//! Time: one raster scan plus `O(border length)` per border (twice for a subsampled one). The
+//! scan skips runs of background and of unlabelled interior pixels 16 bytes at a time; a trace
+//! step reads neighbours at fixed offsets in the plane away from the image's edge. On the
+//! bench set (callgrind, `vorl detect`) that is 0.71 M x86_64 instructions per 640×480 frame
+//! (2.56 M with a byte-wise scan and bounds-checked neighbours); on a Cortex-M4 0.28–0.31 M
+//! per QVGA frame of four parts (QEMU; 0.63–0.65 M before).
 //! Memory: `4·P` bytes of points and a small record per border in the store; 128 border records
 //! on the stack while tracing.
 
