@@ -25,15 +25,21 @@
 //!    the mask bit): inside and band from the component's rows `y − 2 ..= y + 2`; the ring's `D`
 //!    is kept summed per column over rows `y − 4 ..= y + 4` (a row added when it enters,
 //!    subtracted when it leaves), so a band pixel's local mean is 9 column sums, kept as a sum
-//!    that slides along the row.
+//!    that slides along the row. A ring pixel is weighed (it is inside) while its `D` is still
+//!    kept for the sums, so it is not read again. The inside pixels of weight 1 between two
+//!    pixels weighed alone (band, holes) are added as one run: one addition per sum when that
+//!    is sure not to round (every partial sum exact), else one by one, so the sums are the same
+//!    bits as pixel by pixel in raster order.
 //!
 //! The result is the per-pixel definition's (3×3 passes over flag bits, a 9×9 window per band
 //! pixel), which the tests keep as the reference: the same bits where `D` is an integer
 //! (`α = 1`), and within 1e-4 px otherwise (the local sums are added in another order).
 //!
 //! Time: a few word operations per 32 px of a row and pass, one `D` per weighted (inside or
-//! band) pixel and per ring pixel (one more for ring pixels past the 256 kept), about 40
-//! instructions of weighting per weighted pixel. The fixture set's parts (boxes of about 66×66 px) take
+//! band) pixel but ring pixels, one per ring pixel (one more for ring pixels past the 256 kept);
+//! `D` through [`Difference::at`] is about 60 x86 instructions, a third of the total. On the
+//! bench set (parts of 100–170 px, 640×480) a part takes 1.28 M x86 instructions (1.31 M before
+//! the runs and the kept ring values). Before them, the fixture set's parts (boxes of about 66×66 px) took
 //! 0.38 M x86 instructions each, 0.43 M on the Cortex-M4 (QEMU); a third of it is `D`. The
 //! per-pixel definition took 4.0 M and 4.6 M. Memory: on the Cortex-M4, 2.2 KB of stack for the
 //! fill, then at most 3.6 KB (the 256 ring values; then 264 column sums and counts and about 20
@@ -268,6 +274,8 @@ fn weigh<B: AsRef<[u8]>>(
     let mut comp = [EMPTY; 8];
     let mut rings = [EMPTY; 10];
     let mut columns = Columns::new();
+    // The next ring pixel to be weighed (ring pixels are numbered in raster order).
+    let mut weighing = 0usize;
     // Rows with inside or band pixels: the component's, and 2 more above and below.
     for p in comp_rows.start..(comp_rows.end + 2).min(height) + 4 {
         let (c, ring) = match box_row_mut(mask, w, r, p) {
@@ -308,23 +316,52 @@ fn weigh<B: AsRef<[u8]>>(
         }
         let yy = (r.y0 + y) as isize;
         let mut slide = Slide::default();
-        for (i, (&si, &bi)) in inside.iter().zip(&band).enumerate().take(n) {
+        // The ring's pixels of row y entered the column sums 4 rows ago: their D is kept.
+        let ring_y = *rings.get(y % 10).unwrap_or(&EMPTY);
+        for (i, ((&si, &bi), &gi)) in inside.iter().zip(&band).zip(&ring_y).enumerate().take(n) {
             let word = si | bi;
+            // The ring's pixels of the word are numbered on from `weighing`.
+            let first_ring = weighing;
+            if gi != 0 {
+                weighing += gi.count_ones() as usize;
+            }
             if word == 0 {
                 continue;
             }
             // D of the word's pixels first, then the weights (no call between the sums).
-            for_each_bit(&[word], 1, |bit| {
+            let x = r.x0 + 32 * i;
+            let mut bits = word & !gi;
+            while bits != 0 {
+                let bit = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
                 if let Some(slot) = d_at.get_mut(bit) {
-                    *slot = diff.at((r.x0 + 32 * i + bit) as isize, yy);
+                    *slot = diff.at((x + bit) as isize, yy);
                 }
-            });
+            }
+            let (mut ring, mut k) = (gi, first_ring);
+            while ring != 0 {
+                let bit = ring.trailing_zeros() as usize;
+                ring &= ring - 1;
+                k += 1;
+                if let Some(slot) = d_at.get_mut(bit) {
+                    *slot = values.peek(k - 1).unwrap_or_else(|| diff.at((x + bit) as isize, yy));
+                }
+            }
+            // The inside pixels that weigh 1.
+            let mut ones = 0u32;
+            let mut bits = si;
+            while bits != 0 {
+                let bit = bits.trailing_zeros();
+                bits &= bits - 1;
+                let d = d_at.get(bit as usize).copied().unwrap_or(0.0);
+                ones |= ((d / contrast >= HOLE_RATIO) as u32) << bit;
+            }
             let row = RowWeights {
                 contrast,
                 y: y as f32,
                 first: 32 * i,
             };
-            sums = row.add(sums, &d_at, si, bi, &mut slide, &columns);
+            sums = row.add(sums, &d_at, [si, bi, ones], &mut slide, &columns);
         }
     }
     let [sw, sx, sy] = sums;
@@ -341,16 +378,66 @@ struct RowWeights {
 }
 
 impl RowWeights {
+    /// `sums` (Σw, Σw·x, Σw·y) plus weight 1 for each pixel of `run` (bits of the word), the
+    /// same bits as adding them one by one in increasing column: at once when the sums are
+    /// sure to stay exact, else one by one.
+    #[inline]
+    fn add_ones(&self, sums: [f32; 3], run: u32) -> [f32; 3] {
+        self.add_ones_at_once(sums, run).unwrap_or_else(|| {
+            let [mut sw, mut sx, mut sy] = sums;
+            let mut bits = run;
+            while bits != 0 {
+                let col = self.first + bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                sw += 1.0;
+                sx += col as u32 as f32;
+                sy += self.y;
+            }
+            [sw, sx, sy]
+        })
+    }
+
+    /// [`Self::add_ones`] with one addition per sum, `None` when that might round differently.
+    #[inline]
+    fn add_ones_at_once(&self, sums: [f32; 3], run: u32) -> Option<[f32; 3]> {
+        // The number of pixels and the sum of their bits' indices.
+        let low = run.trailing_zeros();
+        let span = run.checked_shr(low).unwrap_or(0);
+        let (count, bit_sum) = if span & span.wrapping_add(1) == 0 {
+            // Columns low .. low + count.
+            let count = span.count_ones();
+            (count, count * low + count * count.saturating_sub(1) / 2)
+        } else {
+            let bit_sum = (run & 0xAAAA_AAAA).count_ones()
+                + 2 * (run & 0xCCCC_CCCC).count_ones()
+                + 4 * (run & 0xF0F0_F0F0).count_ones()
+                + 8 * (run & 0xFF00_FF00).count_ones()
+                + 16 * (run & 0xFFFF_0000).count_ones();
+            (run.count_ones(), bit_sum)
+        };
+        let cols = u32::try_from(self.first)
+            .ok()?
+            .checked_mul(count)?
+            .checked_add(bit_sum)?;
+        let [sw, sx, sy] = sums;
+        Some([
+            exact_sum(sw, count as f32)?,
+            exact_sum(sx, exact_integer(cols)?)?,
+            // y is an integer and count ≤ 32: the product is exact when it is below 2^24.
+            exact_sum(sy, exact_integer_f32(self.y * count as f32)?)?,
+        ])
+    }
+
     /// `sums` (Σw, Σw·x, Σw·y) plus the weights of the word's inside and band pixels, in
-    /// increasing column; `d_at[bit]` is `D` of the pixel of `bit`. Not inlined, so the sums stay
-    /// in registers.
+    /// increasing column; `d_at[bit]` is `D` of the pixel of `bit`, `ones` the inside pixels of
+    /// weight 1 (their runs between the other pixels are added at once). Not inlined, so the
+    /// sums stay in registers.
     #[inline(never)]
     fn add(
         &self,
         sums: [f32; 3],
         d_at: &[f32; 32],
-        inside: u32,
-        band: u32,
+        [inside, band, ones]: [u32; 3],
         slide: &mut Slide,
         columns: &Columns,
     ) -> [f32; 3] {
@@ -358,21 +445,30 @@ impl RowWeights {
         let contrast = self.contrast;
         let sign = contrast.signum();
         let mut bits = inside | band;
+        // The pixels weighed one by one.
+        let single = bits & !ones;
         while bits != 0 {
-            let bit = bits.trailing_zeros();
-            bits &= bits - 1;
+            let next = bits & single;
+            let lowest = next & next.wrapping_neg();
+            // The pixels of weight 1 before the next one weighed alone (all when there is none).
+            let run = bits & lowest.wrapping_sub(1);
+            if run != 0 {
+                [sw, sx, sy] = self.add_ones([sw, sx, sy], run);
+                bits &= !run;
+            }
+            if lowest == 0 {
+                break;
+            }
+            bits &= !lowest;
+            let bit = lowest.trailing_zeros();
             let col = self.first + bit as usize;
             let d = d_at.get(bit as usize).copied().unwrap_or(0.0);
-            let weight = if inside >> bit & 1 != 0 {
+            let weight = if inside & lowest != 0 {
                 // Inside counts 1, unless the pixel looks like the platform: a small hole or a
                 // narrow gap that the mask's closing filled. Printed labels keep at least a third
-                // of the part's contrast, holes keep none.
-                let ratio = d / contrast;
-                if ratio >= HOLE_RATIO {
-                    1.0
-                } else {
-                    ratio.clamp(0.0, 1.0)
-                }
+                // of the part's contrast, holes keep none. (Here the ratio is below
+                // HOLE_RATIO: the others are in `ones`.)
+                (d / contrast).clamp(0.0, 1.0)
             } else if d * sign > 0.0 {
                 // The local contrast: mean D of the ring pixels within 4 px (shading across the
                 // part changes it from one side to the other), else the part's median. (It has
@@ -398,6 +494,38 @@ impl RowWeights {
         }
         [sw, sx, sy]
     }
+}
+
+/// Below this, every integer is an `f32`.
+const EXACT: f32 = 16_777_216.0;
+
+/// `v` as an `f32` when that is exact.
+#[inline]
+fn exact_integer(v: u32) -> Option<f32> {
+    (v <= 1 << 24).then_some(v as f32)
+}
+
+/// `v` (an integer-valued product) when it is below 2^24, so that it was computed exactly.
+#[inline]
+fn exact_integer_f32(v: f32) -> Option<f32> {
+    (v < EXACT).then_some(v)
+}
+
+/// `s + t` for `s ≥ 0` and an integer `t ≥ 0` that stands for several integer terms added to `s`
+/// one by one in f32, when none of those additions rounds (so that their result is `s + t`):
+/// either `s` is an integer and the sum stays below 2^24 (every partial sum is an integer an
+/// `f32` holds), or `s` and the sum share their exponent below 2^24 (every partial sum lies in
+/// that binade, on its grid of at most 1). `None` otherwise.
+#[inline]
+fn exact_sum(s: f32, t: f32) -> Option<f32> {
+    let total = s + t;
+    // Rounding is monotonic: a computed sum below 2^24 means a true one below it.
+    if !(s >= 0.0 && total < EXACT) {
+        return None;
+    }
+    let same_binade = s.to_bits() >> 23 == total.to_bits() >> 23;
+    // `s as u32` truncates (s < 2^24): s is an integer iff that converts back to s.
+    (same_binade || s as u32 as f32 == s).then_some(total)
 }
 
 /// Row `q` of the box in the plane.
@@ -631,6 +759,17 @@ impl RingValues {
             }
         }
         d
+    }
+
+    /// `D` of ring pixel `k` when it is stored: a pixel between entering and leaving the sums
+    /// is, unless it was read when there was no room.
+    #[inline]
+    fn peek(&self, k: usize) -> Option<f32> {
+        if (self.from..self.to).contains(&k) {
+            self.values.get(k % RING_VALUES).copied()
+        } else {
+            None
+        }
     }
 
     /// `D` of the next pixel to leave the sums (`read` when it is not stored).
@@ -1608,6 +1747,160 @@ mod tests {
         }
     }
 
+    /// The weights of a word's pixels added one by one in increasing column, as `RowWeights::add`
+    /// did before it added runs of weight 1 at once (and as the per-pixel path does).
+    fn one_by_one(
+        row: &RowWeights,
+        sums: [f32; 3],
+        d_at: &[f32; 32],
+        inside: u32,
+        band: u32,
+        slide: &mut Slide,
+        columns: &Columns,
+    ) -> [f32; 3] {
+        let [mut sw, mut sx, mut sy] = sums;
+        let sign = row.contrast.signum();
+        for (bit, &d) in d_at.iter().enumerate() {
+            let col = row.first + bit;
+            let weight = if inside >> bit & 1 != 0 {
+                let ratio = d / row.contrast;
+                if ratio >= HOLE_RATIO {
+                    1.0
+                } else {
+                    ratio.clamp(0.0, 1.0)
+                }
+            } else if band >> bit & 1 != 0 && d * sign > 0.0 {
+                let (sum, count) = slide.around(col, columns);
+                let mut local = row.contrast;
+                if count > 0 && (sum / count as f32) * sign >= 1.0 {
+                    local = sum / count as f32;
+                }
+                (d / local).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            if weight > 0.0 {
+                sw += weight;
+                sx += weight * col as u32 as f32;
+                sy += weight * row.y;
+            }
+        }
+        [sw, sx, sy]
+    }
+
+    /// Sums as they come up while a part is weighed: integers, fractions, values just below a
+    /// power of two and up to 2^24 and beyond.
+    fn random_sum(rng: &mut Rng) -> f32 {
+        match rng.below(5) {
+            0 => rng.below(5000) as f32,
+            1 => rng.range(0.0, 5000.0),
+            2 => {
+                let p = (1u32 << (3 + rng.below(21))) as f32;
+                p - rng.range(0.0, 40.0)
+            }
+            3 => 16_777_216.0 - rng.range(0.0, 20_000.0),
+            _ => rng.range(0.0, 1.0e6) * (1.0 + rng.below(40) as f32),
+        }
+    }
+
+    #[test]
+    fn runs_of_weight_one_add_up_like_one_pixel_at_a_time() {
+        // `add` (runs of weight 1 at once when exact) against `one_by_one`: the same bits for
+        // random words, D (integer as with α = 1, or fractional), ring sums and running sums.
+        let mut rng = Rng(0x5EED_0001);
+        let (mut at_once, mut words) = (0usize, 0usize);
+        for case in 0..40_000 {
+            let contrast = if rng.chance(0.5) { 1.0 } else { -1.0 } * (1 + rng.below(200)) as f32;
+            let row = RowWeights {
+                contrast,
+                y: rng.below(if case % 8 == 0 { 70_000 } else { 400 }) as f32,
+                first: 32 * rng.below(WORDS),
+            };
+            let integer = rng.chance(0.5);
+            let mut d_at = [0.0f32; 32];
+            for d in &mut d_at {
+                // Mostly the part's contrast, some holes and other-signed values.
+                let v = match rng.below(6) {
+                    0 => rng.range(-255.0, 255.0),
+                    1 => contrast * rng.range(0.0, 0.3),
+                    _ => contrast * rng.range(0.5, 1.5),
+                };
+                *d = if integer { v.round() } else { v };
+            }
+            let mut columns = Columns::new();
+            for (s, c) in columns.sum.iter_mut().zip(columns.count.iter_mut()) {
+                *c = rng.below(4) as u8;
+                *s = if *c == 0 { 0.0 } else { contrast * rng.range(0.0, 3.0) };
+            }
+            // Inside in the middle, band at the ends, as at a part's edge; or random bits.
+            let (inside, band) = if rng.chance(0.5) {
+                let (a, b) = (rng.below(33) as u32, rng.below(33) as u32);
+                let (lo, hi) = (a.min(b), a.max(b));
+                let span = |from: u32, to: u32| {
+                    if to <= from {
+                        0
+                    } else {
+                        (u32::MAX >> (32 - (to - from))) << from
+                    }
+                };
+                let inside = span(lo, hi);
+                (
+                    inside,
+                    span(lo.saturating_sub(2), hi.saturating_add(2).min(32)) & !inside,
+                )
+            } else {
+                let inside = rng.next() as u32 & rng.next() as u32 | rng.next() as u32;
+                (inside, rng.next() as u32 & !inside)
+            };
+            let ones = (0..32).fold(0u32, |m, b| m | (((d_at[b] / contrast >= HOLE_RATIO) as u32) << b)) & inside;
+            let sums = [random_sum(&mut rng), random_sum(&mut rng), random_sum(&mut rng)];
+            let got = row.add(sums, &d_at, [inside, band, ones], &mut Slide::default(), &columns);
+            let want = one_by_one(&row, sums, &d_at, inside, band, &mut Slide::default(), &columns);
+            assert_eq!(got.map(f32::to_bits), want.map(f32::to_bits), "case {case}");
+            // The runs alone, and how often they go at once.
+            if ones != 0 {
+                words += 1;
+                let by_pixel = one_by_one(&row, sums, &[contrast; 32], ones, 0, &mut Slide::default(), &columns);
+                let run = row.add_ones(sums, ones);
+                assert_eq!(run.map(f32::to_bits), by_pixel.map(f32::to_bits), "case {case}");
+                if let Some(sum) = row.add_ones_at_once(sums, ones) {
+                    assert_eq!(sum.map(f32::to_bits), by_pixel.map(f32::to_bits), "case {case}");
+                    at_once += 1;
+                }
+            }
+        }
+        // Runs are added at once often (here a third: the random sums are small and cross
+        // binades more often than a part's); not near 2^24 nor across a binade.
+        assert!(at_once > words / 5 && at_once < words, "{at_once} of {words}");
+    }
+
+    #[test]
+    fn exact_sums_are_exact() {
+        // Sums of integers that `exact_sum` accepts, against adding 1 at a time in f64.
+        let mut rng = Rng(31337);
+        for _ in 0..20_000 {
+            let s = random_sum(&mut rng);
+            let t = rng.below(3000) as f32;
+            if let Some(total) = exact_sum(s, t) {
+                assert_eq!(total as f64, s as f64 + t as f64, "{s} + {t}");
+                // Every partial sum holds too (the sum one by one is the same).
+                let mut one_by_one = s;
+                for _ in 0..t as u32 {
+                    one_by_one += 1.0;
+                }
+                assert_eq!(one_by_one.to_bits(), total.to_bits(), "{s} + {t}");
+            }
+        }
+        assert_eq!(exact_sum(4.5, 3.0), Some(7.5));
+        assert_eq!(exact_sum(3.5, 4.0), None);
+        // Crossing 4 from a fraction, reaching 2^24, negative or NaN sums: refused.
+        assert_eq!(exact_sum(3.5, 1.0), None);
+        assert_eq!(exact_sum(16_777_215.0, 1.0), None);
+        assert_eq!(exact_sum(-1.0, 1.0), None);
+        assert_eq!(exact_sum(f32::NAN, 1.0), None);
+        assert_eq!(exact_sum(0.0, 16_777_215.0), Some(16_777_215.0));
+    }
+
     #[test]
     fn ring_values_give_each_pixel_its_own_value() {
         // Rows of ring pixels enter the column sums and leave them 9 rows later, as in `weigh`;
@@ -1647,6 +1940,18 @@ mod tests {
                     });
                     assert_eq!(d, value(entered), "case {case} entering {entered}");
                     entered += 1;
+                }
+                // What is kept is the pixel's own value (`weigh` reads the pixels 4 rows after
+                // they entered), and nothing that left; all is kept when it fits.
+                for k in left.saturating_sub(3)..total.min(entered + 600) {
+                    match values.peek(k) {
+                        Some(d) => {
+                            // (Or stored by the first pass and yet to enter.)
+                            assert!(k >= left, "case {case} peek {k}");
+                            assert_eq!(d, value(k), "case {case} peek {k}");
+                        }
+                        None => assert!(!(left..entered).contains(&k) || total > RING_VALUES),
+                    }
                 }
             }
             assert_eq!((entered, left), (total, total));
