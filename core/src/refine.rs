@@ -11,14 +11,21 @@
 //!   half-contrast level `(D_in + D_out)/2` nearest the point is the edge — the local contrast
 //!   comes from the ends of the same profile, so printed labels and shading inside the part do
 //!   not move it. A Gauss–Newton step on the signed normal distances (point-to-line) updates
-//!   translation, rotation and scale (lightly damped, so the free rotation of a round part is
-//!   left alone). Coarse to fine: steps on every 4th point, with profiles sampled at twice the
-//!   step, until an update moves the points along their normals by less than 0.05 px (root mean
-//!   square) or they lie within 0.25 px of the edge, then steps on every point at the full sampling until they move by less than
-//!   0.001 px (the right template converges in 3–5 steps from the DP's seed; a wrong one
-//!   reaches the step limit without settling and is not refined further). The profiles are scanned from the point outwards and stop at
-//!   the nearest crossing, so a pose near the edge reads about 9 of a profile's 25 samples.
-//!   Time `O(m·search/step)` per step, no memory beyond a few numbers.
+//!   translation, rotation and scale (lightly damped — each direction by 10⁻³ of how far it
+//!   moves the points — so the free rotation of a round part is left alone while the others
+//!   take full steps). Coarse to fine: steps on every 4th point, with profiles sampled at twice
+//!   the step, until an update moves the points along their normals by less than 0.05 px (root
+//!   mean square) or they lie within 0.25 px of the edge, then steps on every point at the full
+//!   sampling until they move by less than 0.001 px (the right template settles in 2–3 coarse
+//!   and 2–3 fine steps from the DP's seed; a wrong one reaches the step limit without settling
+//!   and is not refined further). The distances of a converged last step stand for those at the
+//!   final pose (it moved the points by less than 0.001 px); otherwise they are measured once
+//!   more. The profiles are scanned from the point outwards and stop at the nearest crossing,
+//!   so a pose near the edge reads about 8 of a profile's 25 samples, and consecutive samples
+//!   in the same pixel cell reuse its four differences. On the bench set (142 alignments over
+//!   30 frames) an alignment costs about 0.47 M x86 instructions (1.05 M before the per-direction
+//!   damping, the reused distances and the cell cache). Time `O(m·search/step)` per step, no
+//!   memory beyond a few numbers.
 //! - **Verification**: the mean of the capped normal distances (profiles that find no edge count
 //!   the cap), plus how far the part's own border lies from the aligned template outline, plus a
 //!   penalty for a scale far from 1 — both ways, so a template that covers only part of the
