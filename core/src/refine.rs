@@ -185,16 +185,24 @@ impl<'a, B: AsRef<[u8]>> Difference<'a, B> {
         let xc = x.clamp(0, w - 1);
         let yc = y.clamp(0, h - 1);
         let b = self.background.get((yc * w + xc) as usize).copied().unwrap_or(0) as f32;
+        if self.alpha.get() >= 1.0 {
+            // The default α = 1: a subtraction, small enough to inline into the callers' loops.
+            return self.frame.get_clamped(xc, yc) as f32 - b;
+        }
+        self.enhanced(xc, yc) - b
+    }
+
+    /// `I' = α·I + (1 − α)·|∇I|` at an in-image pixel (α < 1), kept out of line so that
+    /// [`Self::at`] stays small.
+    #[inline(never)]
+    fn enhanced(&self, xc: isize, yc: isize) -> f32 {
         let a = self.alpha.get();
         let i = self.frame.get_clamped(xc, yc) as f32;
-        if a >= 1.0 {
-            return i - b;
-        }
         let p = |dx: isize, dy: isize| self.frame.get_clamped(xc + dx, yc + dy) as f32;
         let gx = (p(1, -1) + 2.0 * p(1, 0) + p(1, 1)) - (p(-1, -1) + 2.0 * p(-1, 0) + p(-1, 1));
         let gy = (p(-1, 1) + 2.0 * p(0, 1) + p(1, 1)) - (p(-1, -1) + 2.0 * p(0, -1) + p(1, -1));
         let g = math::sqrt(gx * gx + gy * gy) * 0.176_776_69;
-        (a * i + (1.0 - a) * g).clamp(0.0, 255.0) - b
+        (a * i + (1.0 - a) * g).clamp(0.0, 255.0)
     }
 
     /// `D` at a sub-pixel position, bilinear.
