@@ -607,30 +607,6 @@ impl Search<'_> {
         }
     }
 
-    /// Row `i` of path `e` in `d` coordinates.
-    #[inline]
-    fn edge(&self, e: Edge, i: usize) -> Option<usize> {
-        self.paths.get(e.slot * self.n + i).map(|&v| e.start + unpack(v))
-    }
-
-    /// The band of start `s` in row `i`, as `δ` (relative to `s`) bounds; whole rows where an
-    /// edge is `None`.
-    #[inline]
-    fn band(&self, s: usize, lower: Option<Edge>, upper: Option<Edge>, i: usize) -> (usize, usize) {
-        if i == 0 {
-            return (0, 0);
-        }
-        let top = self.w - 1;
-        let a = lower
-            .and_then(|e| self.edge(e, i))
-            .map_or(0, |d| d.saturating_sub(s))
-            .min(top);
-        let b = upper
-            .and_then(|e| self.edge(e, i))
-            .map_or(top, |d| d.saturating_sub(s).min(top));
-        (a, b.max(a))
-    }
-
     /// Solves the starts strictly between `lo` and `hi` (`hi − lo ≥ 2`) inside the band of
     /// `lower` and `upper`.
     fn solve(&mut self, lo: usize, hi: usize, lower: Option<Edge>, upper: Option<Edge>, depth: usize) {
@@ -677,6 +653,14 @@ impl Search<'_> {
         }
     }
 
+    /// Counts `k` visited cells (only in the tests, for their work bounds).
+    #[inline(always)]
+    fn count(&mut self, k: usize) {
+        if cfg!(test) {
+            self.cells += k;
+        }
+    }
+
     /// The relaxed band DP of the starts `first ..= last`: a path may begin at any of them and
     /// end anywhere up to `d = last + w − 1`. Every start's optimal path in the band is one of
     /// these, so the result is a lower bound on their optima; `+∞` once its row minimum reaches
@@ -693,28 +677,39 @@ impl Search<'_> {
                 row_min = lesser(row_min, v);
             }
         }
-        self.cells += b0 + 1;
+        self.count(b0 + 1);
         if row_min >= self.best {
             return f32::INFINITY;
         }
-        let (mut pa, mut pb) = (0, b0);
-        let lower_path = path_of(self.paths, self.n, lower);
-        let upper_path = path_of(self.paths, self.n, upper);
         let t = self.t2.get(first..).unwrap_or(&[]);
-        for (i, &ci) in self.part.iter().enumerate().skip(1) {
-            // The band in `d`, clipped to the starts' reach, relative to `first`.
-            let a = lower_path.map_or(first, |(p, e)| p.get(i).map_or(first, |&v| (e + unpack(v)).max(first)));
-            let b = upper_path.map_or(end, |(p, e)| p.get(i).map_or(end, |&v| (e + unpack(v)).min(end)));
-            let (a, b) = (a - first, b.max(a) - first);
-            let row_min = step::<false>(self.row, t.get(i..).unwrap_or(&[]), ci, pa, pb, a, b, &mut []);
-            self.cells += (b + 1).saturating_sub(pa);
-            if row_min >= self.best {
-                return f32::INFINITY;
+        let (part, best, cells) = (self.part, self.best, &mut self.cells);
+        let row = &mut *self.row;
+        // The band in `d`, clipped to the starts' reach, relative to `first` (the top is raised
+        // to the bottom in `band_rows`).
+        let band = match (path_of(self.paths, self.n, lower), path_of(self.paths, self.n, upper)) {
+            (Some((lp, le)), Some((up, ue))) => {
+                let bounds = move |i: usize| match (lp.get(i), up.get(i)) {
+                    (Some(&l), Some(&u)) => (
+                        (le + unpack(l)).max(first) - first,
+                        (ue + unpack(u)).min(end).saturating_sub(first),
+                    ),
+                    _ => (0, end - first),
+                };
+                band_rows::<false>(part, t, row, &mut [], 0, bounds, b0, true, best, cells)
             }
-            (pa, pb) = (a, b);
-        }
-        self.row
-            .get(pa..=pb)
+            (lp, up) => {
+                let bounds = move |i: usize| {
+                    let a = lp.map_or(first, |(p, e)| p.get(i).map_or(first, |&v| (e + unpack(v)).max(first)));
+                    let b = up.map_or(end, |(p, e)| p.get(i).map_or(end, |&v| (e + unpack(v)).min(end)));
+                    (a - first, b.saturating_sub(first))
+                };
+                band_rows::<false>(part, t, row, &mut [], 0, bounds, b0, true, best, cells)
+            }
+        };
+        let Some((pa, pb)) = band else {
+            return f32::INFINITY;
+        };
+        row.get(pa..=pb)
             .map_or(f32::INFINITY, |r| r.iter().copied().fold(f32::INFINITY, lesser))
     }
 
@@ -729,7 +724,7 @@ impl Search<'_> {
         keep: Option<usize>,
         abandon: bool,
     ) -> bool {
-        let (n, chunks) = (self.n, self.chunks);
+        let (n, chunks, top) = (self.n, self.chunks, self.w - 1);
         let c0 = match (self.part.first(), self.t2.get(s)) {
             (Some(&p), Some(&t)) => (p - t).abs(),
             _ => return false,
@@ -737,37 +732,47 @@ impl Search<'_> {
         if let Some(cell) = self.row.first_mut() {
             *cell = c0;
         }
-        self.cells += 1;
+        self.count(1);
         if abandon && c0 >= self.best {
             return false;
         }
-        let (mut pa, mut pb) = (0, 0);
-        let top = self.w - 1;
-        let lower_path = path_of(self.paths, self.n, lower);
-        let upper_path = path_of(self.paths, self.n, upper);
         let t = self.t2.get(s..).unwrap_or(&[]);
-        let rows = self
-            .part
-            .iter()
-            .zip(self.bits.chunks_exact_mut(chunks))
-            .enumerate()
-            .skip(1);
-        for (i, (&ci, bits)) in rows {
-            // The band in δ: between the edges' rows, shifted to start `s`.
-            let a = lower_path.map_or(0, |(p, e)| {
-                p.get(i).map_or(0, |&v| (e + unpack(v)).saturating_sub(s)).min(top)
-            });
-            let b = upper_path.map_or(top, |(p, e)| {
-                p.get(i).map_or(top, |&v| (e + unpack(v)).saturating_sub(s)).min(top)
-            });
-            let b = b.max(a);
-            let row_min = step::<true>(self.row, t.get(i..).unwrap_or(&[]), ci, pa, pb, a, b, bits);
-            self.cells += (b + 1).saturating_sub(pa);
-            if abandon && row_min >= self.best {
-                return false;
+        // The path is read back only to keep it or to report a winner: without either, no bits.
+        let record = keep.is_some() || !self.out.is_empty();
+        let (part, bits, best, cells) = (self.part, &mut *self.bits, self.best, &mut self.cells);
+        let row = &mut *self.row;
+        // The band in δ: between the edges' rows, shifted to start `s`.
+        let band = match (path_of(self.paths, n, lower), path_of(self.paths, n, upper)) {
+            (Some((lp, le)), Some((up, ue))) => {
+                let bounds = move |i: usize| match (lp.get(i), up.get(i)) {
+                    (Some(&l), Some(&u)) => (
+                        (le + unpack(l)).saturating_sub(s).min(top),
+                        (ue + unpack(u)).saturating_sub(s).min(top),
+                    ),
+                    _ => (0, top),
+                };
+                if record {
+                    band_rows::<true>(part, t, row, bits, chunks, bounds, 0, abandon, best, cells)
+                } else {
+                    band_rows::<false>(part, t, row, &mut [], 0, bounds, 0, abandon, best, cells)
+                }
             }
-            (pa, pb) = (a, b);
-        }
+            (lp, up) => {
+                let bounds = move |i: usize| {
+                    let a = lp.map_or(0, |(p, e)| {
+                        p.get(i).map_or(0, |&v| (e + unpack(v)).saturating_sub(s)).min(top)
+                    });
+                    let b = up.map_or(top, |(p, e)| {
+                        p.get(i).map_or(top, |&v| (e + unpack(v)).saturating_sub(s)).min(top)
+                    });
+                    (a, b)
+                };
+                band_rows::<true>(part, t, row, bits, chunks, bounds, 0, abandon, best, cells)
+            }
+        };
+        let Some((pa, pb)) = band else {
+            return false;
+        };
         // The first minimum of the last row's band.
         let mut total = f32::INFINITY;
         let mut end = pa;
@@ -788,7 +793,7 @@ impl Search<'_> {
         if keep.is_none() && !report {
             return false;
         }
-        self.read_path(s, lower, upper, end);
+        self.read_path(end);
         if let Some(slot) = keep {
             if let (Some(dst), Some(src)) = (self.paths.get_mut(slot * n..(slot + 1) * n), self.row.get(..n)) {
                 dst.copy_from_slice(src);
@@ -803,59 +808,94 @@ impl Search<'_> {
         keep.is_some()
     }
 
-    /// Backtracks start `s`'s path from `δ_{n−1} = end` through the bits into `row[..n]`.
-    fn read_path(&mut self, s: usize, lower: Option<Edge>, upper: Option<Edge>, end: usize) {
+    /// Backtracks the last start's path from `δ_{n−1} = end` through its bits into `row[..n]`:
+    /// `δ_{i−1}` is the last set bit of row `i`'s record at or below `δ_i` (see [`step`]).
+    fn read_path(&mut self, end: usize) {
         let (n, chunks) = (self.n, self.chunks);
+        let Some((last, path)) = self.row.get_mut(..n).and_then(|r| r.split_last_mut()) else {
+            return;
+        };
         let mut d = end;
-        if let Some(cell) = self.row.get_mut(n - 1) {
+        *last = pack(d);
+        // Records `n − 1` down to 1 (the buffer holds exactly `n` of them).
+        let records = self.bits.rchunks_exact(chunks);
+        for (cell, bits) in path.iter_mut().rev().zip(records) {
+            d = last_bit(bits, d);
             *cell = pack(d);
         }
-        for i in (1..n).rev() {
-            // δ_{i−1}: the first minimum of row i − 1 up to δ_i, within that row's band.
-            let (pa, pb) = self.band(s, lower, upper, i - 1);
-            let bits = self.bits.get(i * chunks..(i + 1) * chunks).unwrap_or(&[]);
-            d = last_bit(bits, d.min(pb), pa);
-            if let Some(cell) = self.row.get_mut(i - 1) {
-                *cell = pack(d);
-            }
-        }
     }
 }
 
-/// The last set bit at a position in `[floor, at]` (`floor` when there is none).
-fn last_bit(bits: &[f32], at: usize, floor: usize) -> usize {
-    if at < floor {
-        return floor;
-    }
-    let mut chunk = at / BITS_PER_CELL;
-    let mut mask = u32::MAX >> (31 - (at % BITS_PER_CELL) as u32);
-    loop {
-        let word = bits.get(chunk).map_or(0, |&v| unpack(v) as u32) & mask;
+/// The last set bit at or below `at` (`at` when there is none, which a record never has: the
+/// bottom of its band is always set).
+#[inline]
+fn last_bit(bits: &[f32], at: usize) -> usize {
+    let mut mask = (2u32 << (at % BITS_PER_CELL)) - 1;
+    for (chunk, &v) in bits.iter().enumerate().take(at / BITS_PER_CELL + 1).rev() {
+        let word = unpack(v) as u32 & mask;
         if word != 0 {
-            let pos = chunk * BITS_PER_CELL + (31 - word.leading_zeros()) as usize;
-            return pos.max(floor);
+            return chunk * BITS_PER_CELL + (31 - word.leading_zeros()) as usize;
         }
-        if chunk == 0 || chunk * BITS_PER_CELL <= floor {
-            return floor;
-        }
-        chunk -= 1;
         mask = u32::MAX;
     }
+    at
 }
 
-/// One in-place band row: the previous row's band is `[pa, pb]`, the new one `[a, b]`
-/// (`pa ≤ a ≤ b`), `t[x]` the template value of cell `x`. Returns the new band's minimum.
+/// Rows `1..n` of a band DP whose row 0 (band `[0, b0]`) is in `row`: `bounds(i)` is row `i`'s
+/// band `(a, b)` in δ (`b` is raised to `a`), `bits` holds each row's backtracking record of
+/// `chunks` cells (with `BITS`), `t[i + δ]` is the template value of row `i`'s cell `δ`.
+/// Returns the last row's band, or `None` once a row minimum reaches `best` (with `abandon`).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn band_rows<const BITS: bool>(
+    part: &[f32],
+    t: &[f32],
+    row: &mut [f32],
+    bits: &mut [f32],
+    chunks: usize,
+    bounds: impl Fn(usize) -> (usize, usize),
+    b0: usize,
+    abandon: bool,
+    best: f32,
+    cells: &mut usize,
+) -> Option<(usize, usize)> {
+    let (mut pa, mut pb) = (0, b0);
+    for (i, &ci) in part.iter().enumerate().skip(1) {
+        let (a, b) = bounds(i);
+        let b = b.max(a);
+        let record = if BITS {
+            bits.get_mut(i * chunks..(i + 1) * chunks).unwrap_or_default()
+        } else {
+            &mut []
+        };
+        let row_min = step::<BITS>(row, t, i, ci, pa, pb, a, b, record);
+        if cfg!(test) {
+            *cells += (b + 1).saturating_sub(pa);
+        }
+        if abandon && row_min >= best {
+            return None;
+        }
+        (pa, pb) = (a, b);
+    }
+    Some((pa, pb))
+}
+
+/// One in-place band row `i`: the previous row's band is `[pa, pb]`, the new one `[a, b]`
+/// (`pa ≤ a ≤ b`), `t[i + x]` the template value of cell `x`. Returns the new band's minimum.
 /// With `BITS`, bit `x` of `bits` is set where the running minimum of the previous row strictly
-/// decreases (for `x` in `[pa, min(pb, b)]`; the chunks covering them are overwritten).
+/// decreases, for `x` in `[pa, min(pb, b)]`, and always at `pa` (the first minimum up to `pa`
+/// is there even when the cell is not finite); every other bit of the record is clear, so a
+/// path is read back without the bands.
 ///
-/// The previous band is read in blocks of up to 64 positions (one block for rows up to 49
-/// cells wide) so the bits gather in one register; cells below `a` only feed the running
-/// minimum (they leave the band and are never read again).
+/// Cells below `a` only feed the running minimum (they leave the band and are never read
+/// again); past `min(pb, b)` the running minimum is final. Records of up to 4 cells (rows up to
+/// 64 cells wide) gather their bits in one register; wider ones go through [`step_blocks`].
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn step<const BITS: bool>(
     row: &mut [f32],
     t: &[f32],
+    i: usize,
     ci: f32,
     pa: usize,
     pb: usize,
@@ -863,14 +903,120 @@ fn step<const BITS: bool>(
     b: usize,
     bits: &mut [f32],
 ) -> f32 {
+    if BITS && bits.len() > 64 / BITS_PER_CELL {
+        return step_blocks(row, t.get(i..).unwrap_or(&[]), ci, pa, pb, a, b, bits);
+    }
+    let e = pb.min(b);
+    // Cells `[pa, lo)` are below the new band, `[lo, hi)` in both bands when `a ≤ e` (else not
+    // in either), `[hi, b]` past the previous band.
+    let (lo, hi) = (a.min(e + 1), a.max(e + 1));
+    let (Some(cells), Some(ts)) = (row.get_mut(pa..=b), t.get(i + lo..=i + b)) else {
+        return f32::INFINITY;
+    };
+    let (Some((below, rest)), Some((t_mid, t_past))) =
+        (cells.split_at_mut_checked(lo - pa), ts.split_at_checked(hi - lo))
+    else {
+        return f32::INFINITY;
+    };
+    let Some((mid, past)) = rest.split_at_mut_checked(hi - lo) else {
+        return f32::INFINITY;
+    };
+    let mut cell = Cell {
+        running: f32::INFINITY,
+        row_min: f32::INFINITY,
+        word: 0,
+        bit: 1u64.wrapping_shl(pa as u32),
+        ci,
+    };
+    let first_bit = cell.bit;
+    for &p in below.iter() {
+        cell.leave::<BITS>(p);
+    }
+    if a <= e {
+        let mut pairs = mid.chunks_exact_mut(2);
+        let mut t_pairs = t_mid.chunks_exact(2);
+        for (c, tv) in (&mut pairs).zip(&mut t_pairs) {
+            if let ([c0, c1], [t0, t1]) = (c, tv) {
+                cell.update::<BITS>(c0, *t0);
+                cell.update::<BITS>(c1, *t1);
+            }
+        }
+        for (c, &tv) in pairs.into_remainder().iter_mut().zip(t_pairs.remainder()) {
+            cell.update::<BITS>(c, tv);
+        }
+    }
+    let (running, mut row_min) = (cell.running, cell.row_min);
+    for (c, &tv) in past.iter_mut().zip(t_past) {
+        let v = (ci - tv).abs() + running;
+        *c = v;
+        row_min = lesser(row_min, v);
+    }
+    if BITS {
+        let word = cell.word | first_bit;
+        let part = |k: u32| pack((word.wrapping_shr(k * BITS_PER_CELL as u32) & 0xffff) as usize);
+        match bits {
+            [c0] => *c0 = part(0),
+            [c0, c1] => (*c0, *c1) = (part(0), part(1)),
+            [c0, c1, c2] => (*c0, *c1, *c2) = (part(0), part(1), part(2)),
+            [c0, c1, c2, c3] => (*c0, *c1, *c2, *c3) = (part(0), part(1), part(2), part(3)),
+            _ => {}
+        }
+    }
+    row_min
+}
+
+/// The state of [`step`] along the previous band.
+struct Cell {
+    /// The running minimum of the previous row.
+    running: f32,
+    /// The minimum of the new cells.
+    row_min: f32,
+    /// The backtracking bits gathered so far, and the bit of the next cell.
+    word: u64,
+    bit: u64,
+    /// The part value of the row.
+    ci: f32,
+}
+
+impl Cell {
+    /// A previous cell `p` below the new band: only the running minimum moves.
+    #[inline(always)]
+    fn leave<const BITS: bool>(&mut self, p: f32) {
+        let lower = p < self.running;
+        self.running = if lower { p } else { self.running };
+        if BITS {
+            self.word |= if lower { self.bit } else { 0 };
+            self.bit <<= 1;
+        }
+    }
+
+    /// A cell in both bands: `c` holds the previous row's value and receives the new one.
+    #[inline(always)]
+    fn update<const BITS: bool>(&mut self, c: &mut f32, t: f32) {
+        self.leave::<BITS>(*c);
+        let v = (self.ci - t).abs() + self.running;
+        *c = v;
+        self.row_min = lesser(self.row_min, v);
+    }
+}
+
+/// [`step`] for records of more than 4 cells (rows over 64 cells wide), `t[x]` the template
+/// value of cell `x`: the previous band is read in blocks of up to 64 positions, the bits of
+/// each block gathered in one register; the record is cleared first and bit `pa` set last.
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn step_blocks(row: &mut [f32], t: &[f32], ci: f32, pa: usize, pb: usize, a: usize, b: usize, bits: &mut [f32]) -> f32 {
     const BLOCK: usize = 64;
+    for c in bits.iter_mut() {
+        *c = pack(0);
+    }
     let e = pb.min(b);
     let mut running = f32::INFINITY;
     let mut row_min = f32::INFINITY;
     let mut from = pa;
     while from <= e {
         let base = from / BITS_PER_CELL * BITS_PER_CELL;
-        let to = if BITS { (base + BLOCK - 1).min(e) } else { e };
+        let to = (base + BLOCK - 1).min(e);
         let mid = a.clamp(from, to + 1);
         let mut word = 0u64;
         let mut bit = 1u64 << ((from - base) % BLOCK);
@@ -878,10 +1024,8 @@ fn step<const BITS: bool>(
             for &p in cells {
                 let lower = p < running;
                 running = if lower { p } else { running };
-                if BITS {
-                    word |= if lower { bit } else { 0 };
-                    bit <<= 1;
-                }
+                word |= if lower { bit } else { 0 };
+                bit <<= 1;
             }
         }
         if let (Some(cells), Some(ts)) = (row.get_mut(mid..=to), t.get(mid..=to)) {
@@ -889,25 +1033,24 @@ fn step<const BITS: bool>(
                 let p = *cell;
                 let lower = p < running;
                 running = if lower { p } else { running };
-                if BITS {
-                    word |= if lower { bit } else { 0 };
-                    bit <<= 1;
-                }
+                word |= if lower { bit } else { 0 };
+                bit <<= 1;
                 let v = (ci - tv).abs() + running;
                 *cell = v;
                 row_min = lesser(row_min, v);
             }
         }
-        if BITS {
-            let first = base / BITS_PER_CELL;
-            let last = to / BITS_PER_CELL;
-            if let Some(cells) = bits.get_mut(first..=last) {
-                for (k, cell) in cells.iter_mut().enumerate() {
-                    *cell = pack(((word >> (k * BITS_PER_CELL)) & ((1 << BITS_PER_CELL) - 1)) as usize);
-                }
+        let first = base / BITS_PER_CELL;
+        let last = to / BITS_PER_CELL;
+        if let Some(cells) = bits.get_mut(first..=last) {
+            for (k, cell) in cells.iter_mut().enumerate() {
+                *cell = pack(((word >> (k * BITS_PER_CELL)) & ((1 << BITS_PER_CELL) - 1)) as usize);
             }
         }
         from = to + 1;
+    }
+    if let Some(c) = bits.get_mut(pa / BITS_PER_CELL) {
+        *c = pack(unpack(*c) | 1 << (pa % BITS_PER_CELL));
     }
     // Cells past the previous band: the running minimum is final.
     let from = a.max(e + 1);
