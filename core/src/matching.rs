@@ -913,6 +913,41 @@ fn step<const BITS: bool>(
     if BITS && bits.len() > 64 / BITS_PER_CELL {
         return step_blocks(row, t.get(i..).unwrap_or(&[]), ci, pa, pb, a, b, bits);
     }
+    if b <= pb {
+        // The common case: the new band ends within the previous one.
+        let (Some((below, cells)), Some(ts)) = (
+            row.get_mut(pa..=b).and_then(|r| r.split_at_mut_checked(a - pa)),
+            t.get(i + a..=i + b),
+        ) else {
+            return f32::INFINITY;
+        };
+        let mut cell = Cell {
+            running: f32::INFINITY,
+            row_min: f32::INFINITY,
+            word: 0,
+            bit: 1u64.wrapping_shl(pa as u32),
+            ci,
+        };
+        let first_bit = cell.bit;
+        for &p in below.iter() {
+            cell.leave::<BITS>(p);
+        }
+        let mut pairs = cells.chunks_exact_mut(2);
+        let mut t_pairs = ts.chunks_exact(2);
+        for (c, tv) in (&mut pairs).zip(&mut t_pairs) {
+            if let ([c0, c1], [t0, t1]) = (c, tv) {
+                cell.update::<BITS>(c0, *t0);
+                cell.update::<BITS>(c1, *t1);
+            }
+        }
+        for (c, &tv) in pairs.into_remainder().iter_mut().zip(t_pairs.remainder()) {
+            cell.update::<BITS>(c, tv);
+        }
+        if BITS {
+            write_record(bits, cell.word | first_bit);
+        }
+        return cell.row_min;
+    }
     let e = pb.min(b);
     // Cells `[pa, lo)` are below the new band, `[lo, hi)` in both bands when `a ≤ e` (else not
     // in either), `[hi, b]` past the previous band.
@@ -959,17 +994,22 @@ fn step<const BITS: bool>(
         row_min = lesser(row_min, v);
     }
     if BITS {
-        let word = cell.word | first_bit;
-        let part = |k: u32| pack((word.wrapping_shr(k * BITS_PER_CELL as u32) & 0xffff) as usize);
-        match bits {
-            [c0] => *c0 = part(0),
-            [c0, c1] => (*c0, *c1) = (part(0), part(1)),
-            [c0, c1, c2] => (*c0, *c1, *c2) = (part(0), part(1), part(2)),
-            [c0, c1, c2, c3] => (*c0, *c1, *c2, *c3) = (part(0), part(1), part(2), part(3)),
-            _ => {}
-        }
+        write_record(bits, cell.word | first_bit);
     }
     row_min
+}
+
+/// Writes a record of up to 4 cells from one word (16 bits per cell, low cell first).
+#[inline(always)]
+fn write_record(bits: &mut [f32], word: u64) {
+    let part = |k: u32| pack((word.wrapping_shr(k * BITS_PER_CELL as u32) & 0xffff) as usize);
+    match bits {
+        [c0] => *c0 = part(0),
+        [c0, c1] => (*c0, *c1) = (part(0), part(1)),
+        [c0, c1, c2] => (*c0, *c1, *c2) = (part(0), part(1), part(2)),
+        [c0, c1, c2, c3] => (*c0, *c1, *c2, *c3) = (part(0), part(1), part(2), part(3)),
+        _ => {}
+    }
 }
 
 /// The state of [`step`] along the previous band.
