@@ -68,10 +68,10 @@
 //! winning start's correspondence needs no second DP; starts whose path is neither kept (to bound
 //! halves) nor reported (a winner, when the correspondence is asked for) record no bits.
 //!
-//! **Cost.** On the bench set's 269 searches of `vorl detect` (n = 64, m = 96, the recognizer's
-//! bounds) the search runs about 550 k band rows over 8.7 M cells: 177 M x86_64 instructions
-//! (callgrind), 224 M before the rows were streamlined (one record word per row, two cells per
-//! turn, no bits for unread paths) — identical results.
+//! **Cost.** The 269 searches `vorl detect` runs on the bench set (n = 64, m = 96, the
+//! recognizer's bounds) take 164 M x86_64 instructions (callgrind), 224 M before the band rows
+//! were streamlined (one record word per row, rows ending within the previous band in one pass,
+//! two cells per turn, no bits for unread paths), with identical results.
 //!
 //! **Rounding.** The lemma holds in exact arithmetic. Each DP is exact in `f32` too — a rounded
 //! sum is monotone in each term, so a DP returns the least rounded path total of its region —
