@@ -69,9 +69,10 @@
 //! halves) nor reported (a winner, when the correspondence is asked for) record no bits.
 //!
 //! **Cost.** The 269 searches `vorl detect` runs on the bench set (n = 64, m = 96, the
-//! recognizer's bounds) take 164 M x86_64 instructions (callgrind), 224 M before the band rows
-//! were streamlined (one record word per row, rows ending within the previous band in one pass,
-//! two cells per turn, no bits for unread paths), with identical results.
+//! recognizer's bounds) take 177 M x86_64 instructions in that binary (callgrind; 164 M when
+//! this module is built on its own for just these calls), 224 M before the band rows were
+//! streamlined (one record word per row, rows ending within the previous band in one pass, two
+//! cells per turn, no bits for unread paths), with identical results.
 //!
 //! **Rounding.** The lemma holds in exact arithmetic. Each DP is exact in `f32` too — a rounded
 //! sum is monotone in each term, so a DP returns the least rounded path total of its region —
