@@ -62,9 +62,17 @@
 //!
 //! **Backtracking without a table.** While a row is updated, the positions where the running
 //! minimum of the previous row strictly decreases are recorded as bits (16 per `f32` cell, kept
-//! as exact small integers): the first minimum of `D_{i−1}` up to `δ_i` is the last set bit at or
-//! below `δ_i`. A start's path is read back from its `n·⌈w/16⌉` bits, so the winning start's
-//! correspondence needs no second DP.
+//! as exact small integers), the bottom of the previous band always set and every bit outside
+//! that band clear: the first minimum of `D_{i−1}` up to `δ_i` is the last set bit at or below
+//! `δ_i`, found without the bands. A start's path is read back from its `n·⌈w/16⌉` bits, so the
+//! winning start's correspondence needs no second DP; starts whose path is neither kept (to bound
+//! halves) nor reported (a winner, when the correspondence is asked for) record no bits.
+//!
+//! **Cost.** The 269 searches `vorl detect` runs on the bench set (n = 64, m = 96, the
+//! recognizer's bounds) take 177 M x86_64 instructions in that binary (callgrind; 164 M when
+//! this module is built on its own for just these calls), 224 M before the band rows were
+//! streamlined (one record word per row, rows ending within the previous band in one pass, two
+//! cells per turn, no bits for unread paths), with identical results.
 //!
 //! **Rounding.** The lemma holds in exact arithmetic. Each DP is exact in `f32` too — a rounded
 //! sum is monotone in each term, so a DP returns the least rounded path total of its region —
@@ -607,30 +615,6 @@ impl Search<'_> {
         }
     }
 
-    /// Row `i` of path `e` in `d` coordinates.
-    #[inline]
-    fn edge(&self, e: Edge, i: usize) -> Option<usize> {
-        self.paths.get(e.slot * self.n + i).map(|&v| e.start + unpack(v))
-    }
-
-    /// The band of start `s` in row `i`, as `δ` (relative to `s`) bounds; whole rows where an
-    /// edge is `None`.
-    #[inline]
-    fn band(&self, s: usize, lower: Option<Edge>, upper: Option<Edge>, i: usize) -> (usize, usize) {
-        if i == 0 {
-            return (0, 0);
-        }
-        let top = self.w - 1;
-        let a = lower
-            .and_then(|e| self.edge(e, i))
-            .map_or(0, |d| d.saturating_sub(s))
-            .min(top);
-        let b = upper
-            .and_then(|e| self.edge(e, i))
-            .map_or(top, |d| d.saturating_sub(s).min(top));
-        (a, b.max(a))
-    }
-
     /// Solves the starts strictly between `lo` and `hi` (`hi − lo ≥ 2`) inside the band of
     /// `lower` and `upper`.
     fn solve(&mut self, lo: usize, hi: usize, lower: Option<Edge>, upper: Option<Edge>, depth: usize) {
@@ -677,6 +661,14 @@ impl Search<'_> {
         }
     }
 
+    /// Counts `k` visited cells (only in the tests, for their work bounds).
+    #[inline(always)]
+    fn count(&mut self, k: usize) {
+        if cfg!(test) {
+            self.cells += k;
+        }
+    }
+
     /// The relaxed band DP of the starts `first ..= last`: a path may begin at any of them and
     /// end anywhere up to `d = last + w − 1`. Every start's optimal path in the band is one of
     /// these, so the result is a lower bound on their optima; `+∞` once its row minimum reaches
@@ -693,28 +685,39 @@ impl Search<'_> {
                 row_min = lesser(row_min, v);
             }
         }
-        self.cells += b0 + 1;
+        self.count(b0 + 1);
         if row_min >= self.best {
             return f32::INFINITY;
         }
-        let (mut pa, mut pb) = (0, b0);
-        let lower_path = path_of(self.paths, self.n, lower);
-        let upper_path = path_of(self.paths, self.n, upper);
         let t = self.t2.get(first..).unwrap_or(&[]);
-        for (i, &ci) in self.part.iter().enumerate().skip(1) {
-            // The band in `d`, clipped to the starts' reach, relative to `first`.
-            let a = lower_path.map_or(first, |(p, e)| p.get(i).map_or(first, |&v| (e + unpack(v)).max(first)));
-            let b = upper_path.map_or(end, |(p, e)| p.get(i).map_or(end, |&v| (e + unpack(v)).min(end)));
-            let (a, b) = (a - first, b.max(a) - first);
-            let row_min = step::<false>(self.row, t.get(i..).unwrap_or(&[]), ci, pa, pb, a, b, &mut []);
-            self.cells += (b + 1).saturating_sub(pa);
-            if row_min >= self.best {
-                return f32::INFINITY;
+        let (part, best, cells) = (self.part, self.best, &mut self.cells);
+        let row = &mut *self.row;
+        // The band in `d`, clipped to the starts' reach, relative to `first` (the top is raised
+        // to the bottom in `band_rows`).
+        let band = match (path_of(self.paths, self.n, lower), path_of(self.paths, self.n, upper)) {
+            (Some((lp, le)), Some((up, ue))) => {
+                let bounds = move |i: usize| match (lp.get(i), up.get(i)) {
+                    (Some(&l), Some(&u)) => (
+                        (le + unpack(l)).max(first) - first,
+                        (ue + unpack(u)).min(end).saturating_sub(first),
+                    ),
+                    _ => (0, end - first),
+                };
+                band_rows::<false>(part, t, row, &mut [], 0, bounds, b0, true, best, cells)
             }
-            (pa, pb) = (a, b);
-        }
-        self.row
-            .get(pa..=pb)
+            (lp, up) => {
+                let bounds = move |i: usize| {
+                    let a = lp.map_or(first, |(p, e)| p.get(i).map_or(first, |&v| (e + unpack(v)).max(first)));
+                    let b = up.map_or(end, |(p, e)| p.get(i).map_or(end, |&v| (e + unpack(v)).min(end)));
+                    (a - first, b.saturating_sub(first))
+                };
+                band_rows::<false>(part, t, row, &mut [], 0, bounds, b0, true, best, cells)
+            }
+        };
+        let Some((pa, pb)) = band else {
+            return f32::INFINITY;
+        };
+        row.get(pa..=pb)
             .map_or(f32::INFINITY, |r| r.iter().copied().fold(f32::INFINITY, lesser))
     }
 
@@ -729,7 +732,7 @@ impl Search<'_> {
         keep: Option<usize>,
         abandon: bool,
     ) -> bool {
-        let (n, chunks) = (self.n, self.chunks);
+        let (n, chunks, top) = (self.n, self.chunks, self.w - 1);
         let c0 = match (self.part.first(), self.t2.get(s)) {
             (Some(&p), Some(&t)) => (p - t).abs(),
             _ => return false,
@@ -737,37 +740,47 @@ impl Search<'_> {
         if let Some(cell) = self.row.first_mut() {
             *cell = c0;
         }
-        self.cells += 1;
+        self.count(1);
         if abandon && c0 >= self.best {
             return false;
         }
-        let (mut pa, mut pb) = (0, 0);
-        let top = self.w - 1;
-        let lower_path = path_of(self.paths, self.n, lower);
-        let upper_path = path_of(self.paths, self.n, upper);
         let t = self.t2.get(s..).unwrap_or(&[]);
-        let rows = self
-            .part
-            .iter()
-            .zip(self.bits.chunks_exact_mut(chunks))
-            .enumerate()
-            .skip(1);
-        for (i, (&ci, bits)) in rows {
-            // The band in δ: between the edges' rows, shifted to start `s`.
-            let a = lower_path.map_or(0, |(p, e)| {
-                p.get(i).map_or(0, |&v| (e + unpack(v)).saturating_sub(s)).min(top)
-            });
-            let b = upper_path.map_or(top, |(p, e)| {
-                p.get(i).map_or(top, |&v| (e + unpack(v)).saturating_sub(s)).min(top)
-            });
-            let b = b.max(a);
-            let row_min = step::<true>(self.row, t.get(i..).unwrap_or(&[]), ci, pa, pb, a, b, bits);
-            self.cells += (b + 1).saturating_sub(pa);
-            if abandon && row_min >= self.best {
-                return false;
+        // The path is read back only to keep it or to report a winner: without either, no bits.
+        let record = keep.is_some() || !self.out.is_empty();
+        let (part, bits, best, cells) = (self.part, &mut *self.bits, self.best, &mut self.cells);
+        let row = &mut *self.row;
+        // The band in δ: between the edges' rows, shifted to start `s`.
+        let band = match (path_of(self.paths, n, lower), path_of(self.paths, n, upper)) {
+            (Some((lp, le)), Some((up, ue))) => {
+                let bounds = move |i: usize| match (lp.get(i), up.get(i)) {
+                    (Some(&l), Some(&u)) => (
+                        (le + unpack(l)).saturating_sub(s).min(top),
+                        (ue + unpack(u)).saturating_sub(s).min(top),
+                    ),
+                    _ => (0, top),
+                };
+                if record {
+                    band_rows::<true>(part, t, row, bits, chunks, bounds, 0, abandon, best, cells)
+                } else {
+                    band_rows::<false>(part, t, row, &mut [], 0, bounds, 0, abandon, best, cells)
+                }
             }
-            (pa, pb) = (a, b);
-        }
+            (lp, up) => {
+                let bounds = move |i: usize| {
+                    let a = lp.map_or(0, |(p, e)| {
+                        p.get(i).map_or(0, |&v| (e + unpack(v)).saturating_sub(s)).min(top)
+                    });
+                    let b = up.map_or(top, |(p, e)| {
+                        p.get(i).map_or(top, |&v| (e + unpack(v)).saturating_sub(s)).min(top)
+                    });
+                    (a, b)
+                };
+                band_rows::<true>(part, t, row, bits, chunks, bounds, 0, abandon, best, cells)
+            }
+        };
+        let Some((pa, pb)) = band else {
+            return false;
+        };
         // The first minimum of the last row's band.
         let mut total = f32::INFINITY;
         let mut end = pa;
@@ -788,7 +801,7 @@ impl Search<'_> {
         if keep.is_none() && !report {
             return false;
         }
-        self.read_path(s, lower, upper, end);
+        self.read_path(end);
         if let Some(slot) = keep {
             if let (Some(dst), Some(src)) = (self.paths.get_mut(slot * n..(slot + 1) * n), self.row.get(..n)) {
                 dst.copy_from_slice(src);
@@ -803,59 +816,94 @@ impl Search<'_> {
         keep.is_some()
     }
 
-    /// Backtracks start `s`'s path from `δ_{n−1} = end` through the bits into `row[..n]`.
-    fn read_path(&mut self, s: usize, lower: Option<Edge>, upper: Option<Edge>, end: usize) {
+    /// Backtracks the last start's path from `δ_{n−1} = end` through its bits into `row[..n]`:
+    /// `δ_{i−1}` is the last set bit of row `i`'s record at or below `δ_i` (see [`step`]).
+    fn read_path(&mut self, end: usize) {
         let (n, chunks) = (self.n, self.chunks);
+        let Some((last, path)) = self.row.get_mut(..n).and_then(|r| r.split_last_mut()) else {
+            return;
+        };
         let mut d = end;
-        if let Some(cell) = self.row.get_mut(n - 1) {
+        *last = pack(d);
+        // Records `n − 1` down to 1 (the buffer holds exactly `n` of them).
+        let records = self.bits.rchunks_exact(chunks);
+        for (cell, bits) in path.iter_mut().rev().zip(records) {
+            d = last_bit(bits, d);
             *cell = pack(d);
         }
-        for i in (1..n).rev() {
-            // δ_{i−1}: the first minimum of row i − 1 up to δ_i, within that row's band.
-            let (pa, pb) = self.band(s, lower, upper, i - 1);
-            let bits = self.bits.get(i * chunks..(i + 1) * chunks).unwrap_or(&[]);
-            d = last_bit(bits, d.min(pb), pa);
-            if let Some(cell) = self.row.get_mut(i - 1) {
-                *cell = pack(d);
-            }
-        }
     }
 }
 
-/// The last set bit at a position in `[floor, at]` (`floor` when there is none).
-fn last_bit(bits: &[f32], at: usize, floor: usize) -> usize {
-    if at < floor {
-        return floor;
-    }
-    let mut chunk = at / BITS_PER_CELL;
-    let mut mask = u32::MAX >> (31 - (at % BITS_PER_CELL) as u32);
-    loop {
-        let word = bits.get(chunk).map_or(0, |&v| unpack(v) as u32) & mask;
+/// The last set bit at or below `at` (`at` when there is none, which a record never has: the
+/// bottom of its band is always set).
+#[inline]
+fn last_bit(bits: &[f32], at: usize) -> usize {
+    let mut mask = (2u32 << (at % BITS_PER_CELL)) - 1;
+    for (chunk, &v) in bits.iter().enumerate().take(at / BITS_PER_CELL + 1).rev() {
+        let word = unpack(v) as u32 & mask;
         if word != 0 {
-            let pos = chunk * BITS_PER_CELL + (31 - word.leading_zeros()) as usize;
-            return pos.max(floor);
+            return chunk * BITS_PER_CELL + (31 - word.leading_zeros()) as usize;
         }
-        if chunk == 0 || chunk * BITS_PER_CELL <= floor {
-            return floor;
-        }
-        chunk -= 1;
         mask = u32::MAX;
     }
+    at
 }
 
-/// One in-place band row: the previous row's band is `[pa, pb]`, the new one `[a, b]`
-/// (`pa ≤ a ≤ b`), `t[x]` the template value of cell `x`. Returns the new band's minimum.
+/// Rows `1..n` of a band DP whose row 0 (band `[0, b0]`) is in `row`: `bounds(i)` is row `i`'s
+/// band `(a, b)` in δ (`b` is raised to `a`), `bits` holds each row's backtracking record of
+/// `chunks` cells (with `BITS`), `t[i + δ]` is the template value of row `i`'s cell `δ`.
+/// Returns the last row's band, or `None` once a row minimum reaches `best` (with `abandon`).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn band_rows<const BITS: bool>(
+    part: &[f32],
+    t: &[f32],
+    row: &mut [f32],
+    bits: &mut [f32],
+    chunks: usize,
+    bounds: impl Fn(usize) -> (usize, usize),
+    b0: usize,
+    abandon: bool,
+    best: f32,
+    cells: &mut usize,
+) -> Option<(usize, usize)> {
+    let (mut pa, mut pb) = (0, b0);
+    for (i, &ci) in part.iter().enumerate().skip(1) {
+        let (a, b) = bounds(i);
+        let b = b.max(a);
+        let record = if BITS {
+            bits.get_mut(i * chunks..(i + 1) * chunks).unwrap_or_default()
+        } else {
+            &mut []
+        };
+        let row_min = step::<BITS>(row, t, i, ci, pa, pb, a, b, record);
+        if cfg!(test) {
+            *cells += (b + 1).saturating_sub(pa);
+        }
+        if abandon && row_min >= best {
+            return None;
+        }
+        (pa, pb) = (a, b);
+    }
+    Some((pa, pb))
+}
+
+/// One in-place band row `i`: the previous row's band is `[pa, pb]`, the new one `[a, b]`
+/// (`pa ≤ a ≤ b`), `t[i + x]` the template value of cell `x`. Returns the new band's minimum.
 /// With `BITS`, bit `x` of `bits` is set where the running minimum of the previous row strictly
-/// decreases (for `x` in `[pa, min(pb, b)]`; the chunks covering them are overwritten).
+/// decreases, for `x` in `[pa, min(pb, b)]`, and always at `pa` (the first minimum up to `pa`
+/// is there even when the cell is not finite); every other bit of the record is clear, so a
+/// path is read back without the bands.
 ///
-/// The previous band is read in blocks of up to 64 positions (one block for rows up to 49
-/// cells wide) so the bits gather in one register; cells below `a` only feed the running
-/// minimum (they leave the band and are never read again).
+/// Cells below `a` only feed the running minimum (they leave the band and are never read
+/// again); past `min(pb, b)` the running minimum is final. Records of up to 4 cells (rows up to
+/// 64 cells wide) gather their bits in one register; wider ones go through [`step_blocks`].
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn step<const BITS: bool>(
     row: &mut [f32],
     t: &[f32],
+    i: usize,
     ci: f32,
     pa: usize,
     pb: usize,
@@ -863,14 +911,160 @@ fn step<const BITS: bool>(
     b: usize,
     bits: &mut [f32],
 ) -> f32 {
+    if BITS && bits.len() > 64 / BITS_PER_CELL {
+        return step_blocks(row, t.get(i..).unwrap_or(&[]), ci, pa, pb, a, b, bits);
+    }
+    if b <= pb {
+        // The common case: the new band ends within the previous one.
+        let (Some((below, cells)), Some(ts)) = (
+            row.get_mut(pa..=b).and_then(|r| r.split_at_mut_checked(a - pa)),
+            t.get(i + a..=i + b),
+        ) else {
+            return f32::INFINITY;
+        };
+        let mut cell = Cell {
+            running: f32::INFINITY,
+            row_min: f32::INFINITY,
+            word: 0,
+            bit: 1u64.wrapping_shl(pa as u32),
+            ci,
+        };
+        let first_bit = cell.bit;
+        for &p in below.iter() {
+            cell.leave::<BITS>(p);
+        }
+        let mut pairs = cells.chunks_exact_mut(2);
+        let mut t_pairs = ts.chunks_exact(2);
+        for (c, tv) in (&mut pairs).zip(&mut t_pairs) {
+            if let ([c0, c1], [t0, t1]) = (c, tv) {
+                cell.update::<BITS>(c0, *t0);
+                cell.update::<BITS>(c1, *t1);
+            }
+        }
+        for (c, &tv) in pairs.into_remainder().iter_mut().zip(t_pairs.remainder()) {
+            cell.update::<BITS>(c, tv);
+        }
+        if BITS {
+            write_record(bits, cell.word | first_bit);
+        }
+        return cell.row_min;
+    }
+    let e = pb.min(b);
+    // Cells `[pa, lo)` are below the new band, `[lo, hi)` in both bands when `a ≤ e` (else not
+    // in either), `[hi, b]` past the previous band.
+    let (lo, hi) = (a.min(e + 1), a.max(e + 1));
+    let (Some(cells), Some(ts)) = (row.get_mut(pa..=b), t.get(i + lo..=i + b)) else {
+        return f32::INFINITY;
+    };
+    let (Some((below, rest)), Some((t_mid, t_past))) =
+        (cells.split_at_mut_checked(lo - pa), ts.split_at_checked(hi - lo))
+    else {
+        return f32::INFINITY;
+    };
+    let Some((mid, past)) = rest.split_at_mut_checked(hi - lo) else {
+        return f32::INFINITY;
+    };
+    let mut cell = Cell {
+        running: f32::INFINITY,
+        row_min: f32::INFINITY,
+        word: 0,
+        bit: 1u64.wrapping_shl(pa as u32),
+        ci,
+    };
+    let first_bit = cell.bit;
+    for &p in below.iter() {
+        cell.leave::<BITS>(p);
+    }
+    if a <= e {
+        let mut pairs = mid.chunks_exact_mut(2);
+        let mut t_pairs = t_mid.chunks_exact(2);
+        for (c, tv) in (&mut pairs).zip(&mut t_pairs) {
+            if let ([c0, c1], [t0, t1]) = (c, tv) {
+                cell.update::<BITS>(c0, *t0);
+                cell.update::<BITS>(c1, *t1);
+            }
+        }
+        for (c, &tv) in pairs.into_remainder().iter_mut().zip(t_pairs.remainder()) {
+            cell.update::<BITS>(c, tv);
+        }
+    }
+    let (running, mut row_min) = (cell.running, cell.row_min);
+    for (c, &tv) in past.iter_mut().zip(t_past) {
+        let v = (ci - tv).abs() + running;
+        *c = v;
+        row_min = lesser(row_min, v);
+    }
+    if BITS {
+        write_record(bits, cell.word | first_bit);
+    }
+    row_min
+}
+
+/// Writes a record of up to 4 cells from one word (16 bits per cell, low cell first).
+#[inline(always)]
+fn write_record(bits: &mut [f32], word: u64) {
+    let part = |k: u32| pack((word.wrapping_shr(k * BITS_PER_CELL as u32) & 0xffff) as usize);
+    match bits {
+        [c0] => *c0 = part(0),
+        [c0, c1] => (*c0, *c1) = (part(0), part(1)),
+        [c0, c1, c2] => (*c0, *c1, *c2) = (part(0), part(1), part(2)),
+        [c0, c1, c2, c3] => (*c0, *c1, *c2, *c3) = (part(0), part(1), part(2), part(3)),
+        _ => {}
+    }
+}
+
+/// The state of [`step`] along the previous band.
+struct Cell {
+    /// The running minimum of the previous row.
+    running: f32,
+    /// The minimum of the new cells.
+    row_min: f32,
+    /// The backtracking bits gathered so far, and the bit of the next cell.
+    word: u64,
+    bit: u64,
+    /// The part value of the row.
+    ci: f32,
+}
+
+impl Cell {
+    /// A previous cell `p` below the new band: only the running minimum moves.
+    #[inline(always)]
+    fn leave<const BITS: bool>(&mut self, p: f32) {
+        let lower = p < self.running;
+        self.running = if lower { p } else { self.running };
+        if BITS {
+            self.word |= if lower { self.bit } else { 0 };
+            self.bit <<= 1;
+        }
+    }
+
+    /// A cell in both bands: `c` holds the previous row's value and receives the new one.
+    #[inline(always)]
+    fn update<const BITS: bool>(&mut self, c: &mut f32, t: f32) {
+        self.leave::<BITS>(*c);
+        let v = (self.ci - t).abs() + self.running;
+        *c = v;
+        self.row_min = lesser(self.row_min, v);
+    }
+}
+
+/// [`step`] for records of more than 4 cells (rows over 64 cells wide), `t[x]` the template
+/// value of cell `x`: the previous band is read in blocks of up to 64 positions, the bits of
+/// each block gathered in one register; the record is cleared first and bit `pa` set last.
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn step_blocks(row: &mut [f32], t: &[f32], ci: f32, pa: usize, pb: usize, a: usize, b: usize, bits: &mut [f32]) -> f32 {
     const BLOCK: usize = 64;
+    for c in bits.iter_mut() {
+        *c = pack(0);
+    }
     let e = pb.min(b);
     let mut running = f32::INFINITY;
     let mut row_min = f32::INFINITY;
     let mut from = pa;
     while from <= e {
         let base = from / BITS_PER_CELL * BITS_PER_CELL;
-        let to = if BITS { (base + BLOCK - 1).min(e) } else { e };
+        let to = (base + BLOCK - 1).min(e);
         let mid = a.clamp(from, to + 1);
         let mut word = 0u64;
         let mut bit = 1u64 << ((from - base) % BLOCK);
@@ -878,10 +1072,8 @@ fn step<const BITS: bool>(
             for &p in cells {
                 let lower = p < running;
                 running = if lower { p } else { running };
-                if BITS {
-                    word |= if lower { bit } else { 0 };
-                    bit <<= 1;
-                }
+                word |= if lower { bit } else { 0 };
+                bit <<= 1;
             }
         }
         if let (Some(cells), Some(ts)) = (row.get_mut(mid..=to), t.get(mid..=to)) {
@@ -889,25 +1081,24 @@ fn step<const BITS: bool>(
                 let p = *cell;
                 let lower = p < running;
                 running = if lower { p } else { running };
-                if BITS {
-                    word |= if lower { bit } else { 0 };
-                    bit <<= 1;
-                }
+                word |= if lower { bit } else { 0 };
+                bit <<= 1;
                 let v = (ci - tv).abs() + running;
                 *cell = v;
                 row_min = lesser(row_min, v);
             }
         }
-        if BITS {
-            let first = base / BITS_PER_CELL;
-            let last = to / BITS_PER_CELL;
-            if let Some(cells) = bits.get_mut(first..=last) {
-                for (k, cell) in cells.iter_mut().enumerate() {
-                    *cell = pack(((word >> (k * BITS_PER_CELL)) & ((1 << BITS_PER_CELL) - 1)) as usize);
-                }
+        let first = base / BITS_PER_CELL;
+        let last = to / BITS_PER_CELL;
+        if let Some(cells) = bits.get_mut(first..=last) {
+            for (k, cell) in cells.iter_mut().enumerate() {
+                *cell = pack(((word >> (k * BITS_PER_CELL)) & ((1 << BITS_PER_CELL) - 1)) as usize);
             }
         }
         from = to + 1;
+    }
+    if let Some(c) = bits.get_mut(pa / BITS_PER_CELL) {
+        *c = pack(unpack(*c) | 1 << (pa % BITS_PER_CELL));
     }
     // Cells past the previous band: the running minimum is final.
     let from = a.max(e + 1);
@@ -1213,6 +1404,78 @@ mod tests {
             describe(&sample(&other, m, 0.0), params, &mut wrong).unwrap();
             run("other template", &part, &wrong, f32::INFINITY, 0.35);
             assert!(run("other template, bound", &part, &wrong, right.cost * 3.0, 0.07).is_none());
+        }
+    }
+
+    /// One band row against the plain per-cell recurrence, for records of one word (`w ≤ 64`,
+    /// also against the block-wise form, which then must agree bit for bit: rows, minima and
+    /// whole records) and of several (`w > 64`, the block-wise form itself): the new cells are
+    /// `|ci − t| + min` of the previous band up to them, and the record, read by `last_bit`
+    /// from any `δ` of the new band, gives the first minimum of the previous band up to `δ`
+    /// (its bottom when no cell there is below `+∞`). Records start out as garbage.
+    #[test]
+    fn step_equals_per_cell_recurrence() {
+        let mut rng = Rng(0x0123_4567_89AB_CDEF);
+        for round in 0..30_000 {
+            let w = 1 + rng.next() as usize % if round % 4 == 0 { 130 } else { 64 };
+            let chunks = w.div_ceil(BITS_PER_CELL);
+            let mut pick = |lo: usize| lo + rng.next() as usize % (w - lo);
+            let pa = pick(0);
+            let pb = pick(pa);
+            let a = pick(pa);
+            let b = pick(a);
+            let i = rng.next() as usize % 5;
+            let kind = rng.next() % 3;
+            let mut prev = values(&mut rng, w, kind);
+            if kind == 2 {
+                // Constants with some cells not finite: ties and rows without a minimum.
+                for v in prev.iter_mut() {
+                    if rng.next() % 3 == 0 {
+                        *v = f32::INFINITY;
+                    }
+                }
+            }
+            let t_kind = rng.next() % 2;
+            let t = values(&mut rng, i + w, t_kind);
+            let ci = values(&mut rng, 1, 0)[0];
+            let garbage = || vec![pack(0xA5A5); chunks];
+            let mut row = prev.clone();
+            let mut bits = garbage();
+            let got = step::<true>(&mut row, &t, i, ci, pa, pb, a, b, &mut bits);
+            // Without a record the row is the same.
+            let mut plain = prev.clone();
+            let plain_min = step::<false>(&mut plain, &t, i, ci, pa, pb, a, b, &mut []);
+            assert_eq!(plain_min.to_bits(), got.to_bits());
+            assert!(plain.iter().zip(&row).all(|(x, y)| x.to_bits() == y.to_bits()));
+            if chunks <= 64 / BITS_PER_CELL {
+                let mut blocks = prev.clone();
+                let mut block_bits = garbage();
+                let block_min = step_blocks(&mut blocks, &t[i..], ci, pa, pb, a, b, &mut block_bits);
+                assert_eq!(block_min.to_bits(), got.to_bits(), "w {w} {pa} {pb} {a} {b}");
+                assert!(blocks.iter().zip(&row).all(|(x, y)| x.to_bits() == y.to_bits()));
+                assert!(block_bits.iter().zip(&bits).all(|(x, y)| x.to_bits() == y.to_bits()));
+            }
+            let mut want_min = f32::INFINITY;
+            for (d, (&old, &new)) in prev.iter().zip(&row).enumerate() {
+                if d < a || d > b {
+                    // Cells outside the new band: below it only read, above it untouched.
+                    if d > b || d < pa {
+                        assert_eq!(old.to_bits(), new.to_bits(), "cell {d} outside the band");
+                    }
+                    continue;
+                }
+                let (mut first, mut least) = (pa, f32::INFINITY);
+                for (x, &v) in prev.iter().enumerate().take(d.min(pb) + 1).skip(pa) {
+                    if v < least {
+                        (first, least) = (x, v);
+                    }
+                }
+                let want = (ci - t[i + d]).abs() + least;
+                assert_eq!(new.to_bits(), want.to_bits(), "cell {d}");
+                want_min = lesser(want_min, want);
+                assert_eq!(last_bit(&bits, d), first, "w {w} δ {d}: {pa} {pb} {a} {b}");
+            }
+            assert_eq!(got.to_bits(), want_min.to_bits());
         }
     }
 
