@@ -62,7 +62,7 @@
 //!
 //! **Backtracking without a table.** While a row is updated, the positions where the running
 //! minimum of the previous row strictly decreases are recorded as bits (16 per `f32` cell, kept
-//! as exact small integers), the bottom of the previous band always set and every bit outside
+//! as the cell's bit pattern), the bottom of the previous band always set and every bit outside
 //! that band clear: the first minimum of `D_{i−1}` up to `δ_i` is the last set bit at or below
 //! `δ_i`, found without the bands. A start's path is read back from its `n·⌈w/16⌉` bits, so the
 //! winning start's correspondence needs no second DP; starts whose path is neither kept (to bound
@@ -72,7 +72,9 @@
 //! recognizer's bounds) take 177 M x86_64 instructions in that binary (callgrind; 164 M when
 //! this module is built on its own for just these calls), 224 M before the band rows were
 //! streamlined (one record word per row, rows ending within the previous band in one pass, two
-//! cells per turn, no bits for unread paths), with identical results.
+//! cells per turn, no bits for unread paths) and 270 M before paths and records were kept as bit
+//! patterns (a float conversion per row and edge),, with identical results (the Cortex-M4's counts:
+//! `docs/firmware.md`).
 //!
 //! **Rounding.** The lemma holds in exact arithmetic. Each DP is exact in `f32` too — a rounded
 //! sum is monotone in each term, so a DP returns the least rounded path total of its region —
@@ -526,8 +528,8 @@ struct Search<'a> {
     t2: &'a [f32],
     /// The DP row (`m + w` cells); after a start's DP, its path `δ_0 … δ_{n−1}`.
     row: &'a mut [f32],
-    /// `1 + ⌈log2 m⌉` path slots of `n` cells (`δ_i` as exact integers): slot 0 for start 0,
-    /// slot `1 + depth` for the middle start of the interval being split at that depth.
+    /// `1 + ⌈log2 m⌉` path slots of `n` cells (`δ_i` as the cells' bit patterns): slot 0 for
+    /// start 0, slot `1 + depth` for the middle start of the interval being split at that depth.
     paths: &'a mut [f32],
     /// Backtracking bits of the current start: `chunks` cells per row.
     bits: &'a mut [f32],
