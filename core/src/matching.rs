@@ -73,8 +73,8 @@
 //! this module is built on its own for just these calls), 224 M before the band rows were
 //! streamlined (one record word per row, rows ending within the previous band in one pass, two
 //! cells per turn, no bits for unread paths) and 270 M before paths and records were kept as bit
-//! patterns (a float conversion per row and edge),, with identical results (the Cortex-M4's counts:
-//! `docs/firmware.md`).
+//! patterns (a float conversion per row and edge), with identical results (the Cortex-M4's
+//! counts: `docs/firmware.md`).
 //!
 //! **Rounding.** The lemma holds in exact arithmetic. Each DP is exact in `f32` too — a rounded
 //! sum is monotone in each term, so a DP returns the least rounded path total of its region —
