@@ -224,9 +224,10 @@ fn mark_ring<B: AsRef<[u8]>>(
         if let Some(plane) = box_row_mut(mask, w, r, j) {
             scatter(plane, &ring, RING);
         }
-        let y = (r.y0 + j) as isize;
+        let y = r.y0 + j;
+        let rows = diff.rows(y);
         for_each_bit(&ring, n, |col| {
-            let d = diff.at((r.x0 + col) as isize, y);
+            let d = d_pixel(diff, rows, r.x0 + col, y);
             values.store(d);
             let bin = (d as i32 + 255).clamp(0, 510) as usize;
             if let Some(hb) = hist.get_mut(bin) {
@@ -274,8 +275,6 @@ fn weigh<B: AsRef<[u8]>>(
     let mut comp = [EMPTY; 8];
     let mut rings = [EMPTY; 10];
     let mut columns = Columns::new();
-    // The next ring pixel to be weighed (ring pixels are numbered in raster order).
-    let mut weighing = 0usize;
     // Rows with inside or band pixels: the component's, and 2 more above and below.
     for p in comp_rows.start..(comp_rows.end + 2).min(height) + 4 {
         let (c, ring) = match box_row_mut(mask, w, r, p) {
@@ -314,48 +313,21 @@ fn weigh<B: AsRef<[u8]>>(
         for (b, s) in band.iter_mut().zip(inside).take(n) {
             *b &= !s;
         }
-        let yy = (r.y0 + y) as isize;
+        let yy = r.y0 + y;
+        let image_rows = diff.rows(yy);
         let mut slide = Slide::default();
-        // The ring's pixels of row y entered the column sums 4 rows ago: their D is kept.
-        let ring_y = *rings.get(y % 10).unwrap_or(&EMPTY);
-        for (i, ((&si, &bi), &gi)) in inside.iter().zip(&band).zip(&ring_y).enumerate().take(n) {
+        for (i, (&si, &bi)) in inside.iter().zip(&band).enumerate().take(n) {
             let word = si | bi;
-            // The ring's pixels of the word are numbered on from `weighing`.
-            let first_ring = weighing;
-            if gi != 0 {
-                weighing += gi.count_ones() as usize;
-            }
             if word == 0 {
                 continue;
             }
-            // D of the word's pixels first, then the weights (no call between the sums).
-            let x = r.x0 + 32 * i;
-            let mut bits = word & !gi;
-            while bits != 0 {
-                let bit = bits.trailing_zeros() as usize;
-                bits &= bits - 1;
-                if let Some(slot) = d_at.get_mut(bit) {
-                    *slot = diff.at((x + bit) as isize, yy);
-                }
+            // D of the word's pixels first (of all between its first and last: one loop), then
+            // the weights (no call between the sums).
+            let (lo, hi) = (word.trailing_zeros() as usize, 32 - word.leading_zeros() as usize);
+            if let Some(span) = d_at.get_mut(lo..hi) {
+                d_span(diff, image_rows, r.x0 + 32 * i + lo, yy, span);
             }
-            let (mut ring, mut k) = (gi, first_ring);
-            while ring != 0 {
-                let bit = ring.trailing_zeros() as usize;
-                ring &= ring - 1;
-                k += 1;
-                if let Some(slot) = d_at.get_mut(bit) {
-                    *slot = values.peek(k - 1).unwrap_or_else(|| diff.at((x + bit) as isize, yy));
-                }
-            }
-            // The inside pixels that weigh 1.
-            let mut ones = 0u32;
-            let mut bits = si;
-            while bits != 0 {
-                let bit = bits.trailing_zeros();
-                bits &= bits - 1;
-                let d = d_at.get(bit as usize).copied().unwrap_or(0.0);
-                ones |= ((d / contrast >= HOLE_RATIO) as u32) << bit;
-            }
+            let ones = at_least_hole_ratio(&d_at, si, contrast);
             let row = RowWeights {
                 contrast,
                 y: y as f32,
@@ -366,6 +338,30 @@ fn weigh<B: AsRef<[u8]>>(
     }
     let [sw, sx, sy] = sums;
     (sw > 0.0).then(|| [r.x0 as f32 + sx / sw, r.y0 as f32 + sy / sw])
+}
+
+/// The bits of `inside` (a word's inside pixels) whose `d_at[bit] / contrast ≥ HOLE_RATIO`: the
+/// inside pixels that weigh 1. Division by `contrast` is monotonic, so when the pixel of the
+/// least `D · sign(contrast)` from the first inside pixel to the last passes, all pass (one
+/// reduction, no branch a pixel); else pixel by pixel.
+#[inline]
+fn at_least_hole_ratio(d_at: &[f32; 32], inside: u32, contrast: f32) -> u32 {
+    let (lo, hi) = (inside.trailing_zeros() as usize, 32 - inside.leading_zeros() as usize);
+    let sign = contrast.signum();
+    // `sign` is ±1: the products are exact.
+    let least = d_at.get(lo..hi).unwrap_or(&[]).iter().fold(f32::INFINITY, |m, &d| m.min(d * sign));
+    if (least * sign) / contrast >= HOLE_RATIO {
+        return inside;
+    }
+    let mut ones = 0u32;
+    let mut bits = inside;
+    while bits != 0 {
+        let bit = bits.trailing_zeros();
+        bits &= bits - 1;
+        let d = d_at.get(bit as usize).copied().unwrap_or(0.0);
+        ones |= u32::from(d / contrast >= HOLE_RATIO) << bit;
+    }
+    ones
 }
 
 /// What the weights of one row's pixels depend on, besides `D`.
@@ -526,6 +522,38 @@ fn exact_sum(s: f32, t: f32) -> Option<f32> {
     let same_binade = s.to_bits() >> 23 == total.to_bits() >> 23;
     // `s as u32` truncates (s < 2^24): s is an integer iff that converts back to s.
     (same_binade || s as u32 as f32 == s).then_some(total)
+}
+
+/// The frame's and the background's image row (see [`Difference::rows`]), when `D` is their
+/// difference.
+type ImageRows<'a> = Option<(&'a [u8], &'a [u8])>;
+
+/// `D` at column `x` of image row `y` whose [`Difference::rows`] are `rows`: the value of
+/// [`Difference::at`], from the rows when there are.
+#[inline]
+fn d_pixel<B: AsRef<[u8]>>(diff: &Difference<'_, B>, rows: ImageRows<'_>, x: usize, y: usize) -> f32 {
+    match rows.and_then(|(f, b)| Some((f.get(x)?, b.get(x)?))) {
+        // Both exact integers, so the difference is exact: the same `f32` as `at`'s.
+        Some((&f, &b)) => (i32::from(f) - i32::from(b)) as f32,
+        None => diff.at(x as isize, y as isize),
+    }
+}
+
+/// `D` of columns `x .. x + out.len()` of image row `y` into `out`, the values of
+/// [`Difference::at`]: one loop over `rows` (which the compiler vectorises) when they hold the
+/// columns, else pixel by pixel.
+#[inline]
+fn d_span<B: AsRef<[u8]>>(diff: &Difference<'_, B>, rows: ImageRows<'_>, x: usize, y: usize, out: &mut [f32]) {
+    let end = x + out.len();
+    if let Some((f, b)) = rows.and_then(|(f, b)| Some((f.get(x..end)?, b.get(x..end)?))) {
+        for ((o, &f), &b) in out.iter_mut().zip(f).zip(b) {
+            *o = (i32::from(f) - i32::from(b)) as f32;
+        }
+    } else {
+        for (o, col) in out.iter_mut().zip(x..) {
+            *o = diff.at(col as isize, y as isize);
+        }
+    }
 }
 
 /// Row `q` of the box in the plane.
@@ -762,8 +790,8 @@ impl RingValues {
     }
 
     /// `D` of ring pixel `k` when it is stored: a pixel between entering and leaving the sums
-    /// is, unless it was read when there was no room.
-    #[inline]
+    /// is, unless it was read when there was no room. (For the tests.)
+    #[cfg(test)]
     fn peek(&self, k: usize) -> Option<f32> {
         if (self.from..self.to).contains(&k) {
             self.values.get(k % RING_VALUES).copied()
@@ -811,9 +839,10 @@ impl Columns {
         q: usize,
         n: usize,
     ) {
-        let y = (r.y0 + q) as isize;
+        let y = r.y0 + q;
+        let rows = diff.rows(y);
         for_each_bit(ring, n, |col| {
-            let d = values.enter(|| diff.at((r.x0 + col) as isize, y));
+            let d = values.enter(|| d_pixel(diff, rows, r.x0 + col, y));
             if let (Some(s), Some(c)) = (self.sum.get_mut(col + 4), self.count.get_mut(col + 4)) {
                 *s += d;
                 // At most 9 (one a row).
@@ -832,9 +861,10 @@ impl Columns {
         q: usize,
         n: usize,
     ) {
-        let y = (r.y0 + q) as isize;
+        let y = r.y0 + q;
+        let rows = diff.rows(y);
         for_each_bit(ring, n, |col| {
-            let d = values.leave(|| diff.at((r.x0 + col) as isize, y));
+            let d = values.leave(|| d_pixel(diff, rows, r.x0 + col, y));
             if let (Some(s), Some(c)) = (self.sum.get_mut(col + 4), self.count.get_mut(col + 4)) {
                 *c = c.saturating_sub(1);
                 // An empty column restarts from an exact 0.
