@@ -648,14 +648,20 @@ fn load8(chunk: &[u8]) -> u64 {
     u64::from_le_bytes(bytes)
 }
 
-/// Bit `x` of the result is bit `bit` of `row[x]`, `x` < [`MAX_WIDTH`].
+/// Bit `x` of the result is bit `bit` of `row[x]`, `x` < [`MAX_WIDTH`]. (Chunks of 8 bytes without
+/// the bit, as most of a box's are, cost a test.)
 fn gather(row: &[u8], bit: u32) -> Bits {
     let mut out = EMPTY;
     let mut chunks = row.chunks_exact(8);
     let mut k = 0usize;
     for chunk in &mut chunks {
-        if let (Some(word), Ok(bytes)) = (out.get_mut(k / 4), <[u8; 8]>::try_from(chunk)) {
-            *word |= pack((u64::from_le_bytes(bytes) >> bit) & LOW) << (8 * (k % 4));
+        if let Ok(bytes) = <[u8; 8]>::try_from(chunk) {
+            let v = (u64::from_le_bytes(bytes) >> bit) & LOW;
+            if v != 0 {
+                if let Some(word) = out.get_mut(k / 4) {
+                    *word |= pack(v) << (8 * (k % 4));
+                }
+            }
         }
         k += 1;
     }
@@ -666,7 +672,7 @@ fn gather(row: &[u8], bit: u32) -> Bits {
 }
 
 /// [`COMPONENT`] and [`RING`] of `row` as bit rows (see [`gather`]); the row's bytes keep only
-/// the mask bit.
+/// the mask bit. (Chunks of 8 bytes with only mask bits cost a test.)
 fn gather_and_clear(row: &mut [u8]) -> (Bits, Bits) {
     let (mut comp, mut ring) = (EMPTY, EMPTY);
     let mut put = |k: usize, v: u64| {
@@ -680,8 +686,10 @@ fn gather_and_clear(row: &mut [u8]) -> (Bits, Bits) {
     for chunk in &mut chunks {
         if let Ok(bytes) = <&mut [u8; 8]>::try_from(chunk) {
             let v = u64::from_le_bytes(*bytes);
-            put(k, v);
-            *bytes = (v & LOW).to_le_bytes();
+            if v & !LOW != 0 {
+                put(k, v);
+                *bytes = (v & LOW).to_le_bytes();
+            }
         }
         k += 1;
     }
@@ -693,27 +701,30 @@ fn gather_and_clear(row: &mut [u8]) -> (Bits, Bits) {
     (comp, ring)
 }
 
-/// Sets `flag` in the bytes of `row` whose bit in `bits` is set.
+/// Sets `flag` in the bytes of `row` whose bit in `bits` is set (8 bytes a step, only where
+/// `bits` has any: ring rows are sparse).
 fn scatter(row: &mut [u8], bits: &Bits, flag: u8) {
-    // Byte i of the result is `flag` when bit i of byte `k` of the bit row is set.
-    let spread = |k: usize| {
-        let byte = bits.get(k / 4).map_or(0, |word| (word >> (8 * (k % 4))) & 0xFF);
-        let high = (((byte as u64 * LOW) & 0x8040_2010_0804_0201) + 0x7F7F_7F7F_7F7F_7F7F) & 0x8080_8080_8080_8080;
-        (high >> 7) * flag as u64
-    };
-    let mut chunks = row.chunks_exact_mut(8);
-    let mut k = 0usize;
-    for chunk in &mut chunks {
-        let set = spread(k);
-        if set != 0 {
-            if let Ok(bytes) = <&mut [u8; 8]>::try_from(chunk) {
-                *bytes = (u64::from_le_bytes(*bytes) | set).to_le_bytes();
+    for (i, &word) in bits.iter().enumerate() {
+        let mut rest = word;
+        while rest != 0 {
+            // The byte of the bit row with the lowest set bit: bytes 8k .. 8k + 8 of `row`.
+            let b = rest.trailing_zeros() / 8;
+            let byte = (rest >> (8 * b)) & 0xFF;
+            rest &= !(0xFF << (8 * b));
+            // Byte j of `set` is `flag` when bit j of `byte` is set.
+            let high = (((byte as u64 * LOW) & 0x8040_2010_0804_0201) + 0x7F7F_7F7F_7F7F_7F7F) & 0x8080_8080_8080_8080;
+            let set = (high >> 7) * flag as u64;
+            let start = 8 * (4 * i + b as usize);
+            match row.get_mut(start..start + 8).map(<&mut [u8; 8]>::try_from) {
+                Some(Ok(bytes)) => *bytes = (u64::from_le_bytes(*bytes) | set).to_le_bytes(),
+                // The row's last bytes.
+                _ => {
+                    for (v, m) in row.get_mut(start..).unwrap_or(&mut []).iter_mut().zip(set.to_le_bytes()) {
+                        *v |= m;
+                    }
+                }
             }
         }
-        k += 1;
-    }
-    for (b, m) in chunks.into_remainder().iter_mut().zip(spread(k).to_le_bytes()) {
-        *b |= m;
     }
 }
 
