@@ -152,7 +152,11 @@ fn bit_row_centroid<B: AsRef<[u8]>>(
     r: Rect,
     rows: Range<usize>,
 ) -> Option<[f32; 2]> {
-    let mut values = RingValues::new();
+    // Where every image row's D comes from the frame's and background's rows (α = 1 and a full
+    // background plane: then also the rows above the last), a ring pixel's D is read anew as
+    // cheaply as it would be kept.
+    let keep = diff.height().checked_sub(1).and_then(|last| diff.rows(last)).is_none();
+    let mut values = RingValues::new(keep);
     let contrast = mark_ring(diff, mask, w, r, rows.clone(), &mut values);
     if contrast.abs() < 1.0 {
         for q in rows {
@@ -749,6 +753,8 @@ const RING_VALUES: usize = 256;
 /// pixel's value twice, when its row enters the column sums and when it leaves them, and stores
 /// the values it has to read anew while there is room.
 struct RingValues {
+    /// Whether values are kept at all (else each is read when asked for).
+    keep: bool,
     values: [f32; RING_VALUES],
     /// The pixels stored, `[from, to)` (pixel `k` in slot `k mod RING_VALUES`).
     from: usize,
@@ -759,8 +765,9 @@ struct RingValues {
 }
 
 impl RingValues {
-    fn new() -> Self {
+    fn new(keep: bool) -> Self {
         RingValues {
+            keep,
             values: [0.0; RING_VALUES],
             from: 0,
             to: 0,
@@ -771,6 +778,9 @@ impl RingValues {
 
     /// First pass: the next ring pixel's `D`.
     fn store(&mut self, d: f32) {
+        if !self.keep {
+            return;
+        }
         if let Some(slot) = self.values.get_mut(self.to) {
             *slot = d;
             self.to += 1;
@@ -780,6 +790,9 @@ impl RingValues {
     /// `D` of the next pixel to enter the sums (`read` when it is not stored).
     #[inline]
     fn enter(&mut self, read: impl FnOnce() -> f32) -> f32 {
+        if !self.keep {
+            return read();
+        }
         let k = self.entering;
         self.entering += 1;
         // Pixels leave in the order they enter, so `from <= k` here.
@@ -814,6 +827,9 @@ impl RingValues {
     /// `D` of the next pixel to leave the sums (`read` when it is not stored).
     #[inline]
     fn leave(&mut self, read: impl FnOnce() -> f32) -> f32 {
+        if !self.keep {
+            return read();
+        }
         let k = self.leaving;
         self.leaving += 1;
         // While any pixel is stored, `k <= from`.
@@ -1958,7 +1974,7 @@ mod tests {
                 .collect();
             let total: usize = rows.iter().sum();
             let value = |k: usize| k as f32 * 0.75 - 100.0;
-            let mut values = RingValues::new();
+            let mut values = RingValues::new(true);
             for k in 0..total {
                 values.store(value(k));
             }
