@@ -231,9 +231,19 @@ fn mark_ring<B: AsRef<[u8]>>(
         let y = r.y0 + j;
         let rows = diff.rows(y);
         for_each_bit(&ring, n, |col| {
-            let d = d_pixel(diff, rows, r.x0 + col, y);
+            let x = r.x0 + col;
+            let (d, bin) = match rows.and_then(|(f, b)| Some((*f.get(x)?, *b.get(x)?))) {
+                // An integer in −255..=255: its bin without the conversion back from `f32`.
+                Some((f, b)) => {
+                    let i = i32::from(f) - i32::from(b);
+                    (i as f32, (i + 255) as usize)
+                }
+                None => {
+                    let d = diff.at(x as isize, y as isize);
+                    (d, (d as i32 + 255).clamp(0, 510) as usize)
+                }
+            };
             values.store(d);
-            let bin = (d as i32 + 255).clamp(0, 510) as usize;
             if let Some(hb) = hist.get_mut(bin) {
                 *hb = hb.saturating_add(1);
             }
@@ -353,7 +363,13 @@ fn at_least_hole_ratio(d_at: &[f32; 32], inside: u32, contrast: f32) -> u32 {
     let (lo, hi) = (inside.trailing_zeros() as usize, 32 - inside.leading_zeros() as usize);
     let sign = contrast.signum();
     // `sign` is ±1: the products are exact.
-    let least = d_at.get(lo..hi).unwrap_or(&[]).iter().fold(f32::INFINITY, |m, &d| m.min(d * sign));
+    // (A select rather than `f32::min`: D is never NaN, and the compiler makes it one vector
+    // instruction.)
+    let least = d_at
+        .get(lo..hi)
+        .unwrap_or(&[])
+        .iter()
+        .fold(f32::INFINITY, |m, &d| if d * sign < m { d * sign } else { m });
     if (least * sign) / contrast >= HOLE_RATIO {
         return inside;
     }
@@ -723,7 +739,12 @@ fn scatter(row: &mut [u8], bits: &Bits, flag: u8) {
                 Some(Ok(bytes)) => *bytes = (u64::from_le_bytes(*bytes) | set).to_le_bytes(),
                 // The row's last bytes.
                 _ => {
-                    for (v, m) in row.get_mut(start..).unwrap_or(&mut []).iter_mut().zip(set.to_le_bytes()) {
+                    for (v, m) in row
+                        .get_mut(start..)
+                        .unwrap_or(&mut [])
+                        .iter_mut()
+                        .zip(set.to_le_bytes())
+                    {
                         *v |= m;
                     }
                 }
