@@ -19,14 +19,18 @@
 //! Method: mark `P` in the mask plane (bit 7) with a scanline fill that scans 8 pixels a step,
 //! noting the rows it covers; then two passes over those rows:
 //! 1. the ring, from the component's rows `y − 5 ..= y + 5` as bit rows; it is marked in the
-//!    plane (bit 6) and its `D` goes into a histogram, whose median is the part's contrast (the
-//!    first 256 values are also kept for pass 2);
+//!    plane (bit 6) and its `D` goes into a histogram, whose median is the part's contrast
+//!    (where `D` is not read from the image's rows, `α < 1`, the first 256 values are also kept
+//!    for pass 2);
 //! 2. the weights, in raster order, 4 rows behind the rows read from the plane (and cleared to
 //!    the mask bit): inside and band from the component's rows `y − 2 ..= y + 2`; the ring's `D`
 //!    is kept summed per column over rows `y − 4 ..= y + 4` (a row added when it enters,
 //!    subtracted when it leaves), so a band pixel's local mean is 9 column sums, kept as a sum
-//!    that slides along the row. A ring pixel is weighed (it is inside) while its `D` is still
-//!    kept for the sums, so it is not read again. The inside pixels of weight 1 between two
+//!    that slides along the row. `D` of a word's inside and band pixels is read in one loop
+//!    over the frame's and background's rows ([`Difference::rows`], `α = 1`: from its first
+//!    such pixel to its last, which the compiler vectorises), and the hole test of its inside
+//!    pixels is one reduction (their least `D`, in the contrast's sense) unless one fails. The
+//!    inside pixels of weight 1 between two
 //!    pixels weighed alone (band, holes) are added as one run: one addition per sum when that
 //!    is sure not to round (every partial sum exact), else one by one, so the sums are the same
 //!    bits as pixel by pixel in raster order.
@@ -36,12 +40,16 @@
 //! (`α = 1`), and within 1e-4 px otherwise (the local sums are added in another order).
 //!
 //! Time: a few word operations per 32 px of a row and pass, one `D` per weighted (inside or
-//! band) pixel but ring pixels, one per ring pixel (one more for ring pixels past the 256 kept);
-//! `D` through [`Difference::at`] is about 60 x86 instructions, a third of the total. On the
-//! bench set (parts of 100–170 px, 640×480) a part takes 1.28 M x86 instructions (1.31 M before
-//! the runs and the kept ring values). Before them, the fixture set's parts (boxes of about 66×66 px) took
-//! 0.38 M x86 instructions each, 0.43 M on the Cortex-M4 (QEMU); a third of it is `D`. The
-//! per-pixel definition took 4.0 M and 4.6 M. Memory: on the Cortex-M4, 2.2 KB of stack for the
+//! band) pixel, three per ring pixel (histogram, entering and leaving the sums); for `α = 1`
+//! `D` comes from the image's rows, a few instructions a pixel (x86 vectorises the weighted
+//! pixels' loop); through [`Difference::at`] it was about 50. On the bench set (parts of
+//! 100–170 px, 640×480; `vorl detect`, callgrind) a part takes 0.73 M x86 instructions (1.12 M
+//! with `D` through `at`, kept ring values and a hole test per pixel; 1.31 M before the runs of
+//! weight 1). Of it, the weights of the band pixels (`RowWeights::add`, an order-bound chain of
+//! f32 sums) are 0.19 M, the fill 0.08 M. On the Cortex-M4 (QEMU, the firmware's QVGA frames
+//! of 4 parts) the rows save 80–100 K instructions per part. Before all this, the fixture
+//! set's parts (boxes of about 66×66 px) took 0.38 M x86 instructions each, 0.43 M on the
+//! Cortex-M4, where the per-pixel definition took 4.0 M and 4.6 M. Memory: on the Cortex-M4, 2.2 KB of stack for the
 //! fill, then at most 3.6 KB (the 256 ring values; then 264 column sums and counts and about 20
 //! bit rows of 256 px); bits 6 and 7 of the plane inside the box as scratch. Boxes wider than 256 px
 //! take the per-pixel path (bits 2–7 of the plane as scratch), same result, about 10× slower.
@@ -772,7 +780,8 @@ const RING_VALUES: usize = 256;
 /// `D` of consecutive ring pixels (numbered in raster order), so that each is read from the
 /// difference image once: the first pass stores the first [`RING_VALUES`]; the second reads each
 /// pixel's value twice, when its row enters the column sums and when it leaves them, and stores
-/// the values it has to read anew while there is room.
+/// the values it has to read anew while there is room. Not kept at all (each read when asked
+/// for) when `D` comes from the image's rows, as cheap as a kept value.
 struct RingValues {
     /// Whether values are kept at all (else each is read when asked for).
     keep: bool,
@@ -1950,6 +1959,87 @@ mod tests {
         // Runs are added at once often (here a third: the random sums are small and cross
         // binades more often than a part's); not near 2^24 nor across a binade.
         assert!(at_once > words / 5 && at_once < words, "{at_once} of {words}");
+    }
+
+    #[test]
+    fn image_rows_give_the_values_of_at() {
+        // D from the frame's and background's rows (α = 1), pixel by pixel and a span at a
+        // time, against `Difference::at`; with α < 1 and short background planes the rows are
+        // missing and the same functions fall back to `at`.
+        let mut rng = Rng(4242);
+        for case in 0..300 {
+            let (w, h) = (1 + rng.below(40), 1 + rng.below(12));
+            let pixels: Vec<u8> = (0..w * h).map(|_| rng.below(256) as u8).collect();
+            let full = rng.chance(0.6);
+            let bg_len = if full { w * h } else { rng.below(w * h + 1) };
+            let background: Vec<u8> = (0..bg_len).map(|_| rng.below(256) as u8).collect();
+            let frame = Frame::new_checked(&pixels[..], w, h).unwrap();
+            for alpha in [1.0, 0.5] {
+                let diff = Difference::new(&frame, &background, Alpha::new(alpha).unwrap());
+                for y in 0..h {
+                    let rows = diff.rows(y);
+                    assert_eq!(
+                        rows.is_some(),
+                        alpha >= 1.0 && (y + 1) * w <= bg_len,
+                        "case {case} row {y}"
+                    );
+                    if let Some((f, b)) = rows {
+                        assert_eq!((f.len(), b.len()), (w, w));
+                    }
+                    for x in 0..w {
+                        let (got, want) = (d_pixel(&diff, rows, x, y), diff.at(x as isize, y as isize));
+                        assert_eq!(got.to_bits(), want.to_bits(), "case {case} α {alpha} ({x}, {y})");
+                    }
+                    // Spans, some past the row's end (those read through `at`, clamped).
+                    let x = rng.below(w);
+                    let mut span = vec![f32::NAN; rng.below(w + 4 - x)];
+                    d_span(&diff, rows, x, y, &mut span);
+                    for (k, got) in span.iter().enumerate() {
+                        let want = diff.at((x + k) as isize, y as isize);
+                        assert_eq!(
+                            got.to_bits(),
+                            want.to_bits(),
+                            "case {case} α {alpha} span ({x}+{k}, {y})"
+                        );
+                    }
+                }
+            }
+        }
+        let frame = Frame::new_checked(&[0u8; 6][..], 3, 2).unwrap();
+        let diff = Difference::new(&frame, &[0u8; 6], Alpha::new(1.0).unwrap());
+        assert!(diff.rows(2).is_none());
+    }
+
+    #[test]
+    fn hole_test_by_reduction_is_the_per_pixel_test() {
+        // Words where every inside pixel passes (the reduction's shortcut), where some fail, and
+        // values at the threshold, both signs of contrast.
+        let mut rng = Rng(777);
+        let mut shortcut = 0;
+        for case in 0..40_000 {
+            let contrast = rng.range(1.0, 200.0) * if rng.chance(0.5) { 1.0 } else { -1.0 };
+            let at_threshold = contrast * HOLE_RATIO;
+            let mode = rng.below(3);
+            let d_at: [f32; 32] = core::array::from_fn(|_| match mode {
+                0 => contrast * rng.range(0.2, 1.5),
+                1 => at_threshold + [-1.0, 0.0, 1.0][rng.below(3)] * at_threshold.abs() * f32::EPSILON,
+                _ => rng.below(511) as f32 - 255.0,
+            });
+            let inside = match rng.below(3) {
+                0 => u32::MAX,
+                1 => (rng.next() as u32) & (rng.next() as u32),
+                _ => (u32::MAX >> rng.below(32)) << rng.below(32),
+            };
+            let mut want = 0u32;
+            for (bit, &d) in d_at.iter().enumerate() {
+                if inside >> bit & 1 == 1 && d / contrast >= HOLE_RATIO {
+                    want |= 1 << bit;
+                }
+            }
+            assert_eq!(at_least_hole_ratio(&d_at, inside, contrast), want, "case {case}");
+            shortcut += usize::from(want == inside && inside != 0);
+        }
+        assert!(shortcut > 10_000, "{shortcut}");
     }
 
     #[test]
