@@ -19,14 +19,18 @@
 //! Method: mark `P` in the mask plane (bit 7) with a scanline fill that scans 8 pixels a step,
 //! noting the rows it covers; then two passes over those rows:
 //! 1. the ring, from the component's rows `y − 5 ..= y + 5` as bit rows; it is marked in the
-//!    plane (bit 6) and its `D` goes into a histogram, whose median is the part's contrast (the
-//!    first 256 values are also kept for pass 2);
+//!    plane (bit 6) and its `D` goes into a histogram, whose median is the part's contrast
+//!    (where `D` is not read from the image's rows, `α < 1`, the first 256 values are also kept
+//!    for pass 2);
 //! 2. the weights, in raster order, 4 rows behind the rows read from the plane (and cleared to
 //!    the mask bit): inside and band from the component's rows `y − 2 ..= y + 2`; the ring's `D`
 //!    is kept summed per column over rows `y − 4 ..= y + 4` (a row added when it enters,
 //!    subtracted when it leaves), so a band pixel's local mean is 9 column sums, kept as a sum
-//!    that slides along the row. A ring pixel is weighed (it is inside) while its `D` is still
-//!    kept for the sums, so it is not read again. The inside pixels of weight 1 between two
+//!    that slides along the row. `D` of a word's inside and band pixels is read in one loop
+//!    over the frame's and background's rows ([`Difference::rows`], `α = 1`: from its first
+//!    such pixel to its last, which the compiler vectorises), and the hole test of its inside
+//!    pixels is one reduction (their least `D`, in the contrast's sense) unless one fails. The
+//!    inside pixels of weight 1 between two
 //!    pixels weighed alone (band, holes) are added as one run: one addition per sum when that
 //!    is sure not to round (every partial sum exact), else one by one, so the sums are the same
 //!    bits as pixel by pixel in raster order.
@@ -36,12 +40,16 @@
 //! (`α = 1`), and within 1e-4 px otherwise (the local sums are added in another order).
 //!
 //! Time: a few word operations per 32 px of a row and pass, one `D` per weighted (inside or
-//! band) pixel but ring pixels, one per ring pixel (one more for ring pixels past the 256 kept);
-//! `D` through [`Difference::at`] is about 60 x86 instructions, a third of the total. On the
-//! bench set (parts of 100–170 px, 640×480) a part takes 1.28 M x86 instructions (1.31 M before
-//! the runs and the kept ring values). Before them, the fixture set's parts (boxes of about 66×66 px) took
-//! 0.38 M x86 instructions each, 0.43 M on the Cortex-M4 (QEMU); a third of it is `D`. The
-//! per-pixel definition took 4.0 M and 4.6 M. Memory: on the Cortex-M4, 2.2 KB of stack for the
+//! band) pixel, three per ring pixel (histogram, entering and leaving the sums); for `α = 1`
+//! `D` comes from the image's rows, a few instructions a pixel (x86 vectorises the weighted
+//! pixels' loop); through [`Difference::at`] it was about 50. On the bench set (parts of
+//! 100–170 px, 640×480; `vorl detect`, callgrind) a part takes 0.73 M x86 instructions (1.12 M
+//! with `D` through `at`, kept ring values and a hole test per pixel; 1.31 M before the runs of
+//! weight 1). Of it, the weights of the band pixels (`RowWeights::add`, an order-bound chain of
+//! f32 sums) are 0.19 M, the fill 0.08 M. On the Cortex-M4 (QEMU, the firmware's QVGA frames
+//! of 4 parts) the rows save 80–100 K instructions per part. Before all this, the fixture
+//! set's parts (boxes of about 66×66 px) took 0.38 M x86 instructions each, 0.43 M on the
+//! Cortex-M4, where the per-pixel definition took 4.0 M and 4.6 M. Memory: on the Cortex-M4, 2.2 KB of stack for the
 //! fill, then at most 3.6 KB (the 256 ring values; then 264 column sums and counts and about 20
 //! bit rows of 256 px); bits 6 and 7 of the plane inside the box as scratch. Boxes wider than 256 px
 //! take the per-pixel path (bits 2–7 of the plane as scratch), same result, about 10× slower.
@@ -152,7 +160,11 @@ fn bit_row_centroid<B: AsRef<[u8]>>(
     r: Rect,
     rows: Range<usize>,
 ) -> Option<[f32; 2]> {
-    let mut values = RingValues::new();
+    // Where every image row's D comes from the frame's and background's rows (α = 1 and a full
+    // background plane: then also the rows above the last), a ring pixel's D is read anew as
+    // cheaply as it would be kept.
+    let keep = diff.height().checked_sub(1).and_then(|last| diff.rows(last)).is_none();
+    let mut values = RingValues::new(keep);
     let contrast = mark_ring(diff, mask, w, r, rows.clone(), &mut values);
     if contrast.abs() < 1.0 {
         for q in rows {
@@ -224,11 +236,22 @@ fn mark_ring<B: AsRef<[u8]>>(
         if let Some(plane) = box_row_mut(mask, w, r, j) {
             scatter(plane, &ring, RING);
         }
-        let y = (r.y0 + j) as isize;
+        let y = r.y0 + j;
+        let rows = diff.rows(y);
         for_each_bit(&ring, n, |col| {
-            let d = diff.at((r.x0 + col) as isize, y);
+            let x = r.x0 + col;
+            let (d, bin) = match rows.and_then(|(f, b)| Some((*f.get(x)?, *b.get(x)?))) {
+                // An integer in −255..=255: its bin without the conversion back from `f32`.
+                Some((f, b)) => {
+                    let i = i32::from(f) - i32::from(b);
+                    (i as f32, (i + 255) as usize)
+                }
+                None => {
+                    let d = diff.at(x as isize, y as isize);
+                    (d, (d as i32 + 255).clamp(0, 510) as usize)
+                }
+            };
             values.store(d);
-            let bin = (d as i32 + 255).clamp(0, 510) as usize;
             if let Some(hb) = hist.get_mut(bin) {
                 *hb = hb.saturating_add(1);
             }
@@ -274,8 +297,6 @@ fn weigh<B: AsRef<[u8]>>(
     let mut comp = [EMPTY; 8];
     let mut rings = [EMPTY; 10];
     let mut columns = Columns::new();
-    // The next ring pixel to be weighed (ring pixels are numbered in raster order).
-    let mut weighing = 0usize;
     // Rows with inside or band pixels: the component's, and 2 more above and below.
     for p in comp_rows.start..(comp_rows.end + 2).min(height) + 4 {
         let (c, ring) = match box_row_mut(mask, w, r, p) {
@@ -314,48 +335,21 @@ fn weigh<B: AsRef<[u8]>>(
         for (b, s) in band.iter_mut().zip(inside).take(n) {
             *b &= !s;
         }
-        let yy = (r.y0 + y) as isize;
+        let yy = r.y0 + y;
+        let image_rows = diff.rows(yy);
         let mut slide = Slide::default();
-        // The ring's pixels of row y entered the column sums 4 rows ago: their D is kept.
-        let ring_y = *rings.get(y % 10).unwrap_or(&EMPTY);
-        for (i, ((&si, &bi), &gi)) in inside.iter().zip(&band).zip(&ring_y).enumerate().take(n) {
+        for (i, (&si, &bi)) in inside.iter().zip(&band).enumerate().take(n) {
             let word = si | bi;
-            // The ring's pixels of the word are numbered on from `weighing`.
-            let first_ring = weighing;
-            if gi != 0 {
-                weighing += gi.count_ones() as usize;
-            }
             if word == 0 {
                 continue;
             }
-            // D of the word's pixels first, then the weights (no call between the sums).
-            let x = r.x0 + 32 * i;
-            let mut bits = word & !gi;
-            while bits != 0 {
-                let bit = bits.trailing_zeros() as usize;
-                bits &= bits - 1;
-                if let Some(slot) = d_at.get_mut(bit) {
-                    *slot = diff.at((x + bit) as isize, yy);
-                }
+            // D of the word's pixels first (of all between its first and last: one loop), then
+            // the weights (no call between the sums).
+            let (lo, hi) = (word.trailing_zeros() as usize, 32 - word.leading_zeros() as usize);
+            if let Some(span) = d_at.get_mut(lo..hi) {
+                d_span(diff, image_rows, r.x0 + 32 * i + lo, yy, span);
             }
-            let (mut ring, mut k) = (gi, first_ring);
-            while ring != 0 {
-                let bit = ring.trailing_zeros() as usize;
-                ring &= ring - 1;
-                k += 1;
-                if let Some(slot) = d_at.get_mut(bit) {
-                    *slot = values.peek(k - 1).unwrap_or_else(|| diff.at((x + bit) as isize, yy));
-                }
-            }
-            // The inside pixels that weigh 1.
-            let mut ones = 0u32;
-            let mut bits = si;
-            while bits != 0 {
-                let bit = bits.trailing_zeros();
-                bits &= bits - 1;
-                let d = d_at.get(bit as usize).copied().unwrap_or(0.0);
-                ones |= ((d / contrast >= HOLE_RATIO) as u32) << bit;
-            }
+            let ones = at_least_hole_ratio(&d_at, si, contrast);
             let row = RowWeights {
                 contrast,
                 y: y as f32,
@@ -366,6 +360,36 @@ fn weigh<B: AsRef<[u8]>>(
     }
     let [sw, sx, sy] = sums;
     (sw > 0.0).then(|| [r.x0 as f32 + sx / sw, r.y0 as f32 + sy / sw])
+}
+
+/// The bits of `inside` (a word's inside pixels) whose `d_at[bit] / contrast ≥ HOLE_RATIO`: the
+/// inside pixels that weigh 1. Division by `contrast` is monotonic, so when the pixel of the
+/// least `D · sign(contrast)` from the first inside pixel to the last passes, all pass (one
+/// reduction, no branch a pixel); else pixel by pixel.
+#[inline]
+fn at_least_hole_ratio(d_at: &[f32; 32], inside: u32, contrast: f32) -> u32 {
+    let (lo, hi) = (inside.trailing_zeros() as usize, 32 - inside.leading_zeros() as usize);
+    let sign = contrast.signum();
+    // `sign` is ±1: the products are exact.
+    // (A select rather than `f32::min`: D is never NaN, and the compiler makes it one vector
+    // instruction.)
+    let least = d_at
+        .get(lo..hi)
+        .unwrap_or(&[])
+        .iter()
+        .fold(f32::INFINITY, |m, &d| if d * sign < m { d * sign } else { m });
+    if (least * sign) / contrast >= HOLE_RATIO {
+        return inside;
+    }
+    let mut ones = 0u32;
+    let mut bits = inside;
+    while bits != 0 {
+        let bit = bits.trailing_zeros();
+        bits &= bits - 1;
+        let d = d_at.get(bit as usize).copied().unwrap_or(0.0);
+        ones |= u32::from(d / contrast >= HOLE_RATIO) << bit;
+    }
+    ones
 }
 
 /// What the weights of one row's pixels depend on, besides `D`.
@@ -528,6 +552,38 @@ fn exact_sum(s: f32, t: f32) -> Option<f32> {
     (same_binade || s as u32 as f32 == s).then_some(total)
 }
 
+/// The frame's and the background's image row (see [`Difference::rows`]), when `D` is their
+/// difference.
+type ImageRows<'a> = Option<(&'a [u8], &'a [u8])>;
+
+/// `D` at column `x` of image row `y` whose [`Difference::rows`] are `rows`: the value of
+/// [`Difference::at`], from the rows when there are.
+#[inline]
+fn d_pixel<B: AsRef<[u8]>>(diff: &Difference<'_, B>, rows: ImageRows<'_>, x: usize, y: usize) -> f32 {
+    match rows.and_then(|(f, b)| Some((f.get(x)?, b.get(x)?))) {
+        // Both exact integers, so the difference is exact: the same `f32` as `at`'s.
+        Some((&f, &b)) => (i32::from(f) - i32::from(b)) as f32,
+        None => diff.at(x as isize, y as isize),
+    }
+}
+
+/// `D` of columns `x .. x + out.len()` of image row `y` into `out`, the values of
+/// [`Difference::at`]: one loop over `rows` (which the compiler vectorises) when they hold the
+/// columns, else pixel by pixel.
+#[inline]
+fn d_span<B: AsRef<[u8]>>(diff: &Difference<'_, B>, rows: ImageRows<'_>, x: usize, y: usize, out: &mut [f32]) {
+    let end = x + out.len();
+    if let Some((f, b)) = rows.and_then(|(f, b)| Some((f.get(x..end)?, b.get(x..end)?))) {
+        for ((o, &f), &b) in out.iter_mut().zip(f).zip(b) {
+            *o = (i32::from(f) - i32::from(b)) as f32;
+        }
+    } else {
+        for (o, col) in out.iter_mut().zip(x..) {
+            *o = diff.at(col as isize, y as isize);
+        }
+    }
+}
+
 /// Row `q` of the box in the plane.
 fn box_row(mask: &[u8], w: usize, r: Rect, q: usize) -> Option<&[u8]> {
     let start = (r.y0 + q) * w + r.x0;
@@ -620,14 +676,20 @@ fn load8(chunk: &[u8]) -> u64 {
     u64::from_le_bytes(bytes)
 }
 
-/// Bit `x` of the result is bit `bit` of `row[x]`, `x` < [`MAX_WIDTH`].
+/// Bit `x` of the result is bit `bit` of `row[x]`, `x` < [`MAX_WIDTH`]. (Chunks of 8 bytes without
+/// the bit, as most of a box's are, cost a test.)
 fn gather(row: &[u8], bit: u32) -> Bits {
     let mut out = EMPTY;
     let mut chunks = row.chunks_exact(8);
     let mut k = 0usize;
     for chunk in &mut chunks {
-        if let (Some(word), Ok(bytes)) = (out.get_mut(k / 4), <[u8; 8]>::try_from(chunk)) {
-            *word |= pack((u64::from_le_bytes(bytes) >> bit) & LOW) << (8 * (k % 4));
+        if let Ok(bytes) = <[u8; 8]>::try_from(chunk) {
+            let v = (u64::from_le_bytes(bytes) >> bit) & LOW;
+            if v != 0 {
+                if let Some(word) = out.get_mut(k / 4) {
+                    *word |= pack(v) << (8 * (k % 4));
+                }
+            }
         }
         k += 1;
     }
@@ -638,7 +700,7 @@ fn gather(row: &[u8], bit: u32) -> Bits {
 }
 
 /// [`COMPONENT`] and [`RING`] of `row` as bit rows (see [`gather`]); the row's bytes keep only
-/// the mask bit.
+/// the mask bit. (Chunks of 8 bytes with only mask bits cost a test.)
 fn gather_and_clear(row: &mut [u8]) -> (Bits, Bits) {
     let (mut comp, mut ring) = (EMPTY, EMPTY);
     let mut put = |k: usize, v: u64| {
@@ -652,8 +714,10 @@ fn gather_and_clear(row: &mut [u8]) -> (Bits, Bits) {
     for chunk in &mut chunks {
         if let Ok(bytes) = <&mut [u8; 8]>::try_from(chunk) {
             let v = u64::from_le_bytes(*bytes);
-            put(k, v);
-            *bytes = (v & LOW).to_le_bytes();
+            if v & !LOW != 0 {
+                put(k, v);
+                *bytes = (v & LOW).to_le_bytes();
+            }
         }
         k += 1;
     }
@@ -665,27 +729,35 @@ fn gather_and_clear(row: &mut [u8]) -> (Bits, Bits) {
     (comp, ring)
 }
 
-/// Sets `flag` in the bytes of `row` whose bit in `bits` is set.
+/// Sets `flag` in the bytes of `row` whose bit in `bits` is set (8 bytes a step, only where
+/// `bits` has any: ring rows are sparse).
 fn scatter(row: &mut [u8], bits: &Bits, flag: u8) {
-    // Byte i of the result is `flag` when bit i of byte `k` of the bit row is set.
-    let spread = |k: usize| {
-        let byte = bits.get(k / 4).map_or(0, |word| (word >> (8 * (k % 4))) & 0xFF);
-        let high = (((byte as u64 * LOW) & 0x8040_2010_0804_0201) + 0x7F7F_7F7F_7F7F_7F7F) & 0x8080_8080_8080_8080;
-        (high >> 7) * flag as u64
-    };
-    let mut chunks = row.chunks_exact_mut(8);
-    let mut k = 0usize;
-    for chunk in &mut chunks {
-        let set = spread(k);
-        if set != 0 {
-            if let Ok(bytes) = <&mut [u8; 8]>::try_from(chunk) {
-                *bytes = (u64::from_le_bytes(*bytes) | set).to_le_bytes();
+    for (i, &word) in bits.iter().enumerate() {
+        let mut rest = word;
+        while rest != 0 {
+            // The byte of the bit row with the lowest set bit: bytes 8k .. 8k + 8 of `row`.
+            let b = rest.trailing_zeros() / 8;
+            let byte = (rest >> (8 * b)) & 0xFF;
+            rest &= !(0xFF << (8 * b));
+            // Byte j of `set` is `flag` when bit j of `byte` is set.
+            let high = (((byte as u64 * LOW) & 0x8040_2010_0804_0201) + 0x7F7F_7F7F_7F7F_7F7F) & 0x8080_8080_8080_8080;
+            let set = (high >> 7) * flag as u64;
+            let start = 8 * (4 * i + b as usize);
+            match row.get_mut(start..start + 8).map(<&mut [u8; 8]>::try_from) {
+                Some(Ok(bytes)) => *bytes = (u64::from_le_bytes(*bytes) | set).to_le_bytes(),
+                // The row's last bytes.
+                _ => {
+                    for (v, m) in row
+                        .get_mut(start..)
+                        .unwrap_or(&mut [])
+                        .iter_mut()
+                        .zip(set.to_le_bytes())
+                    {
+                        *v |= m;
+                    }
+                }
             }
         }
-        k += 1;
-    }
-    for (b, m) in chunks.into_remainder().iter_mut().zip(spread(k).to_le_bytes()) {
-        *b |= m;
     }
 }
 
@@ -708,8 +780,11 @@ const RING_VALUES: usize = 256;
 /// `D` of consecutive ring pixels (numbered in raster order), so that each is read from the
 /// difference image once: the first pass stores the first [`RING_VALUES`]; the second reads each
 /// pixel's value twice, when its row enters the column sums and when it leaves them, and stores
-/// the values it has to read anew while there is room.
+/// the values it has to read anew while there is room. Not kept at all (each read when asked
+/// for) when `D` comes from the image's rows, as cheap as a kept value.
 struct RingValues {
+    /// Whether values are kept at all (else each is read when asked for).
+    keep: bool,
     values: [f32; RING_VALUES],
     /// The pixels stored, `[from, to)` (pixel `k` in slot `k mod RING_VALUES`).
     from: usize,
@@ -720,8 +795,9 @@ struct RingValues {
 }
 
 impl RingValues {
-    fn new() -> Self {
+    fn new(keep: bool) -> Self {
         RingValues {
+            keep,
             values: [0.0; RING_VALUES],
             from: 0,
             to: 0,
@@ -732,6 +808,9 @@ impl RingValues {
 
     /// First pass: the next ring pixel's `D`.
     fn store(&mut self, d: f32) {
+        if !self.keep {
+            return;
+        }
         if let Some(slot) = self.values.get_mut(self.to) {
             *slot = d;
             self.to += 1;
@@ -741,6 +820,9 @@ impl RingValues {
     /// `D` of the next pixel to enter the sums (`read` when it is not stored).
     #[inline]
     fn enter(&mut self, read: impl FnOnce() -> f32) -> f32 {
+        if !self.keep {
+            return read();
+        }
         let k = self.entering;
         self.entering += 1;
         // Pixels leave in the order they enter, so `from <= k` here.
@@ -762,8 +844,8 @@ impl RingValues {
     }
 
     /// `D` of ring pixel `k` when it is stored: a pixel between entering and leaving the sums
-    /// is, unless it was read when there was no room.
-    #[inline]
+    /// is, unless it was read when there was no room. (For the tests.)
+    #[cfg(test)]
     fn peek(&self, k: usize) -> Option<f32> {
         if (self.from..self.to).contains(&k) {
             self.values.get(k % RING_VALUES).copied()
@@ -775,6 +857,9 @@ impl RingValues {
     /// `D` of the next pixel to leave the sums (`read` when it is not stored).
     #[inline]
     fn leave(&mut self, read: impl FnOnce() -> f32) -> f32 {
+        if !self.keep {
+            return read();
+        }
         let k = self.leaving;
         self.leaving += 1;
         // While any pixel is stored, `k <= from`.
@@ -811,9 +896,10 @@ impl Columns {
         q: usize,
         n: usize,
     ) {
-        let y = (r.y0 + q) as isize;
+        let y = r.y0 + q;
+        let rows = diff.rows(y);
         for_each_bit(ring, n, |col| {
-            let d = values.enter(|| diff.at((r.x0 + col) as isize, y));
+            let d = values.enter(|| d_pixel(diff, rows, r.x0 + col, y));
             if let (Some(s), Some(c)) = (self.sum.get_mut(col + 4), self.count.get_mut(col + 4)) {
                 *s += d;
                 // At most 9 (one a row).
@@ -832,9 +918,10 @@ impl Columns {
         q: usize,
         n: usize,
     ) {
-        let y = (r.y0 + q) as isize;
+        let y = r.y0 + q;
+        let rows = diff.rows(y);
         for_each_bit(ring, n, |col| {
-            let d = values.leave(|| diff.at((r.x0 + col) as isize, y));
+            let d = values.leave(|| d_pixel(diff, rows, r.x0 + col, y));
             if let (Some(s), Some(c)) = (self.sum.get_mut(col + 4), self.count.get_mut(col + 4)) {
                 *c = c.saturating_sub(1);
                 // An empty column restarts from an exact 0.
@@ -1875,6 +1962,87 @@ mod tests {
     }
 
     #[test]
+    fn image_rows_give_the_values_of_at() {
+        // D from the frame's and background's rows (α = 1), pixel by pixel and a span at a
+        // time, against `Difference::at`; with α < 1 and short background planes the rows are
+        // missing and the same functions fall back to `at`.
+        let mut rng = Rng(4242);
+        for case in 0..300 {
+            let (w, h) = (1 + rng.below(40), 1 + rng.below(12));
+            let pixels: Vec<u8> = (0..w * h).map(|_| rng.below(256) as u8).collect();
+            let full = rng.chance(0.6);
+            let bg_len = if full { w * h } else { rng.below(w * h + 1) };
+            let background: Vec<u8> = (0..bg_len).map(|_| rng.below(256) as u8).collect();
+            let frame = Frame::new_checked(&pixels[..], w, h).unwrap();
+            for alpha in [1.0, 0.5] {
+                let diff = Difference::new(&frame, &background, Alpha::new(alpha).unwrap());
+                for y in 0..h {
+                    let rows = diff.rows(y);
+                    assert_eq!(
+                        rows.is_some(),
+                        alpha >= 1.0 && (y + 1) * w <= bg_len,
+                        "case {case} row {y}"
+                    );
+                    if let Some((f, b)) = rows {
+                        assert_eq!((f.len(), b.len()), (w, w));
+                    }
+                    for x in 0..w {
+                        let (got, want) = (d_pixel(&diff, rows, x, y), diff.at(x as isize, y as isize));
+                        assert_eq!(got.to_bits(), want.to_bits(), "case {case} α {alpha} ({x}, {y})");
+                    }
+                    // Spans, some past the row's end (those read through `at`, clamped).
+                    let x = rng.below(w);
+                    let mut span = vec![f32::NAN; rng.below(w + 4 - x)];
+                    d_span(&diff, rows, x, y, &mut span);
+                    for (k, got) in span.iter().enumerate() {
+                        let want = diff.at((x + k) as isize, y as isize);
+                        assert_eq!(
+                            got.to_bits(),
+                            want.to_bits(),
+                            "case {case} α {alpha} span ({x}+{k}, {y})"
+                        );
+                    }
+                }
+            }
+        }
+        let frame = Frame::new_checked(&[0u8; 6][..], 3, 2).unwrap();
+        let diff = Difference::new(&frame, &[0u8; 6], Alpha::new(1.0).unwrap());
+        assert!(diff.rows(2).is_none());
+    }
+
+    #[test]
+    fn hole_test_by_reduction_is_the_per_pixel_test() {
+        // Words where every inside pixel passes (the reduction's shortcut), where some fail, and
+        // values at the threshold, both signs of contrast.
+        let mut rng = Rng(777);
+        let mut shortcut = 0;
+        for case in 0..40_000 {
+            let contrast = rng.range(1.0, 200.0) * if rng.chance(0.5) { 1.0 } else { -1.0 };
+            let at_threshold = contrast * HOLE_RATIO;
+            let mode = rng.below(3);
+            let d_at: [f32; 32] = core::array::from_fn(|_| match mode {
+                0 => contrast * rng.range(0.2, 1.5),
+                1 => at_threshold + [-1.0, 0.0, 1.0][rng.below(3)] * at_threshold.abs() * f32::EPSILON,
+                _ => rng.below(511) as f32 - 255.0,
+            });
+            let inside = match rng.below(3) {
+                0 => u32::MAX,
+                1 => (rng.next() as u32) & (rng.next() as u32),
+                _ => (u32::MAX >> rng.below(32)) << rng.below(32),
+            };
+            let mut want = 0u32;
+            for (bit, &d) in d_at.iter().enumerate() {
+                if inside >> bit & 1 == 1 && d / contrast >= HOLE_RATIO {
+                    want |= 1 << bit;
+                }
+            }
+            assert_eq!(at_least_hole_ratio(&d_at, inside, contrast), want, "case {case}");
+            shortcut += usize::from(want == inside && inside != 0);
+        }
+        assert!(shortcut > 10_000, "{shortcut}");
+    }
+
+    #[test]
     fn exact_sums_are_exact() {
         // Sums of integers that `exact_sum` accepts, against adding 1 at a time in f64.
         let mut rng = Rng(31337);
@@ -1917,7 +2085,7 @@ mod tests {
                 .collect();
             let total: usize = rows.iter().sum();
             let value = |k: usize| k as f32 * 0.75 - 100.0;
-            let mut values = RingValues::new();
+            let mut values = RingValues::new(true);
             for k in 0..total {
                 values.store(value(k));
             }

@@ -192,6 +192,22 @@ impl<'a, B: AsRef<[u8]>> Difference<'a, B> {
         self.enhanced(xc, yc) - b
     }
 
+    /// Row `y` of the frame and of the background plane when `D` is their difference (`α = 1`):
+    /// `D` at column `x` of the row is `frame[x] as f32 − background[x] as f32`, the same value
+    /// as [`Self::at`]. Both slices are `width` long. `None` for `α < 1`, a row outside the
+    /// image, or a background plane that ends within the row.
+    #[inline]
+    pub fn rows(&self, y: usize) -> Option<(&'a [u8], &'a [u8])> {
+        if !(self.alpha.get() >= 1.0) {
+            return None;
+        }
+        let w = self.frame.width();
+        let frame = self.frame.row(y);
+        let start = y.checked_mul(w)?;
+        let background = self.background.get(start..start.checked_add(w)?)?;
+        (frame.len() == w).then_some((frame, background))
+    }
+
     /// `I' = α·I + (1 − α)·|∇I|` at an in-image pixel (α < 1), kept out of line so that
     /// [`Self::at`] stays small.
     #[inline(never)]
