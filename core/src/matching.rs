@@ -375,16 +375,34 @@ fn dp_row(row: &mut [f32], template: &[f32], j0: usize, ci: f32) -> f32 {
 
 /// [`dp_row`] over cells whose template values are one slice, the running minimum of the
 /// previous row starting at `running`; returns the running minimum and the new cells' minimum.
+///
+/// Two cells a loop turn (fewer register moves and loop tests; the same operations in the same
+/// order).
 #[inline(always)]
-fn dp_cells(row: &mut [f32], template: &[f32], mut running: f32, ci: f32) -> (f32, f32) {
-    let mut row_min = f32::INFINITY;
-    for (cell, &t) in row.iter_mut().zip(template) {
-        running = lesser(running, *cell);
-        let v = (ci - t).abs() + running;
-        *cell = v;
-        row_min = lesser(row_min, v);
+fn dp_cells(row: &mut [f32], template: &[f32], running: f32, ci: f32) -> (f32, f32) {
+    let len = row.len().min(template.len());
+    let (Some(row), Some(template)) = (row.get_mut(..len), template.get(..len)) else {
+        return (running, f32::INFINITY);
+    };
+    let mut cell = Cell {
+        running,
+        row_min: f32::INFINITY,
+        word: 0,
+        bit: 0,
+        ci,
+    };
+    let mut pairs = row.chunks_exact_mut(2);
+    let mut t_pairs = template.chunks_exact(2);
+    for (c, tv) in (&mut pairs).zip(&mut t_pairs) {
+        if let ([c0, c1], [t0, t1]) = (c, tv) {
+            cell.update::<false>(c0, *t0);
+            cell.update::<false>(c1, *t1);
+        }
     }
-    (running, row_min)
+    for (c, &tv) in pairs.into_remainder().iter_mut().zip(t_pairs.remainder()) {
+        cell.update::<false>(c, tv);
+    }
+    (cell.running, cell.row_min)
 }
 
 /// `min(acc, v)` for an accumulator that is never NaN, in one comparison (a NaN `v` is ignored,
