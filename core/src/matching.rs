@@ -120,7 +120,9 @@ pub const fn table_cells(n: usize, m: usize) -> usize {
 const BITS_PER_CELL: usize = 16;
 
 /// A small integer (a path's `δ` or a word of backtracking bits) kept in an `f32` cell of the
-/// caller's buffer as the cell's bit pattern: no conversion on either side.
+/// caller's buffer as the cell's bit pattern: no conversion on either side. Such a pattern is a
+/// subnormal float, so these cells are only ever stored and copied, never computed with
+/// (arithmetic under flush-to-zero would lose them).
 #[inline(always)]
 fn pack(v: usize) -> f32 {
     f32::from_bits(v as u32)
