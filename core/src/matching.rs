@@ -377,9 +377,6 @@ fn dp_row(row: &mut [f32], template: &[f32], j0: usize, ci: f32) -> f32 {
 
 /// [`dp_row`] over cells whose template values are one slice, the running minimum of the
 /// previous row starting at `running`; returns the running minimum and the new cells' minimum.
-///
-/// Two cells a loop turn (fewer register moves and loop tests; the same operations in the same
-/// order).
 #[inline(always)]
 fn dp_cells(row: &mut [f32], template: &[f32], running: f32, ci: f32) -> (f32, f32) {
     let len = row.len().min(template.len());
@@ -393,17 +390,7 @@ fn dp_cells(row: &mut [f32], template: &[f32], running: f32, ci: f32) -> (f32, f
         bit: 0,
         ci,
     };
-    let mut pairs = row.chunks_exact_mut(2);
-    let mut t_pairs = template.chunks_exact(2);
-    for (c, tv) in (&mut pairs).zip(&mut t_pairs) {
-        if let ([c0, c1], [t0, t1]) = (c, tv) {
-            cell.update::<false>(c0, *t0);
-            cell.update::<false>(c1, *t1);
-        }
-    }
-    for (c, &tv) in pairs.into_remainder().iter_mut().zip(t_pairs.remainder()) {
-        cell.update::<false>(c, tv);
-    }
+    cell.update_run::<false>(row, template);
     (cell.running, cell.row_min)
 }
 
@@ -955,17 +942,7 @@ fn step<const BITS: bool>(
         for &p in below.iter() {
             cell.leave::<BITS>(p);
         }
-        let mut pairs = cells.chunks_exact_mut(2);
-        let mut t_pairs = ts.chunks_exact(2);
-        for (c, tv) in (&mut pairs).zip(&mut t_pairs) {
-            if let ([c0, c1], [t0, t1]) = (c, tv) {
-                cell.update::<BITS>(c0, *t0);
-                cell.update::<BITS>(c1, *t1);
-            }
-        }
-        for (c, &tv) in pairs.into_remainder().iter_mut().zip(t_pairs.remainder()) {
-            cell.update::<BITS>(c, tv);
-        }
+        cell.update_run::<BITS>(cells, ts);
         if BITS {
             write_record(bits, cell.word | first_bit);
         }
@@ -998,17 +975,7 @@ fn step<const BITS: bool>(
         cell.leave::<BITS>(p);
     }
     if a <= e {
-        let mut pairs = mid.chunks_exact_mut(2);
-        let mut t_pairs = t_mid.chunks_exact(2);
-        for (c, tv) in (&mut pairs).zip(&mut t_pairs) {
-            if let ([c0, c1], [t0, t1]) = (c, tv) {
-                cell.update::<BITS>(c0, *t0);
-                cell.update::<BITS>(c1, *t1);
-            }
-        }
-        for (c, &tv) in pairs.into_remainder().iter_mut().zip(t_pairs.remainder()) {
-            cell.update::<BITS>(c, tv);
-        }
+        cell.update_run::<BITS>(mid, t_mid);
     }
     let (running, mut row_min) = (cell.running, cell.row_min);
     for (c, &tv) in past.iter_mut().zip(t_past) {
@@ -1067,6 +1034,24 @@ impl Cell {
         let v = (self.ci - t).abs() + self.running;
         *c = v;
         self.row_min = lesser(self.row_min, v);
+    }
+
+    /// [`Self::update`] over cells and their template values (slices of one length), two a loop
+    /// turn: fewer register moves and loop tests than one at a time, the same operations in the
+    /// same order.
+    #[inline(always)]
+    fn update_run<const BITS: bool>(&mut self, cells: &mut [f32], ts: &[f32]) {
+        let mut pairs = cells.chunks_exact_mut(2);
+        let mut t_pairs = ts.chunks_exact(2);
+        for (c, tv) in (&mut pairs).zip(&mut t_pairs) {
+            if let ([c0, c1], [t0, t1]) = (c, tv) {
+                self.update::<BITS>(c0, *t0);
+                self.update::<BITS>(c1, *t1);
+            }
+        }
+        for (c, &tv) in pairs.into_remainder().iter_mut().zip(t_pairs.remainder()) {
+            self.update::<BITS>(c, tv);
+        }
     }
 }
 
