@@ -60,6 +60,8 @@ pub mod refine;
 pub mod resample;
 pub mod stereo;
 pub mod template;
+#[cfg(test)]
+mod test_rng;
 
 pub use background::Background;
 pub use error::{Error, Result};

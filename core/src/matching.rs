@@ -1147,15 +1147,7 @@ mod tests {
         best
     }
 
-    struct Rng(u64);
-    impl Rng {
-        fn next(&mut self) -> u64 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            self.0
-        }
-    }
+    use crate::test_rng::XorShift as Rng;
 
     /// Kinds of input: continuous values, a coarse grid (many ties, exact sums), constants.
     fn values(rng: &mut Rng, count: usize, kind: u64) -> Vec<f32> {

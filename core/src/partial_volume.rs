@@ -1356,29 +1356,7 @@ mod tests {
     use std::vec;
     use std::vec::Vec;
 
-    /// A small xorshift generator: tests need no crates.
-    struct Rng(u64);
-
-    impl Rng {
-        fn next(&mut self) -> u64 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            self.0
-        }
-        fn below(&mut self, n: usize) -> usize {
-            (self.next() % n.max(1) as u64) as usize
-        }
-        fn unit(&mut self) -> f32 {
-            (self.next() % 1_000_000) as f32 / 1_000_000.0
-        }
-        fn range(&mut self, lo: f32, hi: f32) -> f32 {
-            lo + (hi - lo) * self.unit()
-        }
-        fn chance(&mut self, p: f32) -> bool {
-            self.unit() < p
-        }
-    }
+    use crate::test_rng::XorShift as Rng;
 
     /// Signed distance to a shape (negative inside), px.
     type Shape = Box<dyn Fn(f32, f32) -> f32>;

@@ -721,20 +721,7 @@ impl<'a> Outline<'a> {
 mod tests {
     use super::*;
 
-    /// A small xorshift generator: tests need no crates.
-    struct Rng(u64);
-
-    impl Rng {
-        fn next(&mut self) -> u64 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            self.0
-        }
-        fn unit(&mut self) -> f32 {
-            (self.next() % 1_000_000) as f32 / 1_000_000.0
-        }
-    }
+    use crate::test_rng::XorShift as Rng;
 
     /// A `w`×`h` frame with a bright disc of blurred edge at `(cx, cy)` plus noise, and a flat
     /// background.
