@@ -204,15 +204,20 @@ fn read_frame(criterion: &Path, problems: &mut Vec<String>) -> Option<FrameTimes
     complete.then_some(times)
 }
 
-/// A time in nanoseconds with a unit that keeps 2–3 significant digits.
-fn human(ns: f64) -> String {
-    let (value, unit) = if ns >= 1e6 {
+/// A time in nanoseconds as a value in ms, µs or ns, whichever keeps it at 1 or more.
+fn scaled(ns: f64) -> (f64, &'static str) {
+    if ns >= 1e6 {
         (ns / 1e6, "ms")
     } else if ns >= 1e3 {
         (ns / 1e3, "µs")
     } else {
         (ns, "ns")
-    };
+    }
+}
+
+/// A time in nanoseconds with a unit that keeps 2–3 significant digits.
+fn human(ns: f64) -> String {
+    let (value, unit) = scaled(ns);
     if value >= 100.0 {
         format!("{value:.0} {unit}")
     } else if value >= 10.0 {
@@ -224,13 +229,7 @@ fn human(ns: f64) -> String {
 
 /// An axis label: a time in nanoseconds with a unit, no trailing zeros ("1 ms", "250 µs").
 fn tick(ns: f64) -> String {
-    let (value, unit) = if ns >= 1e6 {
-        (ns / 1e6, "ms")
-    } else if ns >= 1e3 {
-        (ns / 1e3, "µs")
-    } else {
-        (ns, "ns")
-    };
+    let (value, unit) = scaled(ns);
     let text = format!("{value:.2}");
     let text = text.trim_end_matches('0').trim_end_matches('.');
     format!("{text} {unit}")
