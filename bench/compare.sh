@@ -7,7 +7,9 @@
 # into out/bench_set (the peer's rejection threshold was tuned on seed 1, not on this one).
 #
 # Steps: build vorl (release); `vorl eval SET --json` REPEAT times (ms/frame: core time per
-# frame); `vorl detect SET --json` scored by bench/score.py, which must reproduce vorl eval's
+# frame), with the defaults and on the paper's path (`--refine off --position polygon`: the DP's
+# decision, angle and polygon centroid, no alignment, verification or partial-volume centroid);
+# `vorl detect SET --json` (both ways) scored by bench/score.py, which must reproduce vorl eval's
 # figures (else this script fails); the peer REPEAT times (ms/frame: per-frame work after
 # decoding, single-threaded) and once more with rejection off; every prediction scored by
 # bench/score.py; a side-by-side table. The runs are one after another, never at the same time.
@@ -65,19 +67,26 @@ if [ ! -f "$SET/truth.json" ]; then
 fi
 
 mkdir -p "$OUT"
-rm -f "$OUT"/vorl_eval_*.json "$OUT"/peer_timing_*.json # runs of an earlier call (table.py reads them all)
+# Runs of an earlier call (table.py reads them all).
+rm -f "$OUT"/vorl_eval_*.json "$OUT"/vorl_paper_eval_*.json "$OUT"/peer_timing_*.json
 export OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1
 
+PAPER=(--refine off --position polygon)
 say "vorl: detect --json, scored by bench/score.py and held against vorl eval --json"
 "$VORL" detect "$SET" --json >"$OUT/vorl_pred.json"
+"$VORL" detect "$SET" --json "${PAPER[@]}" >"$OUT/vorl_paper_pred.json"
 for k in $(seq 1 "$REPEAT"); do
     say "timing run $k/$REPEAT: vorl eval"
     "$VORL" eval "$SET" --json >"$OUT/vorl_eval_$k.json"
+    say "timing run $k/$REPEAT: vorl eval ${PAPER[*]}"
+    "$VORL" eval "$SET" --json "${PAPER[@]}" >"$OUT/vorl_paper_eval_$k.json"
     say "timing run $k/$REPEAT: OpenCV peer"
     "$PY" bench/opencv_peer.py "$SET" --out "$OUT/peer_pred.json" --json-timing "$OUT/peer_timing_$k.json" >&2
 done
 "$PY" bench/score.py "$SET/truth.json" "$OUT/vorl_pred.json" --json \
     --agree-with "$OUT/vorl_eval_1.json" >"$OUT/vorl_scores.json"
+"$PY" bench/score.py "$SET/truth.json" "$OUT/vorl_paper_pred.json" --json \
+    --agree-with "$OUT/vorl_paper_eval_1.json" >"$OUT/vorl_paper_scores.json"
 "$PY" bench/score.py "$SET/truth.json" "$OUT/peer_pred.json" --json >"$OUT/peer_scores.json"
 
 say "OpenCV peer with rejection off"

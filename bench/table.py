@@ -5,7 +5,8 @@
 
 RUN_DIR holds what compare.sh wrote: vorl_eval_<k>.json (`vorl eval --json`, one per timing run),
 vorl_scores.json, peer_timing_<k>.json, peer_scores.json and peer_noreject_scores.json (bench/score.py
---json). ms/frame is the median over the timing runs, the fastest run in brackets.
+--json); and, when present, vorl_paper_eval_<k>.json and vorl_paper_scores.json (vorl on the paper's
+path, a column of its own). ms/frame is the median over the timing runs, the fastest run in brackets.
 """
 
 import glob
@@ -47,6 +48,9 @@ def main():
     v_ms = [e["ms_per_frame"] for e in evals]
     p_ms = [t["ms_per_frame"] for t in ptimes]
     t0 = ptimes[0]
+    paper_evals = runs_of("vorl_paper_eval")
+    paper_path = os.path.join(run, "vorl_paper_scores.json")
+    paper = load(paper_path) if paper_evals and os.path.exists(paper_path) else None
 
     def ms(xs):
         return f"{statistics.median(xs):.2f}"
@@ -61,36 +65,53 @@ def main():
     def frac(s, a, b):
         return f"{pct(s[a] / s[b] if s[b] else None)} ({s[a]}/{s[b]})"
 
-    rows = [
-        ("ms/frame, median (fastest) of runs", f"{ms(v_ms)} ({min(v_ms):.2f})", f"{ms(p_ms)} ({min(p_ms):.2f})", "-"),
-        ("  each run", runs(v_ms), runs(p_ms), "-"),
-        ("detection recall", frac(vorl, "detected", "truth_parts"), frac(peer, "detected", "truth_parts"),
-         frac(peer0, "detected", "truth_parts")),
-        ("detection precision", frac(vorl, "true_predictions", "predictions"),
-         frac(peer, "true_predictions", "predictions"), frac(peer0, "true_predictions", "predictions")),
-        ("classification (known parts)", frac(vorl, "known_correct", "known"), frac(peer, "known_correct", "known"),
-         frac(peer0, "known_correct", "known")),
-        ("unknown rejection", frac(vorl, "unknown_rejected", "unknown"), frac(peer, "unknown_rejected", "unknown"),
-         frac(peer0, "unknown_rejected", "unknown")),
-        ("angle err mod 360/sym, med / p95 °", sp(vorl, "angle"), sp(peer, "angle"), sp(peer0, "angle")),
-        ("angle err mod 180, med / p95 °", sp(vorl, "angle_mod180"), sp(peer, "angle_mod180"),
-         sp(peer0, "angle_mod180")),
-        ("  … parts (right class, sym ≠ 0)", str(vorl["angle"]["count"]), str(peer["angle"]["count"]),
-         str(peer0["angle"]["count"])),
-        ("angle err mod 180, sym 1-2 only °", sp(vorl, "angle_mod180_axis"), sp(peer, "angle_mod180_axis"),
-         sp(peer0, "angle_mod180_axis")),
-        ("  … parts (right class, sym 1-2)", str(vorl["angle_mod180_axis"]["count"]),
-         str(peer["angle_mod180_axis"]["count"]), str(peer0["angle_mod180_axis"]["count"])),
-        ("position err, med / p95 px", sp(vorl, "position"), sp(peer, "position"), sp(peer0, "position")),
+    def cells(s, ms_runs):
+        """The column of one method: its timing runs (None: not timed) and its scores."""
+        timing = ("-", "-") if ms_runs is None else (f"{ms(ms_runs)} ({min(ms_runs):.2f})", runs(ms_runs))
+        return [
+            *timing,
+            frac(s, "detected", "truth_parts"),
+            frac(s, "true_predictions", "predictions"),
+            frac(s, "known_correct", "known"),
+            frac(s, "unknown_rejected", "unknown"),
+            sp(s, "angle"),
+            sp(s, "angle_mod180"),
+            str(s["angle"]["count"]),
+            sp(s, "angle_mod180_axis"),
+            str(s["angle_mod180_axis"]["count"]),
+            sp(s, "position"),
+        ]
+
+    labels = [
+        "ms/frame, median (fastest) of runs",
+        "  each run",
+        "detection recall",
+        "detection precision",
+        "classification (known parts)",
+        "unknown rejection",
+        "angle err mod 360/sym, med / p95 °",
+        "angle err mod 180, med / p95 °",
+        "  … parts (right class, sym ≠ 0)",
+        "angle err mod 180, sym 1-2 only °",
+        "  … parts (right class, sym 1-2)",
+        "position err, med / p95 px",
     ]
-    head = ("", "vorl", f"OpenCV peer (reject {t0['reject']:g})", "OpenCV peer, no rejection")
+    columns = [cells(vorl, v_ms)]
+    head = ["", "vorl"]
+    if paper is not None:
+        columns.append(cells(paper, [e["ms_per_frame"] for e in paper_evals]))
+        head.append("vorl, paper's path")
+    columns += [cells(peer, p_ms), cells(peer0, None)]
+    head += [f"OpenCV peer (reject {t0['reject']:g})", "OpenCV peer, no rejection"]
+    rows = [tuple([label] + [c[i] for c in columns]) for i, label in enumerate(labels)]
+    head = tuple(head)
     if markdown:
         print("| " + " | ".join(head) + " |")
         print("|" + "---|" * len(head))
         for r in rows:
             print("| " + " | ".join(r) + " |")
     else:
-        w = [max(len(r[i]) for r in rows + [head]) for i in range(4)]
+        w = [max(len(r[i]) for r in rows + [head]) for i in range(len(head))]
         line = lambda r: "  ".join(c.ljust(w[i]) if i == 0 else c.rjust(w[i]) for i, c in enumerate(r))  # noqa: E731
         print(line(head))
         print("  ".join("-" * x for x in w))
@@ -98,6 +119,9 @@ def main():
             print(line(r))
     print()
     print(f"set: {evals[0]['set']}, {vorl['frames']} frames, {vorl['truth_parts']} parts")
+    if paper is not None:
+        print("vorl, paper's path: --refine off --position polygon (the DP's decision f' < ε, its angle and the "
+              "polygon centroid; no alignment, verification or partial-volume centroid)")
     print(f"timing: {len(v_ms)} run(s) each, one after the other; vorl: `vorl eval` core time per frame "
           f"(release build); peer: perf_counter around each frame's work after decoding, "
           f"{t0['threads']} OpenCV thread, OpenCV {t0['opencv']}, numpy {t0['numpy']}")
