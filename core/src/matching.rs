@@ -278,7 +278,11 @@ fn sorted_columns(part: &[f32], template: &[f32], bound: f32, buf: &mut [f32]) -
         }
     }
     for (j, &b) in template.iter().enumerate() {
-        let (prev, next) = if j % 2 == 0 { (&*odd, &mut *even) } else { (&*even, &mut *odd) };
+        let (prev, next) = if j % 2 == 0 {
+            (&*odd, &mut *even)
+        } else {
+            (&*even, &mut *odd)
+        };
         // Rows lo ..= hi cover position j.
         let lo = (j + 1).saturating_sub(w);
         let hi = j.min(n - 1);
@@ -1308,8 +1312,16 @@ mod tests {
                         let by_rows = sorted_lower_bound(&part, &template, bound, &mut buf[..w]).unwrap();
                         let by_columns = sorted_lower_bound(&part, &template, bound, &mut buf).unwrap();
                         let expected = Some(want).filter(|&v| v < bound);
-                        assert_eq!(by_rows.map(f32::to_bits), expected.map(f32::to_bits), "rows, n {n} m {m}");
-                        assert_eq!(by_columns.map(f32::to_bits), expected.map(f32::to_bits), "columns, n {n} m {m}");
+                        assert_eq!(
+                            by_rows.map(f32::to_bits),
+                            expected.map(f32::to_bits),
+                            "rows, n {n} m {m}"
+                        );
+                        assert_eq!(
+                            by_columns.map(f32::to_bits),
+                            expected.map(f32::to_bits),
+                            "columns, n {n} m {m}"
+                        );
                     }
                 }
             }
