@@ -24,7 +24,7 @@ pub enum Refine {
     Off,
     /// The paper's decision, with the pose aligned on the frame ([`crate::refine::align`]).
     Pose,
-    /// The DP's best candidates each aligned and verified; the lowest verification score wins,
+    /// A few DP candidates each aligned and verified; the lowest verification score wins,
     /// unknown above [`Params::verify_threshold`] (default).
     Verify,
 }
@@ -76,12 +76,16 @@ pub struct Params {
     pub angle: AngleEstimator,
     /// What follows the DP match.
     pub refine: Refine,
-    /// DP candidates verified per part (1..=8).
+    /// Candidates aligned and verified per part (1..=8), with `refine = Verify`.
     pub candidates: usize,
-    /// Only templates whose DP cost is below this multiple of the best template's are
-    /// candidates (`≥ 1`; `+∞` keeps the `candidates` best whatever their cost). A template the
-    /// DP rates far worse than the best rarely wins the verification, and the bound lets the DP
-    /// reject it after a few rows, so most parts have a single candidate to align.
+    /// With `refine = Verify`, the templates are searched in ascending order of their
+    /// sorted-value bound ([`crate::matching::sorted_lower_bound`]), and a template is a
+    /// candidate only if its DP cost is below this multiple of the lowest cost of the templates
+    /// before it (`≥ 1`; `+∞`: the first `candidates` templates of that order). The default 1
+    /// takes a candidate only when it beats every earlier one's cost: the first is the template
+    /// of lowest bound (the right one for about 96 % of the generated sets' parts), the next
+    /// ones steps towards the DP's best, and the search of every other template stops as soon
+    /// as it cannot beat that cost.
     pub candidate_ratio: f32,
     /// Verification threshold, px: a part whose best score is at or above it is unknown.
     pub verify_threshold: f32,
@@ -105,7 +109,7 @@ impl Params {
         angle: AngleEstimator::Signed,
         refine: Refine::Verify,
         candidates: 3,
-        candidate_ratio: 2.0,
+        candidate_ratio: 1.0,
         verify_threshold: 0.6,
         position: Position::PartialVolume,
     };

@@ -34,10 +34,11 @@ pub struct Config {
     /// After the DP: "off" (the paper's path), "pose" (align the pose only), "verify" (align and
     /// verify the best candidates; default).
     pub refine: RefineSetting,
-    /// DP candidates verified per part, 1..8.
+    /// Candidates aligned and verified per part (refine = "verify"), 1..8.
     pub candidates: usize,
-    /// Only templates whose DP cost is below this multiple of the best one's are candidates
-    /// (≥ 1; inf: the `candidates` best whatever their cost).
+    /// Templates are searched in ascending order of their sorted-value bound; one is a candidate
+    /// only if its DP cost is below this multiple of the lowest cost before it (≥ 1; inf: the
+    /// first `candidates` of that order).
     pub candidate_ratio: f32,
     /// Verification threshold in px: unknown at or above it.
     pub verify_threshold: f32,
@@ -249,9 +250,10 @@ impl Config {
              # After the DP: \"off\" (the paper's path: best f', f' < ε), \"pose\" (the paper's decision, pose aligned on the frame),\n\
              # \"verify\" (the best candidates aligned and verified; lowest score wins, unknown at or above verify_threshold).\n\
              refine = \"{}\"\n\
-             # DP candidates verified per part (1..8).\n\
+             # Candidates aligned and verified per part with refine = \"verify\" (1..8).\n\
              candidates = {}\n\
-             # Only templates whose DP cost is below this multiple of the best one's are candidates (≥ 1; inf: no limit).\n\
+             # Templates are searched in ascending order of their sorted-value bound; one is a candidate only if its DP cost is below\n\
+             # this multiple of the lowest cost before it (≥ 1; 1: each candidate beats every earlier one; inf: the first `candidates`).\n\
              candidate_ratio = {}\n\
              # Verification threshold, px (mean distance between the aligned outlines, both ways, plus a scale penalty).\n\
              verify_threshold = {:?}\n\

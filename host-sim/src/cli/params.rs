@@ -44,11 +44,11 @@ pub struct ParamArgs {
     /// After the DP: off (the paper's path), pose, verify.
     #[arg(long, value_enum)]
     pub refine: Option<RefineSetting>,
-    /// DP candidates verified per part.
+    /// Candidates aligned and verified per part (with --refine verify).
     #[arg(long)]
     pub candidates: Option<usize>,
-    /// Only templates whose DP cost is below this multiple of the best one's are candidates
-    /// (≥ 1; "inf" for no limit).
+    /// A template is a candidate only if its DP cost is below this multiple of the lowest cost
+    /// of the templates before it in the sorted-bound order (≥ 1; "inf": no limit).
     #[arg(long)]
     pub candidate_ratio: Option<f32>,
     /// Verification threshold, px.
