@@ -43,7 +43,7 @@ use crate::descriptor::describe;
 use crate::error::{Error, Result};
 use crate::frame::Frame;
 use crate::mask::{foreground_mask, MaskStats};
-use crate::matching::{best_cost, match_at_start, sorted_lower_bound, table_cells, Match};
+use crate::matching::{best_cost, match_at_start, sorted_lower_bounds4, table_cells, Match};
 use crate::math;
 use crate::params::{AngleEstimator, Params, Position, Refine};
 use crate::partial_volume::{partial_volume_centroid, Rect};
@@ -631,11 +631,20 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let Some(sorted) = sorted.get_mut(..n) else { return 0 };
         sorted.copy_from_slice(part);
         sorted.sort_unstable_by(f32::total_cmp);
+        // The bounds four templates at a time (the same values as one by one).
+        let mut bounds = [None; T];
+        let (mut even, mut odd) = ([[0.0f32; 4]; M], [[0.0f32; 4]; M]);
+        for (group, out) in self.templates.chunks(4).zip(bounds.chunks_mut(4)) {
+            let Some(first) = group.first() else { continue };
+            let pick = |k: usize| group.get(k).unwrap_or(first).sorted_descriptor();
+            let four = sorted_lower_bounds4(sorted, [pick(0), pick(1), pick(2), pick(3)], &mut even, &mut odd);
+            for (o, lb) in out.iter_mut().zip(four) {
+                *o = lb;
+            }
+        }
         let mut listed = 0usize;
-        for (ti, t) in self.templates.iter().enumerate() {
-            let Ok(Some(lb)) = sorted_lower_bound(sorted, t.sorted_descriptor(), f32::INFINITY, &mut self.table) else {
-                continue;
-            };
+        for (ti, lb) in bounds.iter().enumerate().take(self.templates.len()) {
+            let Some(lb) = *lb else { continue };
             let mut pos = listed;
             while pos > 0 && order.get(pos - 1).is_some_and(|o| o.0 > lb) {
                 if let Some(prev) = order.get(pos - 1).copied() {
@@ -798,6 +807,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::matching::sorted_lower_bound;
     extern crate std;
 
     /// Smooth descriptor-like values with a little noise, from a seed.
