@@ -563,6 +563,36 @@ pub fn match_with_assignment(
     table: &mut [f32],
     assignment: &mut [u16],
 ) -> Result<Match> {
+    best_match(part, template, f32::INFINITY, table, assignment)?.ok_or(Error::DegenerateContour { points: part.len() })
+}
+
+/// [`best_cost`] with the winner's correspondence: `assignment[i] = j(i)` for every part point
+/// when some start beats `bound` (exclusive); `Ok(None)` otherwise (then `assignment` is
+/// unspecified). The search reads the correspondence back from its own record, so this costs
+/// little more than [`best_cost`] and saves the [`match_at_start`] a caller would run after
+/// it. `table` needs [`table_cells`]`(n, m)` cells (as [`match_with_assignment`]).
+///
+/// ```
+/// use vorl_core::matching::{best_cost, best_match, table_cells};
+/// let template = [0.0f32, 1.0, 2.0, 3.0, 4.0, 5.0];
+/// let part = [2.0f32, 3.0, 5.0, 0.0];
+/// let mut table = [0.0f32; 12];
+/// let mut assignment = [0u16; 4];
+/// let m = best_match(&part, &template, f32::INFINITY, &mut table, &mut assignment).unwrap().unwrap();
+/// assert_eq!((m.cost, m.start, assignment), (0.0, 2, [2, 3, 5, 0]));
+/// // Nothing beats a bound of 0.
+/// assert!(best_match(&part, &template, 0.0, &mut table, &mut assignment).unwrap().is_none());
+/// ```
+///
+/// # Errors
+/// [`Error::PointCounts`] and [`Error::BufferTooSmall`] for `table` or `assignment`.
+pub fn best_match(
+    part: &[f32],
+    template: &[f32],
+    bound: f32,
+    table: &mut [f32],
+    assignment: &mut [u16],
+) -> Result<Option<Match>> {
     let (n, m) = (part.len(), template.len());
     check_counts(n, m)?;
     let width = m - n + 1;
@@ -579,10 +609,10 @@ pub fn match_with_assignment(
             got: assignment.len(),
         });
     };
-    let best = match search(part, template, f32::INFINITY, table, assignment) {
+    let best = match search(part, template, bound, table, assignment) {
         Some(found) => found,
         None => {
-            let best = plain_best_cost(part, template, f32::INFINITY, table);
+            let best = plain_best_cost(part, template, bound, table);
             if let (Some(b), Some(table)) = (best, table.get_mut(..cells)) {
                 fill_table(part, template, b.start, table, width);
                 backtrack(table, width, n, m, b.start, assignment);
@@ -590,7 +620,7 @@ pub fn match_with_assignment(
             best
         }
     };
-    best.ok_or(Error::DegenerateContour { points: n })
+    Ok(best)
 }
 
 /// The full table of one start: row `i` holds `D_i(δ)`.

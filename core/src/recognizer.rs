@@ -43,7 +43,7 @@ use crate::descriptor::describe;
 use crate::error::{Error, Result};
 use crate::frame::Frame;
 use crate::mask::{foreground_mask, MaskStats};
-use crate::matching::{best_cost, match_at_start, sorted_lower_bounds4, table_cells, Match};
+use crate::matching::{best_cost, best_match, match_at_start, sorted_lower_bounds4, table_cells, Match};
 use crate::math;
 use crate::params::{AngleEstimator, Params, Position, Refine};
 use crate::partial_volume::{partial_volume_centroid, Rect};
@@ -522,56 +522,74 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         detection: &mut Detection,
     ) -> Option<(usize, Pose)> {
         let params = self.params;
-        let count = self.ordered_candidates(n, params.candidates, params.candidate_ratio);
-        if count > 0 {
-            self.part_edge(n, counter_clockwise, diff);
-        }
+        let mut scan = self.candidate_scan(n);
         let mut best = None;
-        for c in 0..count {
-            if let Some((ti, _, start)) = self.cands.get(c).copied() {
-                self.try_candidate(n, centroid, position, area, (ti, start), diff, detection, &mut best);
+        while let Some((ti, m)) = self.next_candidate(&mut scan, n, params.candidates, params.candidate_ratio) {
+            if scan.found == 1 {
+                self.part_edge(n, counter_clockwise, diff);
             }
+            self.try_candidate(n, centroid, position, area, ti, m, diff, detection, &mut best);
         }
         best
     }
 
-    /// Fills `self.cands` with the candidates of `refine = Verify` and returns how many: the
-    /// templates in ascending order of their [`sorted_lower_bound`], each searched by the DP
-    /// bounded by `ratio` times the lowest cost found before it; those that come in, up to `k`
-    /// (with `ratio = 1`, each one beats every earlier one's cost). The bound order ends the
-    /// scan once a bound reaches the search bound (no later template can come in).
-    fn ordered_candidates(&mut self, n: usize, k: usize, ratio: f32) -> usize {
-        let k = k.clamp(1, MAX_CANDIDATES);
+    /// The scan of [`Self::next_candidate`] over this part's templates, in ascending order of
+    /// their [`sorted_lower_bound`].
+    fn candidate_scan(&mut self, n: usize) -> CandidateScan<T> {
         let mut order = [(f32::INFINITY, 0usize); T];
         let listed = self.bound_order(n, &mut order);
-        let mut lowest = f32::INFINITY;
-        let mut count = 0usize;
-        for &(lb, ti) in order.get(..listed).unwrap_or(&[]) {
-            if count == k {
-                break;
-            }
-            let bound = lowest * ratio;
-            // The bound and the search round differently; a margin keeps near ties searched.
-            if lb * (1.0 - LOWER_BOUND_MARGIN) >= bound {
-                break;
-            }
-            let (Some(t), Some(part)) = (self.templates.get(ti), self.descriptor.get(..n)) else {
-                continue;
-            };
-            let Ok(Some(m)) = best_cost(part, t.descriptor(), bound, &mut self.table) else {
-                continue;
-            };
-            lowest = lowest.min(m.cost);
-            if let Some(slot) = self.cands.get_mut(count) {
-                *slot = (ti, m.cost, m.start);
-                count += 1;
-            }
+        CandidateScan {
+            order,
+            listed,
+            next: 0,
+            lowest: f32::INFINITY,
+            found: 0,
         }
-        count
     }
 
-    /// Aligns and verifies one candidate (template index, DP start); when it scores lower than
-    /// `best` so far, it becomes `best` and fills the detection's DP fields and `verify`.
+    /// The next candidate of `refine = Verify`, its correspondence in `self.assignment`: the
+    /// templates are taken in ascending order of their bound, each searched by the DP bounded
+    /// by `ratio` times the lowest cost found before it, and the first that comes in is the
+    /// candidate (with `ratio = 1`, it beats every earlier one's cost). `None` once `k` were
+    /// found or a bound reaches the search bound (no later template can come in).
+    fn next_candidate(
+        &mut self,
+        scan: &mut CandidateScan<T>,
+        n: usize,
+        k: usize,
+        ratio: f32,
+    ) -> Option<(usize, Match)> {
+        if scan.found >= k.clamp(1, MAX_CANDIDATES) {
+            return None;
+        }
+        while let Some(&(lb, ti)) = scan.order.get(scan.next).filter(|_| scan.next < scan.listed) {
+            scan.next += 1;
+            let bound = scan.lowest * ratio;
+            // The bound and the search round differently; a margin keeps near ties searched.
+            if lb * (1.0 - LOWER_BOUND_MARGIN) >= bound {
+                scan.next = scan.listed;
+                return None;
+            }
+            let (Some(t), Some(part), Some(assignment)) = (
+                self.templates.get(ti),
+                self.descriptor.get(..n),
+                self.assignment.get_mut(..n),
+            ) else {
+                continue;
+            };
+            let Ok(Some(m)) = best_match(part, t.descriptor(), bound, &mut self.table, assignment) else {
+                continue;
+            };
+            scan.lowest = scan.lowest.min(m.cost);
+            scan.found += 1;
+            return Some((ti, m));
+        }
+        None
+    }
+
+    /// Aligns and verifies one candidate (template index and DP match, its correspondence in
+    /// `self.assignment`); when it scores lower than `best` so far, it becomes `best` and fills
+    /// the detection's DP fields and `verify`.
     #[allow(clippy::too_many_arguments)]
     fn try_candidate<B: AsRef<[u8]>>(
         &mut self,
@@ -579,12 +597,13 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         centroid: [f32; 2],
         position: [f32; 2],
         area: f32,
-        (ti, start): (usize, usize),
+        ti: usize,
+        m: Match,
         diff: &Difference<'_, B>,
         detection: &mut Detection,
         best: &mut Option<(usize, Pose)>,
     ) {
-        let Some((m, signed, paper)) = self.correspondence(n, centroid, ti, start) else {
+        let Some((signed, paper)) = self.angles(n, centroid, ti) else {
             return;
         };
         let Some(t) = self.templates.get(ti) else {
@@ -616,11 +635,19 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let part_desc = self.descriptor.get(..n)?;
         let assignment = self.assignment.get_mut(..n)?;
         let m = match_at_start(part_desc, t.descriptor(), start, &mut self.table, assignment).ok()?;
+        let (signed, paper) = self.angles(n, centroid, ti)?;
+        Some((m, signed, paper))
+    }
+
+    /// The signed and the paper's angles (degrees) over the correspondence with template `ti`
+    /// in `self.assignment`.
+    fn angles(&self, n: usize, centroid: [f32; 2], ti: usize) -> Option<(f32, f32)> {
+        let t = self.templates.get(ti)?;
         let part_pts = self.points.get(..n)?;
         let assignment = self.assignment.get(..n)?;
         let signed = angle_signed_refined(part_pts, centroid, t.points(), t.centroid(), assignment).unwrap_or(0.0);
         let paper = angle_paper(part_pts, centroid, t.points(), t.centroid(), assignment).unwrap_or(0.0);
-        Some((m, signed, paper))
+        Some((signed, paper))
     }
 
     /// The templates by ascending [`sorted_lower_bound`] into `order` as (bound, index);
@@ -750,6 +777,20 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         }
         count
     }
+}
+
+/// Where [`Recognizer::next_candidate`] is in a part's templates.
+struct CandidateScan<const T: usize> {
+    /// (bound, template index), ascending.
+    order: [(f32, usize); T],
+    /// Templates listed in `order`.
+    listed: usize,
+    /// The next entry of `order` to look at.
+    next: usize,
+    /// The lowest DP cost found so far.
+    lowest: f32,
+    /// Candidates found so far.
+    found: usize,
 }
 
 /// Relative margin by which a template's sorted lower bound must exceed the `k`-th best DP cost
@@ -888,7 +929,7 @@ mod tests {
     }
 
     #[test]
-    fn ordered_candidates_are_the_cost_records_of_the_bound_order() {
+    fn candidates_are_the_cost_records_of_the_bound_order() {
         const N: usize = 24;
         const MM: usize = 36;
         let params = Params {
@@ -946,18 +987,27 @@ mod tests {
                     }
                     lowest = lowest.min(c);
                 }
-                let count = r.ordered_candidates(N, k, ratio);
-                let got: std::vec::Vec<usize> = r.cands[..count].iter().map(|c| c.0).collect();
-                assert_eq!(got, want, "seed {seed} k {k} ratio {ratio}");
-                for &(ti, cost, start) in &r.cands[..count] {
+                let mut scan = r.candidate_scan(N);
+                let mut got = std::vec::Vec::new();
+                while let Some((ti, m)) = r.next_candidate(&mut scan, N, k, ratio) {
+                    got.push(ti);
                     let want_cost = all.iter().find(|a| a.1 == ti).unwrap().2;
-                    assert!((cost - want_cost).abs() <= 1e-5 * want_cost.max(1.0));
+                    assert!((m.cost - want_cost).abs() <= 1e-5 * want_cost.max(1.0));
+                    // The correspondence left in `assignment` is the start's and costs as much.
                     let mut table = [0.0f32; N * (MM - N + 1)];
                     let mut asg = [0u16; N];
                     let t = r.templates[ti].descriptor();
-                    let at = match_at_start(&r.descriptor[..N], t, start, &mut table, &mut asg).unwrap();
-                    assert!((at.cost - cost).abs() <= 1e-5 * cost.max(1.0));
+                    let at = match_at_start(&r.descriptor[..N], t, m.start, &mut table, &mut asg).unwrap();
+                    assert!((at.cost - m.cost).abs() <= 1e-5 * m.cost.max(1.0));
+                    let total = r.descriptor[..N]
+                        .iter()
+                        .zip(&r.assignment[..N])
+                        .fold(0.0f32, |acc, (p, &j)| acc + (p - t[j as usize]).abs());
+                    assert!((total - m.cost).abs() <= 1e-5 * m.cost.max(1.0));
+                    assert_eq!(r.assignment[0] as usize, m.start);
                 }
+                let count = got.len();
+                assert_eq!(got, want, "seed {seed} k {k} ratio {ratio}");
                 if k == 3 && ratio == 1.0 {
                     more_than_one += (count > 1) as usize;
                     cut_short += (count < 3) as usize;
