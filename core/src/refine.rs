@@ -299,12 +299,20 @@ impl<'a, B: AsRef<[u8]>> Difference<'a, B> {
     /// The signed offset along `normal` (unit, pointing out of the part) from `p` to the
     /// half-contrast crossing nearest `p`, or `None` when the profile holds no edge.
     ///
-    /// The profile is `2·search/step + 1` samples `D(p + k·step·normal)`; the level is the mean
-    /// of the two ends (two samples each), and an edge is a fall from the inner side's level to
-    /// the outer's between two samples, placed by linear interpolation. Intervals are visited
-    /// from `p` outwards and the scan stops once no farther interval can hold a nearer crossing,
-    /// so a pose already near the edge reads about 9 samples instead of 25. Of two crossings at
-    /// the same distance the inner one wins.
+    /// The profile is `2·search/step + 1` samples `D(p + k·step·normal)`, bilinear
+    /// ([`sample_by_pixels`] at the fixed-point positions of a [`ProfileRay`]); the level is
+    /// the mean of the two ends (two samples each), and an edge is a fall from the inner side's
+    /// level to the outer's between two samples, placed by linear interpolation. Intervals are
+    /// visited from `p` outwards and the scan stops once no farther interval can hold a nearer
+    /// crossing, so a pose already near the edge reads about 8 samples instead of 25. Of two
+    /// crossings at the same distance the inner one wins. A profile with more than
+    /// [`MAX_PROFILE_STEPS`] samples a side, reaching farther than [`MAX_PROFILE_REACH`] px
+    /// along an axis, or with a non-finite point or normal, holds no edge.
+    ///
+    /// Where every sample's cell lies inside the image and `α = 1` (nearly every profile), the
+    /// cells are read straight from the frame and background buffers at offsets from the
+    /// profile's base pixel; elsewhere from four clamped pixels. Consecutive samples in the same
+    /// cell reuse its four differences. Either way the values of [`sample_by_pixels`].
     pub fn edge_offset(&self, p: [f32; 2], normal: [f32; 2], params: &RefineParams) -> Option<f32> {
         let steps = (params.search / params.step) as i32;
         // A profile of more than MAX_PROFILE_STEPS samples a side (a step of 0 or NaN included)
@@ -312,51 +320,330 @@ impl<'a, B: AsRef<[u8]>> Difference<'a, B> {
         if !(2..=MAX_PROFILE_STEPS).contains(&steps) || !(params.step > 0.0) {
             return None;
         }
-        let sample = |k: i32, cell: &mut Cell| {
-            let u = k as f32 * params.step;
-            self.bilinear_cached(p[0] + u * normal[0], p[1] + u * normal[1], cell)
-        };
-        // One cell cache for each side of the profile: the ends first, then the scan outwards.
-        let (mut inner, mut outer) = (Cell::EMPTY, Cell::EMPTY);
-        let outer_end = sample(-steps, &mut inner);
-        let d_in = 0.5 * (outer_end + sample(-steps + 1, &mut inner));
-        let d_out = 0.5 * (sample(steps, &mut outer) + sample(steps - 1, &mut outer));
-        if !((d_in - d_out).abs() >= params.min_contrast) {
-            return None;
+        let ray = ProfileRay::new(p, normal, params.step, steps)?;
+        match Window::new(self, &ray, steps) {
+            Some(window) => nearest_crossing(&window, &ray, steps, params),
+            None => nearest_crossing(&Clamped(self), &ray, steps, params),
         }
-        let level = 0.5 * (d_in + d_out);
-        let sign = if d_in > d_out { 1.0 } else { -1.0 };
-        let centre = sign * (sample(0, &mut outer) - level);
-        inner = outer;
-        // Round r visits the intervals [r, r+1] and [−r−1, −r] (in steps), whose crossings lie
-        // between r·step and (r+1)·step from p.
-        // `neg` and `pos` hold the signed samples at −r and +r.
-        let (mut neg, mut pos) = (centre, centre);
-        let mut best: Option<f32> = None;
-        for r in 0..steps {
-            let before = sign
-                * (if r + 1 == steps {
-                    outer_end
-                } else {
-                    sample(-r - 1, &mut inner)
-                } - level);
-            let after = sign * (sample(r + 1, &mut outer) - level);
-            for (k, prev, cur) in [(-r, before, neg), (r + 1, pos, after)] {
-                if prev > 0.0 && cur <= 0.0 {
-                    let t = prev / (prev - cur);
-                    let u = ((k - 1) as f32 + t) * params.step;
-                    if best.is_none_or(|b| u.abs() < b.abs() || (u.abs() == b.abs() && u < b)) {
-                        best = Some(u);
-                    }
+    }
+
+    /// `D` at the four pixels of the cell with top-left `(ix, iy)` (top-left, top-right,
+    /// bottom-left, bottom-right), each coordinate clamped into the image: [`Self::at`] four
+    /// times.
+    fn cell_clamped(&self, ix: isize, iy: isize) -> [f32; 4] {
+        [
+            self.at(ix, iy),
+            self.at(ix + 1, iy),
+            self.at(ix, iy + 1),
+            self.at(ix + 1, iy + 1),
+        ]
+    }
+}
+
+/// How [`Difference::edge_offset`] reads a profile's samples: through a one-cell cache.
+trait Cells {
+    /// The cache: the cell read last.
+    type Cell: Copy;
+    /// No cell yet.
+    const EMPTY: Self::Cell;
+    /// `D` at sample `k` of `ray` ([`sample_by_pixels`]), through `cell`.
+    fn sample(&self, ray: &ProfileRay, k: i32, cell: &mut Self::Cell) -> f32;
+}
+
+/// The scan of [`Difference::edge_offset`] over samples `k` in `-steps..=steps` of `ray`, two
+/// caches (one a side of the profile).
+#[inline(always)]
+fn nearest_crossing<S: Cells>(cells: &S, ray: &ProfileRay, steps: i32, params: &RefineParams) -> Option<f32> {
+    let sample = |k: i32, cell: &mut S::Cell| cells.sample(ray, k, cell);
+    // One cell cache for each side of the profile: the ends first, then the scan outwards.
+    let (mut inner, mut outer) = (S::EMPTY, S::EMPTY);
+    let outer_end = sample(-steps, &mut inner);
+    let d_in = 0.5 * (outer_end + sample(-steps + 1, &mut inner));
+    let d_out = 0.5 * (sample(steps, &mut outer) + sample(steps - 1, &mut outer));
+    if !((d_in - d_out).abs() >= params.min_contrast) {
+        return None;
+    }
+    let level = 0.5 * (d_in + d_out);
+    let sign = if d_in > d_out { 1.0 } else { -1.0 };
+    let centre = sign * (sample(0, &mut outer) - level);
+    inner = outer;
+    // Round r visits the intervals [r, r+1] and [−r−1, −r] (in steps), whose crossings lie
+    // between r·step and (r+1)·step from p.
+    // `neg` and `pos` hold the signed samples at −r and +r.
+    let (mut neg, mut pos) = (centre, centre);
+    let mut best: Option<f32> = None;
+    for r in 0..steps {
+        let before = sign
+            * (if r + 1 == steps {
+                outer_end
+            } else {
+                sample(-r - 1, &mut inner)
+            } - level);
+        let after = sign * (sample(r + 1, &mut outer) - level);
+        for (k, prev, cur) in [(-r, before, neg), (r + 1, pos, after)] {
+            if prev > 0.0 && cur <= 0.0 {
+                let t = prev / (prev - cur);
+                let u = ((k - 1) as f32 + t) * params.step;
+                if best.is_none_or(|b| u.abs() < b.abs() || (u.abs() == b.abs() && u < b)) {
+                    best = Some(u);
                 }
             }
-            (neg, pos) = (before, after);
-            if best.is_some_and(|b| b.abs() < (r + 1) as f32 * params.step) {
-                break;
-            }
         }
-        best
+        (neg, pos) = (before, after);
+        if best.is_some_and(|b| b.abs() < (r + 1) as f32 * params.step) {
+            break;
+        }
     }
+    best
+}
+
+/// Fraction bits of the fixed-point sample positions of a profile ([`ProfileRay`]).
+const RAY_FRACTION_BITS: u32 = 16;
+
+/// Most a profile may reach from its point along either axis, px (`search·|normal|`); beyond,
+/// [`Difference::edge_offset`] finds no edge (the fixed-point positions would overflow).
+pub const MAX_PROFILE_REACH: f32 = 16384.0;
+
+/// The sample positions `p + k·step·normal` of one profile, in fixed point.
+///
+/// Per axis, position `k` is the pixel `base` (`p` truncated towards zero) plus
+/// `(start + k·delta) / 2¹⁶` px, where `start` is the rest of `p` (truncated to 1/65536 px) and
+/// `delta` is `step·normal` (rounded to 1/65536 px): within `(|k| + 2)·2⁻¹⁶` px of
+/// `p + k·step·normal`. An arithmetic shift gives each sample's pixel and a mask its fraction,
+/// the same on either side of the image's origin, and the profile's ends bound all its pixels
+/// (the positions are linear in `k`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ProfileRay {
+    base: [isize; 2],
+    start: [i32; 2],
+    delta: [i32; 2],
+}
+
+impl ProfileRay {
+    /// The ray of `steps` samples a side from `p` along `normal`, `step` px apart; `None` for a
+    /// non-finite input or a reach (`steps·step·|normal|` on an axis) beyond
+    /// [`MAX_PROFILE_REACH`]. Coordinates of `p` beyond ±2³⁰ are clamped there (a sample that
+    /// far off reads the image's border either way).
+    #[inline]
+    pub fn new(p: [f32; 2], normal: [f32; 2], step: f32, steps: i32) -> Option<Self> {
+        const ONE: f32 = (1u32 << RAY_FRACTION_BITS) as f32;
+        const FAR: f32 = (1u32 << 30) as f32;
+        let axis = |p: f32, n: f32| -> Option<(isize, i32, i32)> {
+            let delta = step * n * ONE;
+            if !(p.is_finite() && (steps as f32 * delta).abs() <= MAX_PROFILE_REACH * ONE) {
+                return None;
+            }
+            let p = p.clamp(-FAR, FAR);
+            // Within ±2³⁰ the truncation is exact and so is `p − base` (below 2²⁴ both keep
+            // every bit; above, `p` is a whole number): the rest lies in (−1, 1).
+            let base = p as i32;
+            let start = ((p - base as f32) * ONE) as i32;
+            let delta = (delta + if delta < 0.0 { -0.5 } else { 0.5 }) as i32;
+            Some((base as isize, start, delta))
+        };
+        let (bx, sx, dx) = axis(p[0], normal[0])?;
+        let (by, sy, dy) = axis(p[1], normal[1])?;
+        Some(ProfileRay {
+            base: [bx, by],
+            start: [sx, sy],
+            delta: [dx, dy],
+        })
+    }
+
+    /// Sample `k`'s pixel offset from the base pixel and its fraction in `[0, 1)`, per axis.
+    /// `|k|` must not exceed the `steps` the ray was made for (the positions then stay within
+    /// `MAX_PROFILE_REACH + 1` px of the base, far from overflowing).
+    #[inline(always)]
+    fn offset(&self, k: i32) -> ([i32; 2], [f32; 2]) {
+        const MASK: i32 = (1 << RAY_FRACTION_BITS) - 1;
+        const INV: f32 = 1.0 / (1u32 << RAY_FRACTION_BITS) as f32;
+        let x = self.start[0].wrapping_add(k.wrapping_mul(self.delta[0]));
+        let y = self.start[1].wrapping_add(k.wrapping_mul(self.delta[1]));
+        (
+            [x >> RAY_FRACTION_BITS, y >> RAY_FRACTION_BITS],
+            [(x & MASK) as f32 * INV, (y & MASK) as f32 * INV],
+        )
+    }
+
+    /// Sample `k`'s pixel (the floor of its position) and fraction in `[0, 1)`, per axis.
+    #[inline(always)]
+    pub fn at(&self, k: i32) -> ([isize; 2], [f32; 2]) {
+        let ([ox, oy], t) = self.offset(k);
+        (
+            [
+                self.base[0].wrapping_add(ox as isize),
+                self.base[1].wrapping_add(oy as isize),
+            ],
+            t,
+        )
+    }
+}
+
+/// The bilinear coefficients `[a, b, c, e]` of a cell `[top-left, top-right, bottom-left,
+/// bottom-right]`: its value at the fraction `(tx, ty)` is `a + tx·b + ty·(c + tx·e)`
+/// ([`evaluate`]). The cells hold integer differences, so the coefficients are exact.
+#[inline(always)]
+fn coefficients([d00, d01, d10, d11]: [f32; 4]) -> [f32; 4] {
+    [d00, d01 - d00, d10 - d00, (d11 - d10) - (d01 - d00)]
+}
+
+/// The bilinear interpolation of a cell's [`coefficients`] at the fraction `(tx, ty)`.
+#[inline(always)]
+fn evaluate([a, b, c, e]: [f32; 4], [tx, ty]: [f32; 2]) -> f32 {
+    a + tx * b + ty * (c + tx * e)
+}
+
+/// `D` at sample `k` of `ray`, bilinear from four clamped pixels ([`Difference::at`]): the
+/// definition the profiles of [`Difference::edge_offset`] reproduce, however they read it.
+pub fn sample_by_pixels<B: AsRef<[u8]>>(diff: &Difference<'_, B>, ray: &ProfileRay, k: i32) -> f32 {
+    let ([ix, iy], t) = ray.at(k);
+    evaluate(coefficients(diff.cell_clamped(ix, iy)), t)
+}
+
+/// A profile whose every cell lies inside the image, with `α = 1`: its cells are read from the
+/// frame and background buffers at offsets from the indices of the ray's base pixel.
+struct Window<'d, 'a, B> {
+    diff: &'d Difference<'a, B>,
+    frame: &'a [u8],
+    background: &'a [u8],
+    stride: usize,
+    width: usize,
+    /// Indices of the base pixel in the frame buffer and the background plane.
+    frame_base: usize,
+    background_base: usize,
+}
+
+impl<'d, 'a, B: AsRef<[u8]>> Window<'d, 'a, B> {
+    /// The window of `ray` over `-steps..=steps`, or `None` unless `α = 1` and the cells of
+    /// all its samples lie inside the image (the samples' pixels lie between those of the
+    /// ends, and a cell reaches one pixel on).
+    #[inline(always)]
+    fn new(diff: &'d Difference<'a, B>, ray: &ProfileRay, steps: i32) -> Option<Self> {
+        if !(diff.alpha.get() >= 1.0) {
+            return None;
+        }
+        let ([x0, y0], _) = ray.at(-steps);
+        let ([x1, y1], _) = ray.at(steps);
+        let (w, h) = (diff.width() as isize, diff.height() as isize);
+        if !(x0.min(x1) >= 0 && y0.min(y1) >= 0 && x0.max(x1) < w - 1 && y0.max(y1) < h - 1) {
+            return None;
+        }
+        let (bx, by) = (ray.base[0] as usize, ray.base[1] as usize);
+        let frame: &'a Frame<B> = diff.frame;
+        let stride = frame.stride();
+        let width = frame.width();
+        // The base pixel lies within the image's extent (between the ends' pixels, or one
+        // pixel beyond with a fraction): the indices are small.
+        Some(Window {
+            diff,
+            frame: frame.pixels(),
+            background: diff.background,
+            stride,
+            width,
+            frame_base: by.wrapping_mul(stride).wrapping_add(bx),
+            background_base: by.wrapping_mul(width).wrapping_add(bx),
+        })
+    }
+}
+
+impl<B: AsRef<[u8]>> Cells for Window<'_, '_, B> {
+    type Cell = WindowCell;
+    const EMPTY: WindowCell = WindowCell::EMPTY;
+
+    #[inline(always)]
+    fn sample(&self, ray: &ProfileRay, k: i32, cell: &mut WindowCell) -> f32 {
+        let ([ox, oy], t) = ray.offset(k);
+        let (ox, oy) = (ox as isize, oy as isize);
+        let f = self
+            .frame_base
+            .wrapping_add_signed(oy.wrapping_mul(self.stride as isize).wrapping_add(ox));
+        if cell.at != f {
+            let b = self
+                .background_base
+                .wrapping_add_signed(oy.wrapping_mul(self.width as isize).wrapping_add(ox));
+            // A cell's two rows as one run of `stride + 2` (or `width + 2`) bytes: its first two
+            // and last two are the cell's pixels (the window's width is at least 2).
+            let (s, w) = (self.stride, self.width);
+            let frame = self.frame.get(f..f.wrapping_add(s).wrapping_add(2));
+            let background = self.background.get(b..b.wrapping_add(w).wrapping_add(2));
+            let d = match (frame, background) {
+                // The integer difference is exact, so it converts to the same `f32` as the
+                // clamped path's `f − g`.
+                (Some(&[f00, f01, .., f10, f11]), Some(&[b00, b01, .., b10, b11])) => {
+                    let d = |f: u8, g: u8| (i32::from(f) - i32::from(g)) as f32;
+                    [d(f00, b00), d(f01, b01), d(f10, b10), d(f11, b11)]
+                }
+                // Not for a cell inside the image (a short background plane reads 0 there,
+                // as the clamped path does).
+                _ => cell_by_pixels(self.diff, ray, k),
+            };
+            *cell = WindowCell {
+                at: f,
+                c: coefficients(d),
+            };
+        }
+        evaluate(cell.c, t)
+    }
+}
+
+/// The cell of sample `k` of `ray` from four clamped pixels, out of line (the rare path).
+#[cold]
+#[inline(never)]
+fn cell_by_pixels<B: AsRef<[u8]>>(diff: &Difference<'_, B>, ray: &ProfileRay, k: i32) -> [f32; 4] {
+    let ([ix, iy], _) = ray.at(k);
+    diff.cell_clamped(ix, iy)
+}
+
+/// Profiles that reach beyond the image, or `α < 1`: cells from four clamped pixels.
+struct Clamped<'d, 'a, B>(&'d Difference<'a, B>);
+
+impl<B: AsRef<[u8]>> Cells for Clamped<'_, '_, B> {
+    type Cell = ClampedCell;
+    const EMPTY: ClampedCell = ClampedCell::EMPTY;
+
+    #[inline(always)]
+    fn sample(&self, ray: &ProfileRay, k: i32, cell: &mut ClampedCell) -> f32 {
+        let (at, t) = ray.at(k);
+        if cell.at != at {
+            *cell = ClampedCell {
+                at,
+                c: coefficients(self.0.cell_clamped(at[0], at[1])),
+            };
+        }
+        evaluate(cell.c, t)
+    }
+}
+
+/// The cell a [`Window`] read last: its top-left pixel's index in the frame buffer and its
+/// [`coefficients`].
+#[derive(Debug, Clone, Copy)]
+struct WindowCell {
+    at: usize,
+    c: [f32; 4],
+}
+
+impl WindowCell {
+    /// No cell yet (no slice holds an index of `usize::MAX` and the byte after it).
+    const EMPTY: WindowCell = WindowCell {
+        at: usize::MAX,
+        c: [0.0; 4],
+    };
+}
+
+/// The cell the clamped path of [`Difference::edge_offset`] read last: its top-left pixel and
+/// its [`coefficients`].
+#[derive(Debug, Clone, Copy)]
+struct ClampedCell {
+    at: [isize; 2],
+    c: [f32; 4],
+}
+
+impl ClampedCell {
+    /// No cell yet (no sample's pixel lies at `isize::MIN`: positions are clamped to ±2³⁰).
+    const EMPTY: ClampedCell = ClampedCell {
+        at: [isize::MIN; 2],
+        c: [0.0; 4],
+    };
 }
 
 /// A 2×2 cell of `D` read by [`Difference::bilinear_cached`]: its top-left pixel and the four
@@ -739,7 +1026,8 @@ mod tests {
         (frame, bg)
     }
 
-    /// The profile scan as first written: every sample, every crossing, the nearest kept.
+    /// The profile scan as first written: every sample (by four clamped pixels), every crossing,
+    /// the nearest kept.
     fn edge_offset_full<B: AsRef<[u8]>>(
         diff: &Difference<'_, B>,
         p: [f32; 2],
@@ -750,10 +1038,8 @@ mod tests {
         if steps < 2 {
             return None;
         }
-        let sample = |k: i32| {
-            let u = k as f32 * params.step;
-            diff.bilinear_by_pixels(p[0] + u * normal[0], p[1] + u * normal[1])
-        };
+        let ray = ProfileRay::new(p, normal, params.step, steps)?;
+        let sample = |k: i32| sample_by_pixels(diff, &ray, k);
         let d_in = 0.5 * (sample(-steps) + sample(-steps + 1));
         let d_out = 0.5 * (sample(steps) + sample(steps - 1));
         if !((d_in - d_out).abs() >= params.min_contrast) {
@@ -913,6 +1199,119 @@ mod tests {
         }
         // The test must exercise real crossings, not only profiles without an edge.
         assert!(found > 4000, "only {found} profiles held an edge");
+    }
+
+    #[test]
+    fn profile_ray_positions_lie_on_the_normal() {
+        let mut rng = Rng(0x5eed_0f7a_7500_1234);
+        let mut checked = 0;
+        for _ in 0..5000 {
+            let scale = [1.0f32, 40.0, 700.0, 20_000.0][(rng.next() % 4) as usize];
+            let p = [(rng.unit() - 0.5) * 2.0 * scale, (rng.unit() - 0.5) * 2.0 * scale];
+            // Whole and half pixels too, where a floor is easy to get wrong.
+            let p = match rng.next() % 5 {
+                0 => [p[0].round(), p[1].round()],
+                1 => [p[0].round() + 0.5, p[1].round() - 0.5],
+                _ => p,
+            };
+            let a = rng.unit() * core::f32::consts::TAU;
+            let normal = [a.cos(), a.sin()];
+            let step = [0.25f32, 0.5, 0.3, 1.7][(rng.next() % 4) as usize];
+            let steps = 2 + (rng.next() % 20) as i32;
+            let ray = ProfileRay::new(p, normal, step, steps).unwrap();
+            for k in -steps..=steps {
+                let ([ix, iy], [tx, ty]) = ray.at(k);
+                assert!(
+                    (0.0..1.0).contains(&tx) && (0.0..1.0).contains(&ty),
+                    "{p:?} k {k}: {tx} {ty}"
+                );
+                // In f64: the ray's position against p + k·step·normal.
+                for (pix, t, want) in [
+                    (ix, tx, p[0] as f64 + k as f64 * step as f64 * normal[0] as f64),
+                    (iy, ty, p[1] as f64 + k as f64 * step as f64 * normal[1] as f64),
+                ] {
+                    let got = pix as f64 + t as f64;
+                    let tolerance = (k.abs() + 2) as f64 / 65536.0 + 1e-7 * want.abs();
+                    assert!(
+                        (got - want).abs() <= tolerance,
+                        "{p:?} {normal:?} k {k}: {got} vs {want}"
+                    );
+                }
+                checked += 1;
+            }
+        }
+        assert!(checked > 50_000);
+        // Non-finite inputs and reaches beyond the limit make no ray.
+        for (p, n, step, steps) in [
+            ([f32::NAN, 1.0], [1.0, 0.0], 0.25, 12),
+            ([1.0, f32::INFINITY], [1.0, 0.0], 0.25, 12),
+            ([1.0, 1.0], [f32::NAN, 0.0], 0.25, 12),
+            ([1.0, 1.0], [0.0, 1.0], 20.0, 1000),
+        ] {
+            assert_eq!(ProfileRay::new(p, n, step, steps), None, "{p:?} {n:?} {step} {steps}");
+        }
+        // Far points are clamped, not wrapped: the profile still reads the image's border.
+        let far = ProfileRay::new([3e9, -3e9], [1.0, 0.0], 0.25, 12).unwrap();
+        assert_eq!(far.at(0).0, [1 << 30, -(1 << 30)]);
+    }
+
+    #[test]
+    fn window_cells_equal_clamped_pixels() {
+        // The fast path (cells straight from the buffers) against the definition, sample by
+        // sample, on rays inside, across and outside the image, one cache per ray.
+        let mut rng = Rng(0x771d_0eca_fef0_0d11);
+        let (mut inside, mut outside) = (0usize, 0usize);
+        for _ in 0..60 {
+            let (w, h) = (2 + (rng.next() % 30) as usize, 2 + (rng.next() % 30) as usize);
+            let (frame_px, bg) = scene(&mut rng, w, h, w as f32 / 2.0, h as f32 / 2.0, 5.0);
+            // Sometimes rows wider than the image (a stride), sometimes a short background.
+            let stride = w + (rng.next() % 3) as usize;
+            let mut strided = [0u8; 1200];
+            for y in 0..h {
+                for x in 0..w {
+                    strided[y * stride + x] = frame_px[y * w + x];
+                }
+                for x in w..stride {
+                    strided[y * stride + x] = 255;
+                }
+            }
+            let frame = Frame::with_stride(&strided[..], w, h, stride).unwrap();
+            let short = if rng.next() % 5 == 0 {
+                w * h - 1 - (rng.next() as usize % (w * h / 2))
+            } else {
+                w * h
+            };
+            for alpha in [Alpha::ONE, Alpha::new(0.5).unwrap()] {
+                let diff = Difference::new(&frame, &bg[..short], alpha);
+                for _ in 0..100 {
+                    let p = [rng.unit() * (w as f32 + 8.0) - 4.0, rng.unit() * (h as f32 + 8.0) - 4.0];
+                    let a = rng.unit() * core::f32::consts::TAU;
+                    let steps = 2 + (rng.next() % 8) as i32;
+                    let step = 0.1 + rng.unit() * 0.6;
+                    let ray = ProfileRay::new(p, [a.cos(), a.sin()], step, steps).unwrap();
+                    let window = Window::new(&diff, &ray, steps);
+                    let mut cell = WindowCell::EMPTY;
+                    let mut clamped = ClampedCell::EMPTY;
+                    // Visit the samples in a shuffled order, with repeats.
+                    for _ in 0..3 * steps {
+                        let k = (rng.next() % (2 * steps as u64 + 1)) as i32 - steps;
+                        let want = sample_by_pixels(&diff, &ray, k);
+                        let got = match &window {
+                            Some(window) => {
+                                inside += 1;
+                                window.sample(&ray, k, &mut cell)
+                            }
+                            None => {
+                                outside += 1;
+                                Clamped(&diff).sample(&ray, k, &mut clamped)
+                            }
+                        };
+                        assert_eq!(got.to_bits(), want.to_bits(), "{w}×{h} stride {stride} p {p:?} k {k}");
+                    }
+                }
+            }
+        }
+        assert!(inside > 5000 && outside > 5000, "inside {inside}, outside {outside}");
     }
 
     /// Aligns a square's edge points (offsets from its centre, outward normals) from a seed at
