@@ -411,7 +411,17 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         if params.refine != Refine::Off && count > 0 {
             self.part_edge(n, contour.area2 < 0, &diff);
         }
-        let refine_params = RefineParams::DEFAULT;
+        // A candidate whose alignment finds it this far off would not be verified (half the
+        // distance alone reaches the threshold); a part cut by the frame's edge converges
+        // slowly, and the refined pose of the paper's choice is wanted whatever its score.
+        let refine_params = RefineParams {
+            give_up: if params.refine == Refine::Verify && !contour.touches_edge {
+                2.0 * params.verify_threshold
+            } else {
+                f32::INFINITY
+            },
+            ..RefineParams::DEFAULT
+        };
         let mut best_verify = f32::INFINITY;
         let mut best_pose: Option<(usize, Pose)> = None;
         for c in 0..count {
