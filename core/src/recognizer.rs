@@ -510,16 +510,13 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
 
     /// The part's sub-pixel edge at each resampled point (NaN where none is found).
     fn part_edge<B: AsRef<[u8]>>(&mut self, n: usize, counter_clockwise: bool, diff: &Difference<'_, B>) {
-        let params = RefineParams::DEFAULT;
+        let finder = diff.edge_finder(&RefineParams::DEFAULT);
         let points = self.points.get(..n).unwrap_or(&[]);
         for k in 0..n {
             let e = points
                 .get(k)
                 .zip(outward_normal(points, k, counter_clockwise))
-                .and_then(|(p, nrm)| {
-                    diff.edge_offset(*p, nrm, &params)
-                        .map(|u| [p[0] + u * nrm[0], p[1] + u * nrm[1]])
-                });
+                .and_then(|(p, nrm)| finder.offset(*p, nrm).map(|u| [p[0] + u * nrm[0], p[1] + u * nrm[1]]));
             if let Some(slot) = self.part_edges.get_mut(k) {
                 *slot = e.unwrap_or([f32::NAN; 2]);
             }

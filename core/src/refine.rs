@@ -330,16 +330,36 @@ impl<'a, B: AsRef<[u8]>> Difference<'a, B> {
     /// profile's base pixel; elsewhere from four clamped pixels. Consecutive samples in the same
     /// cell reuse its four differences. Either way the values of [`sample_by_pixels`].
     pub fn edge_offset(&self, p: [f32; 2], normal: [f32; 2], params: &RefineParams) -> Option<f32> {
+        self.edge_finder(params).offset(p, normal)
+    }
+
+    /// What [`Self::edge_offset`] needs that does not change from profile to profile, worked
+    /// out once for many profiles with the same `params`.
+    pub fn edge_finder<'d>(&'d self, params: &RefineParams) -> EdgeFinder<'d, 'a, B> {
         let steps = (params.search / params.step) as i32;
         // A profile of more than MAX_PROFILE_STEPS samples a side (a step of 0 or NaN included)
         // is a misconfiguration, not a profile.
-        if !(2..=MAX_PROFILE_STEPS).contains(&steps) || !(params.step > 0.0) {
-            return None;
-        }
-        let ray = ProfileRay::new(p, normal, params.step, steps)?;
-        match Window::new(self, &ray, steps) {
-            Some(window) => nearest_crossing(&window, &ray, steps, params),
-            None => nearest_crossing(&Clamped(self), &ray, steps, params),
+        let steps = if (2..=MAX_PROFILE_STEPS).contains(&steps) && params.step > 0.0 {
+            steps
+        } else {
+            0
+        };
+        let (w, h) = (self.width(), self.height());
+        let direct = (self.alpha.get() >= 1.0 && w.max(h) <= DIRECT_MAX_SIDE).then(|| Direct {
+            frame: self.frame.pixels(),
+            background: self.background,
+            stride: self.frame.stride(),
+            width: w,
+            reach: steps as f32 * params.step,
+            x_max: (w - 1) as f32 - DIRECT_MARGIN,
+            y_max: (h - 1) as f32 - DIRECT_MARGIN,
+        });
+        EdgeFinder {
+            diff: self,
+            steps,
+            step: params.step,
+            min_contrast: params.min_contrast,
+            direct,
         }
     }
 
@@ -356,27 +376,184 @@ impl<'a, B: AsRef<[u8]>> Difference<'a, B> {
     }
 }
 
+/// [`Difference::edge_offset`] for many profiles with the same [`RefineParams`]
+/// ([`Difference::edge_finder`]): the same results, with the profile length, the image's
+/// buffers and bounds read once.
+///
+/// A profile whose every sample lies at least 1/64 px inside `[0, w − 1) × [0, h − 1)` (for
+/// `α = 1` and images of up to [`DIRECT_MAX_SIDE`] px a side, nearly every profile) is read
+/// on the direct path: its fixed-point positions counted from the image's origin (`p·2¹⁶`
+/// truncated, which for `p ≥ 0` is the [`ProfileRay`]'s base pixel and start exactly), each
+/// sample's cell straight from the buffers. Any other goes through a [`ProfileRay`].
+#[derive(Debug, Clone, Copy)]
+pub struct EdgeFinder<'d, 'a, B> {
+    diff: &'d Difference<'a, B>,
+    /// Samples a side; 0 for parameters that make no profile.
+    steps: i32,
+    step: f32,
+    min_contrast: f32,
+    direct: Option<Direct<'a>>,
+}
+
+/// Most pixels a side of an image whose profiles [`EdgeFinder`] reads on its direct path
+/// (their positions times 2¹⁶ then fit an `i32` with room).
+pub const DIRECT_MAX_SIDE: usize = 16384;
+
+/// How far inside `[0, w − 1) × [0, h − 1)` the ends of a profile on the direct path must lie,
+/// px: far more than its fixed-point positions can differ from `p + k·step·normal`.
+const DIRECT_MARGIN: f32 = 1.0 / 64.0;
+
+/// The direct path's view of the image: buffers, row lengths, and the bounds a profile's ends
+/// must keep to.
+#[derive(Debug, Clone, Copy)]
+struct Direct<'a> {
+    frame: &'a [u8],
+    background: &'a [u8],
+    stride: usize,
+    width: usize,
+    /// `steps·step`, px.
+    reach: f32,
+    x_max: f32,
+    y_max: f32,
+}
+
+impl<'a, B: AsRef<[u8]>> EdgeFinder<'_, 'a, B> {
+    /// [`Difference::edge_offset`]`(p, normal, params)` for this finder's `params`.
+    pub fn offset(&self, p: [f32; 2], normal: [f32; 2]) -> Option<f32> {
+        let steps = self.steps;
+        if steps == 0 {
+            return None;
+        }
+        if let Some(direct) = &self.direct {
+            // The ends bound every sample; NaN fails every comparison.
+            let (ex, ey) = (direct.reach * normal[0], direct.reach * normal[1]);
+            let (x0, x1, y0, y1) = (p[0] - ex, p[0] + ex, p[1] - ey, p[1] + ey);
+            if x0.min(x1) >= DIRECT_MARGIN
+                && y0.min(y1) >= DIRECT_MARGIN
+                && x0.max(x1) <= direct.x_max
+                && y0.max(y1) <= direct.y_max
+            {
+                const ONE: f32 = (1u32 << RAY_FRACTION_BITS) as f32;
+                let cells = DirectCells {
+                    diff: self.diff,
+                    direct,
+                    start: [(p[0] * ONE) as i32, (p[1] * ONE) as i32],
+                    delta: [fixed_delta(self.step, normal[0]), fixed_delta(self.step, normal[1])],
+                };
+                return nearest_crossing(&cells, steps, self.step, self.min_contrast);
+            }
+        }
+        let ray = ProfileRay::new(p, normal, self.step, steps)?;
+        match Window::new(self.diff, &ray, steps) {
+            Some(window) => nearest_crossing(&window, steps, self.step, self.min_contrast),
+            None => nearest_crossing(&Clamped(self.diff, ray), steps, self.step, self.min_contrast),
+        }
+    }
+
+    /// Whether [`Self::offset`] reads the profile on the direct path.
+    #[cfg(test)]
+    fn is_direct(&self, p: [f32; 2], normal: [f32; 2]) -> bool {
+        self.direct.is_some_and(|d| {
+            let (ex, ey) = (d.reach * normal[0], d.reach * normal[1]);
+            let (x0, x1, y0, y1) = (p[0] - ex, p[0] + ex, p[1] - ey, p[1] + ey);
+            x0.min(x1) >= DIRECT_MARGIN && y0.min(y1) >= DIRECT_MARGIN && x0.max(x1) <= d.x_max && y0.max(y1) <= d.y_max
+        }) && self.steps > 0
+    }
+}
+
+/// A profile on the direct path: fixed-point positions `start + k·delta` from the image's
+/// origin, every cell inside the image.
+struct DirectCells<'d, 'e, 'a, B> {
+    diff: &'d Difference<'a, B>,
+    direct: &'e Direct<'a>,
+    start: [i32; 2],
+    delta: [i32; 2],
+}
+
+impl<B: AsRef<[u8]>> Cells for DirectCells<'_, '_, '_, B> {
+    type Cell = WindowCell;
+    const EMPTY: WindowCell = WindowCell::EMPTY;
+
+    #[inline(always)]
+    fn sample(&self, k: i32, cell: &mut WindowCell) -> f32 {
+        const MASK: i32 = (1 << RAY_FRACTION_BITS) - 1;
+        const INV: f32 = 1.0 / (1u32 << RAY_FRACTION_BITS) as f32;
+        let x = self.start[0].wrapping_add(k.wrapping_mul(self.delta[0]));
+        let y = self.start[1].wrapping_add(k.wrapping_mul(self.delta[1]));
+        // Non-negative: the profile's ends lie inside the image.
+        let (ix, iy) = ((x >> RAY_FRACTION_BITS) as usize, (y >> RAY_FRACTION_BITS) as usize);
+        let d = self.direct;
+        let f = iy.wrapping_mul(d.stride).wrapping_add(ix);
+        if cell.at != f {
+            let b = iy.wrapping_mul(d.width).wrapping_add(ix);
+            let frame = d.frame.get(f..f.wrapping_add(d.stride).wrapping_add(2));
+            let background = d.background.get(b..b.wrapping_add(d.width).wrapping_add(2));
+            let cells = match (frame, background) {
+                (Some(&[f00, f01, .., f10, f11]), Some(&[b00, b01, .., b10, b11])) => {
+                    let d = |f: u8, g: u8| (i32::from(f) - i32::from(g)) as f32;
+                    [d(f00, b00), d(f01, b01), d(f10, b10), d(f11, b11)]
+                }
+                // A short background plane (it reads 0 where it ends, as the clamped path).
+                _ => clamped_cell(
+                    self.diff,
+                    (x >> RAY_FRACTION_BITS) as isize,
+                    (y >> RAY_FRACTION_BITS) as isize,
+                ),
+            };
+            *cell = WindowCell {
+                at: f,
+                c: coefficients(cells),
+            };
+        }
+        evaluate(cell.c, [(x & MASK) as f32 * INV, (y & MASK) as f32 * INV])
+    }
+}
+
+/// `step·n` in 1/65536 px, rounded to the nearest (a tie to even below 2²², away from zero
+/// above).
+///
+/// Below 2²² in magnitude (steps under 64 px along a unit normal) by adding 1.5·2²³, which
+/// leaves the rounded value in the low bits of the sum; beyond, by a conversion.
+#[inline(always)]
+fn fixed_delta(step: f32, n: f32) -> i32 {
+    const ONE: f32 = (1u32 << RAY_FRACTION_BITS) as f32;
+    const MAGIC: f32 = 12_582_912.0;
+    let delta = step * n * ONE;
+    if delta.abs() < 4_194_304.0 {
+        ((delta + MAGIC).to_bits() as i32).wrapping_sub(MAGIC.to_bits() as i32)
+    } else {
+        math::round(delta) as i32
+    }
+}
+
+/// [`Difference::cell_clamped`], out of line (the rare path).
+#[cold]
+#[inline(never)]
+fn clamped_cell<B: AsRef<[u8]>>(diff: &Difference<'_, B>, ix: isize, iy: isize) -> [f32; 4] {
+    diff.cell_clamped(ix, iy)
+}
+
 /// How [`Difference::edge_offset`] reads a profile's samples: through a one-cell cache.
 trait Cells {
     /// The cache: the cell read last.
     type Cell: Copy;
     /// No cell yet.
     const EMPTY: Self::Cell;
-    /// `D` at sample `k` of `ray` ([`sample_by_pixels`]), through `cell`.
-    fn sample(&self, ray: &ProfileRay, k: i32, cell: &mut Self::Cell) -> f32;
+    /// `D` at sample `k` of the profile ([`sample_by_pixels`]), through `cell`.
+    fn sample(&self, k: i32, cell: &mut Self::Cell) -> f32;
 }
 
-/// The scan of [`Difference::edge_offset`] over samples `k` in `-steps..=steps` of `ray`, two
-/// caches (one a side of the profile).
+/// The scan of [`Difference::edge_offset`] over samples `k` in `-steps..=steps` of a profile,
+/// two caches (one a side of the profile).
 #[inline(always)]
-fn nearest_crossing<S: Cells>(cells: &S, ray: &ProfileRay, steps: i32, params: &RefineParams) -> Option<f32> {
-    let sample = |k: i32, cell: &mut S::Cell| cells.sample(ray, k, cell);
+fn nearest_crossing<S: Cells>(cells: &S, steps: i32, step: f32, min_contrast: f32) -> Option<f32> {
+    let sample = |k: i32, cell: &mut S::Cell| cells.sample(k, cell);
     // One cell cache for each side of the profile: the ends first, then the scan outwards.
     let (mut inner, mut outer) = (S::EMPTY, S::EMPTY);
     let outer_end = sample(-steps, &mut inner);
     let d_in = 0.5 * (outer_end + sample(-steps + 1, &mut inner));
     let d_out = 0.5 * (sample(steps, &mut outer) + sample(steps - 1, &mut outer));
-    if !((d_in - d_out).abs() >= params.min_contrast) {
+    if !((d_in - d_out).abs() >= min_contrast) {
         return None;
     }
     let level = 0.5 * (d_in + d_out);
@@ -399,14 +576,14 @@ fn nearest_crossing<S: Cells>(cells: &S, ray: &ProfileRay, steps: i32, params: &
         for (k, prev, cur) in [(-r, before, neg), (r + 1, pos, after)] {
             if prev > 0.0 && cur <= 0.0 {
                 let t = prev / (prev - cur);
-                let u = ((k - 1) as f32 + t) * params.step;
+                let u = ((k - 1) as f32 + t) * step;
                 if best.is_none_or(|b| u.abs() < b.abs() || (u.abs() == b.abs() && u < b)) {
                     best = Some(u);
                 }
             }
         }
         (neg, pos) = (before, after);
-        if best.is_some_and(|b| b.abs() < (r + 1) as f32 * params.step) {
+        if best.is_some_and(|b| b.abs() < (r + 1) as f32 * step) {
             break;
         }
     }
@@ -445,8 +622,8 @@ impl ProfileRay {
         const ONE: f32 = (1u32 << RAY_FRACTION_BITS) as f32;
         const FAR: f32 = (1u32 << 30) as f32;
         let axis = |p: f32, n: f32| -> Option<(isize, i32, i32)> {
-            let delta = step * n * ONE;
-            if !(p.is_finite() && (steps as f32 * delta).abs() <= MAX_PROFILE_REACH * ONE) {
+            let reach = steps as f32 * step * n * ONE;
+            if !(p.is_finite() && reach.abs() <= MAX_PROFILE_REACH * ONE) {
                 return None;
             }
             let p = p.clamp(-FAR, FAR);
@@ -454,8 +631,7 @@ impl ProfileRay {
             // every bit; above, `p` is a whole number): the rest lies in (−1, 1).
             let base = p as i32;
             let start = ((p - base as f32) * ONE) as i32;
-            let delta = (delta + if delta < 0.0 { -0.5 } else { 0.5 }) as i32;
-            Some((base as isize, start, delta))
+            Some((base as isize, start, fixed_delta(step, n)))
         };
         let (bx, sx, dx) = axis(p[0], normal[0])?;
         let (by, sy, dy) = axis(p[1], normal[1])?;
@@ -520,6 +696,7 @@ pub fn sample_by_pixels<B: AsRef<[u8]>>(diff: &Difference<'_, B>, ray: &ProfileR
 /// frame and background buffers at offsets from the indices of the ray's base pixel.
 struct Window<'d, 'a, B> {
     diff: &'d Difference<'a, B>,
+    ray: ProfileRay,
     frame: &'a [u8],
     background: &'a [u8],
     stride: usize,
@@ -552,6 +729,7 @@ impl<'d, 'a, B: AsRef<[u8]>> Window<'d, 'a, B> {
         // pixel beyond with a fraction): the indices are small.
         Some(Window {
             diff,
+            ray: *ray,
             frame: frame.pixels(),
             background: diff.background,
             stride,
@@ -567,8 +745,8 @@ impl<B: AsRef<[u8]>> Cells for Window<'_, '_, B> {
     const EMPTY: WindowCell = WindowCell::EMPTY;
 
     #[inline(always)]
-    fn sample(&self, ray: &ProfileRay, k: i32, cell: &mut WindowCell) -> f32 {
-        let ([ox, oy], t) = ray.offset(k);
+    fn sample(&self, k: i32, cell: &mut WindowCell) -> f32 {
+        let ([ox, oy], t) = self.ray.offset(k);
         let (ox, oy) = (ox as isize, oy as isize);
         let f = self
             .frame_base
@@ -591,7 +769,7 @@ impl<B: AsRef<[u8]>> Cells for Window<'_, '_, B> {
                 }
                 // Not for a cell inside the image (a short background plane reads 0 there,
                 // as the clamped path does).
-                _ => cell_by_pixels(self.diff, ray, k),
+                _ => cell_by_pixels(self.diff, &self.ray, k),
             };
             *cell = WindowCell {
                 at: f,
@@ -607,19 +785,19 @@ impl<B: AsRef<[u8]>> Cells for Window<'_, '_, B> {
 #[inline(never)]
 fn cell_by_pixels<B: AsRef<[u8]>>(diff: &Difference<'_, B>, ray: &ProfileRay, k: i32) -> [f32; 4] {
     let ([ix, iy], _) = ray.at(k);
-    diff.cell_clamped(ix, iy)
+    clamped_cell(diff, ix, iy)
 }
 
 /// Profiles that reach beyond the image, or `α < 1`: cells from four clamped pixels.
-struct Clamped<'d, 'a, B>(&'d Difference<'a, B>);
+struct Clamped<'d, 'a, B>(&'d Difference<'a, B>, ProfileRay);
 
 impl<B: AsRef<[u8]>> Cells for Clamped<'_, '_, B> {
     type Cell = ClampedCell;
     const EMPTY: ClampedCell = ClampedCell::EMPTY;
 
     #[inline(always)]
-    fn sample(&self, ray: &ProfileRay, k: i32, cell: &mut ClampedCell) -> f32 {
-        let (at, t) = ray.at(k);
+    fn sample(&self, k: i32, cell: &mut ClampedCell) -> f32 {
+        let (at, t) = self.1.at(k);
         if cell.at != at {
             *cell = ClampedCell {
                 at,
@@ -787,10 +965,11 @@ fn capped_distances<B: AsRef<[u8]>>(
 ) -> (f32, usize) {
     let (mut sum, mut found) = (0.0f32, 0usize);
     let sc = math::sin_cos(pose.angle);
+    let finder = diff.edge_finder(params);
     for (t, n) in edge.iter().zip(normals) {
         let p = pose.apply_sc(sc, *t);
         let nf = rotate_sc(sc, *n);
-        match diff.edge_offset(p, nf, params) {
+        match finder.offset(p, nf) {
             Some(r) => {
                 sum += r.abs().min(params.cap);
                 found += 1;
@@ -867,10 +1046,11 @@ fn gauss_newton_step<B: AsRef<[u8]>>(
     let mut capped_sum = 0.0f32;
     let sc = math::sin_cos(pose.angle);
     let (s, c) = sc;
+    let finder = diff.edge_finder(params);
     for (t, n) in edge.iter().zip(normals).step_by(stride.max(1)) {
         let p = pose.apply_sc(sc, *t);
         let nf = rotate_sc(sc, *n);
-        let Some(r) = diff.edge_offset(p, nf, params) else {
+        let Some(r) = finder.offset(p, nf) else {
             capped_sum += params.cap;
             continue;
         };
@@ -1427,11 +1607,11 @@ mod tests {
                         let got = match &window {
                             Some(window) => {
                                 inside += 1;
-                                window.sample(&ray, k, &mut cell)
+                                window.sample(k, &mut cell)
                             }
                             None => {
                                 outside += 1;
-                                Clamped(&diff).sample(&ray, k, &mut clamped)
+                                Clamped(&diff, ray).sample(k, &mut clamped)
                             }
                         };
                         assert_eq!(got.to_bits(), want.to_bits(), "{w}×{h} stride {stride} p {p:?} k {k}");
@@ -1440,6 +1620,80 @@ mod tests {
             }
         }
         assert!(inside > 5000 && outside > 5000, "inside {inside}, outside {outside}");
+    }
+
+    #[test]
+    fn direct_path_finds_the_crossing_of_the_ray() {
+        // Profiles read on the direct path (inside the image) and through a ray (across its
+        // edge, α < 1) against the full scan of the ray's samples, bit for bit, with strides,
+        // short background planes and normals that are not unit.
+        let mut rng = Rng(0xd1ec_7a11_0ff5_e7ed);
+        let (mut direct, mut generic) = (0usize, 0usize);
+        for round in 0..120 {
+            let (w, h) = (4 + (rng.next() % 27) as usize, 4 + (rng.next() % 27) as usize);
+            let (cx, cy, radius) = (w as f32 * rng.unit(), h as f32 * rng.unit(), 2.0 + rng.unit() * 8.0);
+            let (frame_px, bg) = scene(&mut rng, w, h, cx, cy, radius);
+            let stride = w + (rng.next() % 3) as usize;
+            let mut strided = [0u8; 1200];
+            for y in 0..h {
+                strided[y * stride..y * stride + w].copy_from_slice(&frame_px[y * w..y * w + w]);
+            }
+            let frame = Frame::with_stride(&strided[..], w, h, stride).unwrap();
+            let short = if round % 7 == 0 {
+                w * h - 1 - (rng.next() as usize % w)
+            } else {
+                w * h
+            };
+            let alpha = if round % 5 == 0 {
+                Alpha::new(0.7).unwrap()
+            } else {
+                Alpha::ONE
+            };
+            let diff = Difference::new(&frame, &bg[..short], alpha);
+            let params = [
+                RefineParams::DEFAULT,
+                RefineParams {
+                    step: 0.5,
+                    ..RefineParams::DEFAULT
+                },
+                RefineParams {
+                    step: 0.3,
+                    search: 1.0,
+                    ..RefineParams::DEFAULT
+                },
+            ][round % 3];
+            let finder = diff.edge_finder(&params);
+            for _ in 0..150 {
+                let p = [rng.unit() * (w as f32 + 4.0) - 2.0, rng.unit() * (h as f32 + 4.0) - 2.0];
+                let a = rng.unit() * core::f32::consts::TAU;
+                let len = if rng.next() % 4 == 0 {
+                    0.5 + rng.unit() * 1.5
+                } else {
+                    1.0
+                };
+                let normal = [len * a.cos(), len * a.sin()];
+                let want = edge_offset_full(&diff, p, normal, &params);
+                assert_eq!(
+                    finder.offset(p, normal),
+                    want,
+                    "{w}×{h} p {p:?} n {normal:?} {params:?}"
+                );
+                if finder.is_direct(p, normal) {
+                    direct += 1;
+                } else {
+                    generic += 1;
+                }
+            }
+        }
+        assert!(direct > 3000 && generic > 3000, "direct {direct}, generic {generic}");
+        // Parameters that make no profile find nothing on either path.
+        let frame = Frame::new_checked(&[0u8; 1024][..], 32, 32).unwrap();
+        let diff = Difference::new(&frame, &[0u8; 1024][..], Alpha::ONE);
+        let bad = RefineParams {
+            step: 0.0,
+            ..RefineParams::DEFAULT
+        };
+        assert_eq!(diff.edge_finder(&bad).offset([16.0, 16.0], [1.0, 0.0]), None);
     }
 
     /// Aligns a square's edge points (offsets from its centre, outward normals) from a seed at
