@@ -1270,23 +1270,24 @@ impl<'a> Outline<'a> {
                 (first, nearest) = (r, d2);
             }
         }
-        let mut best = cap * cap;
+        // The best squared distance and its square root, taken only when it falls (a square
+        // root is a library call on the Cortex-M4).
+        let mut best = (cap * cap, cap);
         self.scan_run(first, q, &mut best);
-        let mut best_distance = math::sqrt(best);
         for ((r, &d2), &radius) in far.iter().enumerate().zip(&self.radius) {
-            let reach = best_distance + radius + OUTLINE_MARGIN;
+            let reach = best.1 + radius + OUTLINE_MARGIN;
             if d2 < reach * reach && r != first {
                 self.scan_run(r, q, &mut best);
-                best_distance = math::sqrt(best);
             }
         }
-        math::sqrt(best)
+        best.1
     }
 
-    /// Lowers `best` (a squared distance) to that of the nearest segment of run `r` to `q`. A
-    /// segment whose start lies farther than `√best + longest` from `q` costs one comparison.
+    /// Lowers `best` (a squared distance and its square root) to that of the nearest segment
+    /// of run `r` to `q`. A segment whose start lies farther than `√best + longest` from `q`
+    /// costs one comparison.
     #[inline]
-    fn scan_run(&self, r: usize, q: [f32; 2], best: &mut f32) {
+    fn scan_run(&self, r: usize, q: [f32; 2], best: &mut (f32, f32)) {
         let len = self.points.len();
         let first = r * self.run;
         let mut prev = self
@@ -1294,16 +1295,16 @@ impl<'a> Outline<'a> {
             .get((first + len - 1) % len.max(1))
             .copied()
             .unwrap_or([0.0; 2]);
-        let reach = math::sqrt(*best) + self.longest;
+        let reach = best.1 + self.longest;
         let mut reject = reach * reach;
         for &cur in self.points.iter().skip(first).take(self.run) {
             let (dx, dy) = (prev[0] - q[0], prev[1] - q[1]);
             if dx * dx + dy * dy < reject {
                 let c = crate::pose::closest_on_segment(q, prev, cur);
                 let d = (c[0] - q[0]) * (c[0] - q[0]) + (c[1] - q[1]) * (c[1] - q[1]);
-                if d < *best {
-                    *best = d;
-                    let r = math::sqrt(d) + self.longest;
+                if d < best.0 {
+                    *best = (d, math::sqrt(d));
+                    let r = best.1 + self.longest;
                     reject = r * r;
                 }
             }
