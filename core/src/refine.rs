@@ -420,6 +420,12 @@ struct Direct<'a> {
 impl<'a, B: AsRef<[u8]>> EdgeFinder<'_, 'a, B> {
     /// [`Difference::edge_offset`]`(p, normal, params)` for this finder's `params`.
     pub fn offset(&self, p: [f32; 2], normal: [f32; 2]) -> Option<f32> {
+        self.offset_inline(p, normal)
+    }
+
+    /// [`Self::offset`], inlined into the alignment's step.
+    #[inline(always)]
+    fn offset_inline(&self, p: [f32; 2], normal: [f32; 2]) -> Option<f32> {
         let steps = self.steps;
         if steps == 0 {
             return None;
@@ -1050,7 +1056,7 @@ fn gauss_newton_step<B: AsRef<[u8]>>(
     for (t, n) in edge.iter().zip(normals).step_by(stride.max(1)) {
         let p = pose.apply_sc(sc, *t);
         let nf = rotate_sc(sc, *n);
-        let Some(r) = finder.offset(p, nf) else {
+        let Some(r) = finder.offset_inline(p, nf) else {
             capped_sum += params.cap;
             continue;
         };
