@@ -30,7 +30,9 @@
 //!   background buffers.
 //! - **Giving up** ([`RefineParams::give_up`]): from the 4th step on, a step whose points lie
 //!   farther than `give_up` from the edge on average (capped, profiles without an edge counting
-//!   the cap) ends the alignment there, with that step's distances. The recognizer sets twice
+//!   the cap) ends the alignment there, with that step's distances; so does, at any step, one
+//!   whose profiles find too few edges to take it (those points then lie beyond 1.6 px on
+//!   average), instead of a final measurement of every point. The recognizer sets twice
 //!   its verification threshold (1.2 px), so half the distance alone puts the score over the
 //!   threshold, and leaves it off for parts that touch the frame's edge (a cut part's right
 //!   template can spend ten steps above 1.6 px before it finds the part) and for
@@ -40,13 +42,14 @@
 //!   ones on parts inside the frame give up there; a square seeded 45° off gives up too,
 //!   though it would converge.
 //! - **Cost** (callgrind, x86_64, `vorl detect` over the bench set's 30 frames, 142
-//!   alignments): about 0.155 M instructions an alignment, 0.47 M before this pass — the
+//!   alignments): about 0.15 M instructions an alignment, 0.47 M before this pass — the
 //!   profile reading (fixed-point positions, cells from the buffers) took it to 0.39 M, the
 //!   0.01 px convergence and giving up to 0.19 M, the direct path and the scan inlined into
-//!   the Gauss–Newton step to 0.155 M. A profile costs about 730 instructions (1000 before),
-//!   and an alignment reads 186 of them on average (403 before): a right template about 240
-//!   (two coarse steps of 24, two fine steps of 96), one that gives up 96. Time
-//!   `O(m·search/step)` per step, no memory beyond a few numbers.
+//!   the Gauss–Newton step to 0.155 M, giving up on a step that cannot be taken to 0.151 M. A
+//!   profile costs about 730 instructions (1000 before), and an alignment reads 180 of them on
+//!   average (403 before): a right template about 245 (two coarse steps of 24, two fine steps
+//!   of 96, sometimes a third), one that gives up 96 (or 24). Time `O(m·search/step)` per
+//!   step, no memory beyond a few numbers.
 //! - **Verification**: the mean of the capped normal distances (profiles that find no edge count
 //!   the cap), plus how far the part's own border lies from the aligned template outline, plus a
 //!   penalty for a scale far from 1 — both ways, so a template that covers only part of the
@@ -160,8 +163,9 @@ pub struct RefineParams {
     pub scale_penalty: f32,
     /// The alignment gives up once a step, from the [`GIVE_UP_AFTER`]-th on, finds its
     /// profiles farther than this from the edge on average (capped at [`Self::cap`], profiles
-    /// without an edge counting the cap), px; `f32::INFINITY` never gives up. The recognizer
-    /// sets twice its verification threshold, which half of the distance alone then exceeds.
+    /// without an edge counting the cap), px, or a step that finds too few edges to be taken
+    /// does; `f32::INFINITY` never gives up. The recognizer sets twice its verification
+    /// threshold, which half of the distance alone then exceeds.
     pub give_up: f32,
 }
 
@@ -929,12 +933,24 @@ pub fn align<B: AsRef<[u8]>>(
         let mut calm = false;
         while left > 0 {
             left -= 1;
-            let Some(step) = gauss_newton_step(diff, edge, normals, pose, stride, prm) else {
-                break 'stages;
+            let profiles = points.div_ceil(stride).max(1) as f32;
+            let step = match gauss_newton_step(diff, edge, normals, pose, stride, prm) {
+                Ok(step) => step,
+                // Too few edges for a step: the alignment ends here, and when those profiles
+                // already lie beyond `give_up` they stand for the final distances.
+                Err(Some((capped_sum, found))) if capped_sum > params.give_up * profiles => {
+                    return Alignment {
+                        pose,
+                        distance: capped_sum / profiles,
+                        coverage: found as f32 / profiles,
+                        settled: settled_once,
+                        gave_up: true,
+                    };
+                }
+                Err(_) => break 'stages,
             };
             taken += 1;
             // Giving up: the points at `pose` lie too far from the edge to end up verified.
-            let profiles = points.div_ceil(stride).max(1) as f32;
             if taken >= GIVE_UP_AFTER && step.capped_sum > params.give_up * profiles {
                 return Alignment {
                     pose,
@@ -1046,8 +1062,9 @@ const FINE_ITERATIONS: usize = 4;
 
 /// One Gauss–Newton step on every `stride`-th edge point: the next pose, how far it moves the
 /// points along their normals and how far they were from the edge before it (both root mean
-/// square, px); `None` when too few profiles find an edge, the system is singular, or the next
-/// pose is not finite or its scale leaves `[0.5, 2]`.
+/// square, px). An error when too few profiles find an edge (with the capped sum and the count
+/// of those that did, as [`Step`] holds them), or without them when the system is singular or
+/// the next pose is not finite or its scale leaves `[0.5, 2]`.
 fn gauss_newton_step<B: AsRef<[u8]>>(
     diff: &Difference<'_, B>,
     edge: &[[f32; 2]],
@@ -1055,7 +1072,7 @@ fn gauss_newton_step<B: AsRef<[u8]>>(
     pose: Pose,
     stride: usize,
     params: &RefineParams,
-) -> Option<Step> {
+) -> Result<Step, Option<(f32, usize)>> {
     // Normal equations for δ = (δx, δy, δθ, δs) of Σ (n·δp − r)².
     let mut ata = [[0.0f32; 4]; 4];
     let mut atb = [0.0f32; 4];
@@ -1095,7 +1112,7 @@ fn gauss_newton_step<B: AsRef<[u8]>>(
         used += 1;
     }
     if used < 4 {
-        return None;
+        return Err(Some((capped_sum, used)));
     }
     // The lower triangle mirrors the upper one.
     for (a, b) in [(1, 0), (2, 0), (2, 1), (3, 0), (3, 1), (3, 2)] {
@@ -1121,7 +1138,7 @@ fn gauss_newton_step<B: AsRef<[u8]>>(
             *v += DAMPING * amount + 1e-12;
         }
     }
-    let delta = solve4(ata, atb)?;
+    let delta = solve4(ata, atb).ok_or(None)?;
     let next = Pose {
         x: pose.x + delta[0],
         y: pose.y + delta[1],
@@ -1129,7 +1146,7 @@ fn gauss_newton_step<B: AsRef<[u8]>>(
         scale: pose.scale + delta[3],
     };
     if !(next.x.is_finite() && next.y.is_finite() && next.angle.is_finite() && (0.5..=2.0).contains(&next.scale)) {
-        return None;
+        return Err(None);
     }
     // How far the update moves the edge points along their normals (root mean square, from the
     // normal equations: Σ (J·δ)² = δᵀ·JᵀJ·δ); motion along the edge does not count.
@@ -1140,7 +1157,7 @@ fn gauss_newton_step<B: AsRef<[u8]>>(
         }
     }
     let moved = math::sqrt(quad.max(0.0) / used as f32);
-    Some(Step {
+    Ok(Step {
         next,
         moved,
         fit: math::sqrt(residual2 / used as f32),
@@ -1880,6 +1897,7 @@ mod tests {
         let h = half + 0.5;
         let (square, square_normals) = polygon_edge(&[[h, h], [h, -h], [-h, -h], [-h, h]]);
         let (triangle, triangle_normals) = polygon_edge(&[[18.25, 10.5], [0.0, -21.0], [-18.25, 10.5]]);
+        let (bar, bar_normals) = polygon_edge(&[[20.0, 4.0], [20.0, -4.0], [-20.0, -4.0], [-20.0, 4.0]]);
         for (ox, oy, deg) in [(0.6f32, -0.4f32, 4.0f32), (-1.0, 0.0, -3.0), (0.0, 0.7, 0.0)] {
             let seed = Pose {
                 x: cx + ox,
@@ -1897,6 +1915,18 @@ mod tests {
             // would not have taken it either.
             let wrong_free = align(&diff, &triangle, &triangle_normals, seed, &RefineParams::DEFAULT);
             assert!(!wrong_free.gave_up && wrong_free.distance > 0.6, "{wrong_free:?}");
+            // A bar whose profiles nearly all miss the square cannot take a step: it gives up
+            // at the seed on those profiles' distances, where it would be measured once more.
+            let missed = align(&diff, &bar, &bar_normals, seed, &strict);
+            let measured = align(&diff, &bar, &bar_normals, seed, &RefineParams::DEFAULT);
+            assert!(
+                missed.gave_up && missed.pose == seed && missed.distance > 1.2,
+                "{missed:?}"
+            );
+            assert!(
+                !measured.gave_up && measured.pose == seed && measured.distance > 1.2,
+                "{measured:?}"
+            );
         }
     }
 
