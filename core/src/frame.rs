@@ -83,6 +83,13 @@ impl<B: AsRef<[u8]>> Frame<B> {
         self.stride
     }
 
+    /// The whole buffer: pixel `(x, y)` at `y·stride + x` (at least `(height − 1)·stride +
+    /// width` bytes; the bytes past `width` in a row are not part of the image).
+    #[inline]
+    pub fn pixels(&self) -> &[u8] {
+        self.data.as_ref()
+    }
+
     /// Pixel at `(x, y)`, or 0 outside the image.
     #[inline]
     pub fn get(&self, x: usize, y: usize) -> u8 {

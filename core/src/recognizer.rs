@@ -414,6 +414,17 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         };
         let diff = Difference::new(frame, background, params.alpha());
         let best_pose = if params.refine == Refine::Verify {
+            // A candidate whose alignment finds it this far off would not be verified (half
+            // the distance alone reaches the threshold); a part cut by the frame's edge
+            // converges slowly, so its alignments never give up.
+            let refine_params = RefineParams {
+                give_up: if contour.touches_edge {
+                    f32::INFINITY
+                } else {
+                    2.0 * params.verify_threshold
+                },
+                ..RefineParams::DEFAULT
+            };
             self.verify_candidates(
                 n,
                 centroid,
@@ -421,6 +432,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 contour.area(),
                 contour.area2 < 0,
                 &diff,
+                &refine_params,
                 &mut detection,
             )
         } else {
@@ -519,6 +531,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         area: f32,
         counter_clockwise: bool,
         diff: &Difference<'_, B>,
+        refine_params: &RefineParams,
         detection: &mut Detection,
     ) -> Option<(usize, Pose)> {
         let params = self.params;
@@ -528,7 +541,18 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             if scan.found == 1 {
                 self.part_edge(n, counter_clockwise, diff);
             }
-            self.try_candidate(n, centroid, position, area, ti, m, diff, detection, &mut best);
+            self.try_candidate(
+                n,
+                centroid,
+                position,
+                area,
+                ti,
+                m,
+                diff,
+                refine_params,
+                detection,
+                &mut best,
+            );
         }
         best
     }
@@ -600,6 +624,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         ti: usize,
         m: Match,
         diff: &Difference<'_, B>,
+        refine_params: &RefineParams,
         detection: &mut Detection,
         best: &mut Option<(usize, Pose)>,
     ) {
@@ -609,15 +634,14 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let Some(t) = self.templates.get(ti) else {
             return;
         };
-        let refine_params = RefineParams::DEFAULT;
         let aligned = align(
             diff,
             t.edge(),
             t.normals(),
             seed_pose(position, signed, area, t),
-            &refine_params,
+            refine_params,
         );
-        let verify = verify_score(&aligned, t, self.part_edges.get(..n).unwrap_or(&[]), &refine_params);
+        let verify = verify_score(&aligned, t, self.part_edges.get(..n).unwrap_or(&[]), refine_params);
         if best.is_none() || verify < detection.verify {
             *best = Some((ti, aligned.pose));
             detection.verify = verify;
@@ -691,16 +715,13 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
 
     /// The part's sub-pixel edge at each resampled point (NaN where none is found).
     fn part_edge<B: AsRef<[u8]>>(&mut self, n: usize, counter_clockwise: bool, diff: &Difference<'_, B>) {
-        let params = RefineParams::DEFAULT;
+        let finder = diff.edge_finder(&RefineParams::DEFAULT);
         let points = self.points.get(..n).unwrap_or(&[]);
         for k in 0..n {
             let e = points
                 .get(k)
                 .zip(outward_normal(points, k, counter_clockwise))
-                .and_then(|(p, nrm)| {
-                    diff.edge_offset(*p, nrm, &params)
-                        .map(|u| [p[0] + u * nrm[0], p[1] + u * nrm[1]])
-                });
+                .and_then(|(p, nrm)| finder.offset(*p, nrm).map(|u| [p[0] + u * nrm[0], p[1] + u * nrm[1]]));
             if let Some(slot) = self.part_edges.get_mut(k) {
                 *slot = e.unwrap_or([f32::NAN; 2]);
             }

@@ -16,21 +16,47 @@
 //!   take full steps). Coarse to fine: steps on every 4th point, with profiles sampled at twice
 //!   the step, until an update moves the points along their normals by less than 0.05 px (root
 //!   mean square) or they lie within 0.25 px of the edge, then steps on every point at the full
-//!   sampling until they move by less than 0.001 px (the right template settles in 2–3 coarse
-//!   and 2–3 fine steps from the DP's seed; a wrong one reaches the step limit without settling
-//!   and is not refined further). The distances of a converged last step stand for those at the
-//!   final pose (it moved the points by less than 0.001 px); otherwise they are measured once
-//!   more. The profiles are scanned from the point outwards and stop at the nearest crossing,
-//!   so a pose near the edge reads about 8 of a profile's 25 samples, and consecutive samples
-//!   in the same pixel cell reuse its four differences. On the bench set (142 alignments over
-//!   30 frames) an alignment costs about 0.47 M x86 instructions (1.05 M before the per-direction
-//!   damping, the reused distances and the cell cache). Time `O(m·search/step)` per step, no
-//!   memory beyond a few numbers.
+//!   sampling until an update moves them by less than 0.01 px (the right template settles in
+//!   2–3 coarse and 2 fine steps from the DP's seed; a wrong one reaches the step limit without
+//!   settling and is not refined further). The distances of a converged last step stand for
+//!   those at the final pose (its update moved the points by less than 0.01 px); otherwise they
+//!   are measured once more. 0.01 px instead of the first 0.001 saves a fine step of every
+//!   point (angles on the generated sets within 1 % of the 0.001 px figures). The profiles
+//!   are scanned from the point outwards and stop at the nearest crossing, so a pose near the
+//!   edge reads about 8 of a profile's 25 samples, and consecutive samples in the same pixel
+//!   cell reuse its four differences. The sample positions are fixed point ([`ProfileRay`]:
+//!   a pixel by a shift, a fraction by a mask), and a profile that lies inside the image is
+//!   read on the [`EdgeFinder`]'s direct path, its cells straight from the frame and
+//!   background buffers.
+//! - **Giving up** ([`RefineParams::give_up`]): from the 4th step on, a step whose points lie
+//!   farther than `give_up` from the edge on average (capped, profiles without an edge counting
+//!   the cap) ends the alignment there, with that step's distances; so does, at any step, one
+//!   whose profiles find too few edges to take it (those points then lie beyond 1.6 px on
+//!   average), instead of a final measurement of every point. The recognizer sets twice
+//!   its verification threshold (1.2 px), so half the distance alone puts the score over the
+//!   threshold, and leaves it off for parts that touch the frame's edge (a cut part's right
+//!   template can spend ten steps above 1.6 px before it finds the part) and for
+//!   `refine = pose`. The rule trusts the DP's seed: on the five generated sets a right
+//!   template's points never lie farther than 0.97 px from the edge on average from the 4th
+//!   step on (one noisy part; 0.25–0.68 px on the other four sets), while 83–92 % of the wrong
+//!   ones on parts inside the frame give up there; a square seeded 45° off gives up too,
+//!   though it would converge.
+//! - **Cost** (callgrind, x86_64, `vorl detect` over the bench set's 30 frames, 142
+//!   alignments): about 0.15 M instructions an alignment, 0.47 M before this pass — the
+//!   profile reading (fixed-point positions, cells from the buffers) took it to 0.39 M, the
+//!   0.01 px convergence and giving up to 0.19 M, the direct path and the scan inlined into
+//!   the Gauss–Newton step to 0.155 M, giving up on a step that cannot be taken to 0.151 M. A
+//!   profile costs about 730 instructions (1000 before), and an alignment reads 180 of them on
+//!   average (403 before): a right template about 245 (two coarse steps of 24, two fine steps
+//!   of 96, sometimes a third), one that gives up 96 (or 24). Time `O(m·search/step)` per
+//!   step, no memory beyond a few numbers.
 //! - **Verification**: the mean of the capped normal distances (profiles that find no edge count
 //!   the cap), plus how far the part's own border lies from the aligned template outline, plus a
 //!   penalty for a scale far from 1 — both ways, so a template that covers only part of the
 //!   outline cannot look good. The lowest score among the DP's best candidates wins; above a
-//!   threshold the part is unknown.
+//!   threshold the part is unknown. The part → template distances search the outline
+//!   ([`Outline`]) by runs of 8 segments with a bounding circle each: about 620 instructions a
+//!   query on the bench set (1345 testing every segment), 5.7 M for its 9088 queries (12.2 M).
 //!
 //! The part's position is measured separately, by [`crate::partial_volume`].
 //!
@@ -135,6 +161,12 @@ pub struct RefineParams {
     pub cap: f32,
     /// Weight of `|ln scale|` in the verification score (px per unit of log-scale).
     pub scale_penalty: f32,
+    /// The alignment gives up once a step, from the [`GIVE_UP_AFTER`]-th on, finds its
+    /// profiles farther than this from the edge on average (capped at [`Self::cap`], profiles
+    /// without an edge counting the cap), px, or a step that finds too few edges to be taken
+    /// does; `f32::INFINITY` never gives up. The recognizer sets twice its verification
+    /// threshold, which half of the distance alone then exceeds.
+    pub give_up: f32,
 }
 
 impl RefineParams {
@@ -146,6 +178,7 @@ impl RefineParams {
         min_contrast: 8.0,
         cap: 2.0,
         scale_penalty: 4.0,
+        give_up: f32::INFINITY,
     };
 }
 
@@ -299,64 +332,535 @@ impl<'a, B: AsRef<[u8]>> Difference<'a, B> {
     /// The signed offset along `normal` (unit, pointing out of the part) from `p` to the
     /// half-contrast crossing nearest `p`, or `None` when the profile holds no edge.
     ///
-    /// The profile is `2·search/step + 1` samples `D(p + k·step·normal)`; the level is the mean
-    /// of the two ends (two samples each), and an edge is a fall from the inner side's level to
-    /// the outer's between two samples, placed by linear interpolation. Intervals are visited
-    /// from `p` outwards and the scan stops once no farther interval can hold a nearer crossing,
-    /// so a pose already near the edge reads about 9 samples instead of 25. Of two crossings at
-    /// the same distance the inner one wins.
+    /// The profile is `2·search/step + 1` samples `D(p + k·step·normal)`, bilinear
+    /// ([`sample_by_pixels`] at the fixed-point positions of a [`ProfileRay`]); the level is
+    /// the mean of the two ends (two samples each), and an edge is a fall from the inner side's
+    /// level to the outer's between two samples, placed by linear interpolation. Intervals are
+    /// visited from `p` outwards and the scan stops once no farther interval can hold a nearer
+    /// crossing, so a pose already near the edge reads about 8 samples instead of 25. Of two
+    /// crossings at the same distance the inner one wins. A profile with more than
+    /// [`MAX_PROFILE_STEPS`] samples a side, reaching farther than [`MAX_PROFILE_REACH`] px
+    /// along an axis, or with a non-finite point or normal, holds no edge.
+    ///
+    /// Where every sample's cell lies inside the image and `α = 1` (nearly every profile), the
+    /// cells are read straight from the frame and background buffers at offsets from the
+    /// profile's base pixel; elsewhere from four clamped pixels. Consecutive samples in the same
+    /// cell reuse its four differences. Either way the values of [`sample_by_pixels`].
     pub fn edge_offset(&self, p: [f32; 2], normal: [f32; 2], params: &RefineParams) -> Option<f32> {
+        self.edge_finder(params).offset(p, normal)
+    }
+
+    /// What [`Self::edge_offset`] needs that does not change from profile to profile, worked
+    /// out once for many profiles with the same `params`.
+    pub fn edge_finder<'d>(&'d self, params: &RefineParams) -> EdgeFinder<'d, 'a, B> {
         let steps = (params.search / params.step) as i32;
         // A profile of more than MAX_PROFILE_STEPS samples a side (a step of 0 or NaN included)
         // is a misconfiguration, not a profile.
-        if !(2..=MAX_PROFILE_STEPS).contains(&steps) || !(params.step > 0.0) {
-            return None;
-        }
-        let sample = |k: i32, cell: &mut Cell| {
-            let u = k as f32 * params.step;
-            self.bilinear_cached(p[0] + u * normal[0], p[1] + u * normal[1], cell)
+        let steps = if (2..=MAX_PROFILE_STEPS).contains(&steps) && params.step > 0.0 {
+            steps
+        } else {
+            0
         };
-        // One cell cache for each side of the profile: the ends first, then the scan outwards.
-        let (mut inner, mut outer) = (Cell::EMPTY, Cell::EMPTY);
-        let outer_end = sample(-steps, &mut inner);
-        let d_in = 0.5 * (outer_end + sample(-steps + 1, &mut inner));
-        let d_out = 0.5 * (sample(steps, &mut outer) + sample(steps - 1, &mut outer));
-        if !((d_in - d_out).abs() >= params.min_contrast) {
+        let (w, h) = (self.width(), self.height());
+        let direct = (self.alpha.get() >= 1.0 && w.max(h) <= DIRECT_MAX_SIDE).then(|| Direct {
+            frame: self.frame.pixels(),
+            background: self.background,
+            stride: self.frame.stride(),
+            width: w,
+            reach: steps as f32 * params.step,
+            x_max: (w - 1) as f32 - DIRECT_MARGIN,
+            y_max: (h - 1) as f32 - DIRECT_MARGIN,
+        });
+        EdgeFinder {
+            diff: self,
+            steps,
+            step: params.step,
+            min_contrast: params.min_contrast,
+            direct,
+        }
+    }
+
+    /// `D` at the four pixels of the cell with top-left `(ix, iy)` (top-left, top-right,
+    /// bottom-left, bottom-right), each coordinate clamped into the image: [`Self::at`] four
+    /// times.
+    fn cell_clamped(&self, ix: isize, iy: isize) -> [f32; 4] {
+        [
+            self.at(ix, iy),
+            self.at(ix + 1, iy),
+            self.at(ix, iy + 1),
+            self.at(ix + 1, iy + 1),
+        ]
+    }
+}
+
+/// [`Difference::edge_offset`] for many profiles with the same [`RefineParams`]
+/// ([`Difference::edge_finder`]): the same results, with the profile length, the image's
+/// buffers and bounds read once.
+///
+/// A profile whose every sample lies at least 1/64 px inside `[0, w − 1) × [0, h − 1)` (for
+/// `α = 1` and images of up to [`DIRECT_MAX_SIDE`] px a side, nearly every profile) is read
+/// on the direct path: its fixed-point positions counted from the image's origin (`p·2¹⁶`
+/// truncated, which for `p ≥ 0` is the [`ProfileRay`]'s base pixel and start exactly), each
+/// sample's cell straight from the buffers. Any other goes through a [`ProfileRay`].
+#[derive(Debug, Clone, Copy)]
+pub struct EdgeFinder<'d, 'a, B> {
+    diff: &'d Difference<'a, B>,
+    /// Samples a side; 0 for parameters that make no profile.
+    steps: i32,
+    step: f32,
+    min_contrast: f32,
+    direct: Option<Direct<'a>>,
+}
+
+/// Most pixels a side of an image whose profiles [`EdgeFinder`] reads on its direct path
+/// (their positions times 2¹⁶ then fit an `i32` with room).
+pub const DIRECT_MAX_SIDE: usize = 16384;
+
+/// How far inside `[0, w − 1) × [0, h − 1)` the ends of a profile on the direct path must lie,
+/// px: far more than its fixed-point positions can differ from `p + k·step·normal`.
+const DIRECT_MARGIN: f32 = 1.0 / 64.0;
+
+/// The direct path's view of the image: buffers, row lengths, and the bounds a profile's ends
+/// must keep to.
+#[derive(Debug, Clone, Copy)]
+struct Direct<'a> {
+    frame: &'a [u8],
+    background: &'a [u8],
+    stride: usize,
+    width: usize,
+    /// `steps·step`, px.
+    reach: f32,
+    x_max: f32,
+    y_max: f32,
+}
+
+impl<'a, B: AsRef<[u8]>> EdgeFinder<'_, 'a, B> {
+    /// [`Difference::edge_offset`]`(p, normal, params)` for this finder's `params`.
+    pub fn offset(&self, p: [f32; 2], normal: [f32; 2]) -> Option<f32> {
+        self.offset_inline(p, normal)
+    }
+
+    /// [`Self::offset`], inlined into the alignment's step.
+    #[inline(always)]
+    fn offset_inline(&self, p: [f32; 2], normal: [f32; 2]) -> Option<f32> {
+        let steps = self.steps;
+        if steps == 0 {
             return None;
         }
-        let level = 0.5 * (d_in + d_out);
-        let sign = if d_in > d_out { 1.0 } else { -1.0 };
-        let centre = sign * (sample(0, &mut outer) - level);
-        inner = outer;
-        // Round r visits the intervals [r, r+1] and [−r−1, −r] (in steps), whose crossings lie
-        // between r·step and (r+1)·step from p.
-        // `neg` and `pos` hold the signed samples at −r and +r.
-        let (mut neg, mut pos) = (centre, centre);
-        let mut best: Option<f32> = None;
-        for r in 0..steps {
-            let before = sign
-                * (if r + 1 == steps {
-                    outer_end
-                } else {
-                    sample(-r - 1, &mut inner)
-                } - level);
-            let after = sign * (sample(r + 1, &mut outer) - level);
-            for (k, prev, cur) in [(-r, before, neg), (r + 1, pos, after)] {
-                if prev > 0.0 && cur <= 0.0 {
-                    let t = prev / (prev - cur);
-                    let u = ((k - 1) as f32 + t) * params.step;
-                    if best.is_none_or(|b| u.abs() < b.abs() || (u.abs() == b.abs() && u < b)) {
-                        best = Some(u);
-                    }
+        if let Some(direct) = &self.direct {
+            // The ends bound every sample; NaN fails every comparison.
+            let (ex, ey) = (direct.reach * normal[0], direct.reach * normal[1]);
+            let (x0, x1, y0, y1) = (p[0] - ex, p[0] + ex, p[1] - ey, p[1] + ey);
+            if x0.min(x1) >= DIRECT_MARGIN
+                && y0.min(y1) >= DIRECT_MARGIN
+                && x0.max(x1) <= direct.x_max
+                && y0.max(y1) <= direct.y_max
+            {
+                const ONE: f32 = (1u32 << RAY_FRACTION_BITS) as f32;
+                let cells = DirectCells {
+                    diff: self.diff,
+                    direct,
+                    start: [(p[0] * ONE) as i32, (p[1] * ONE) as i32],
+                    delta: [fixed_delta(self.step, normal[0]), fixed_delta(self.step, normal[1])],
+                };
+                return nearest_crossing(&cells, steps, self.step, self.min_contrast);
+            }
+        }
+        let ray = ProfileRay::new(p, normal, self.step, steps)?;
+        match Window::new(self.diff, &ray, steps) {
+            Some(window) => nearest_crossing(&window, steps, self.step, self.min_contrast),
+            None => nearest_crossing(&Clamped(self.diff, ray), steps, self.step, self.min_contrast),
+        }
+    }
+
+    /// Whether [`Self::offset`] reads the profile on the direct path.
+    #[cfg(test)]
+    fn is_direct(&self, p: [f32; 2], normal: [f32; 2]) -> bool {
+        self.direct.is_some_and(|d| {
+            let (ex, ey) = (d.reach * normal[0], d.reach * normal[1]);
+            let (x0, x1, y0, y1) = (p[0] - ex, p[0] + ex, p[1] - ey, p[1] + ey);
+            x0.min(x1) >= DIRECT_MARGIN && y0.min(y1) >= DIRECT_MARGIN && x0.max(x1) <= d.x_max && y0.max(y1) <= d.y_max
+        }) && self.steps > 0
+    }
+}
+
+/// A profile on the direct path: fixed-point positions `start + k·delta` from the image's
+/// origin, every cell inside the image.
+struct DirectCells<'d, 'e, 'a, B> {
+    diff: &'d Difference<'a, B>,
+    direct: &'e Direct<'a>,
+    start: [i32; 2],
+    delta: [i32; 2],
+}
+
+impl<B: AsRef<[u8]>> Cells for DirectCells<'_, '_, '_, B> {
+    type Cell = WindowCell;
+    const EMPTY: WindowCell = WindowCell::EMPTY;
+
+    #[inline(always)]
+    fn sample(&self, k: i32, cell: &mut WindowCell) -> f32 {
+        const MASK: i32 = (1 << RAY_FRACTION_BITS) - 1;
+        const INV: f32 = 1.0 / (1u32 << RAY_FRACTION_BITS) as f32;
+        let x = self.start[0].wrapping_add(k.wrapping_mul(self.delta[0]));
+        let y = self.start[1].wrapping_add(k.wrapping_mul(self.delta[1]));
+        // Non-negative: the profile's ends lie inside the image.
+        let (ix, iy) = ((x >> RAY_FRACTION_BITS) as usize, (y >> RAY_FRACTION_BITS) as usize);
+        let d = self.direct;
+        let f = iy.wrapping_mul(d.stride).wrapping_add(ix);
+        if cell.at != f {
+            let b = iy.wrapping_mul(d.width).wrapping_add(ix);
+            let frame = d.frame.get(f..f.wrapping_add(d.stride).wrapping_add(2));
+            let background = d.background.get(b..b.wrapping_add(d.width).wrapping_add(2));
+            let cells = match (frame, background) {
+                (Some(&[f00, f01, .., f10, f11]), Some(&[b00, b01, .., b10, b11])) => {
+                    let d = |f: u8, g: u8| (i32::from(f) - i32::from(g)) as f32;
+                    [d(f00, b00), d(f01, b01), d(f10, b10), d(f11, b11)]
+                }
+                // A short background plane (it reads 0 where it ends, as the clamped path).
+                _ => clamped_cell(
+                    self.diff,
+                    (x >> RAY_FRACTION_BITS) as isize,
+                    (y >> RAY_FRACTION_BITS) as isize,
+                ),
+            };
+            *cell = WindowCell {
+                at: f,
+                c: coefficients(cells),
+            };
+        }
+        evaluate(cell.c, [(x & MASK) as f32 * INV, (y & MASK) as f32 * INV])
+    }
+}
+
+/// `step·n` in 1/65536 px, rounded to the nearest (a tie to even below 2²², away from zero
+/// above).
+///
+/// Below 2²² in magnitude (steps under 64 px along a unit normal) by adding 1.5·2²³, which
+/// leaves the rounded value in the low bits of the sum; beyond, by a conversion.
+#[inline(always)]
+fn fixed_delta(step: f32, n: f32) -> i32 {
+    const ONE: f32 = (1u32 << RAY_FRACTION_BITS) as f32;
+    const MAGIC: f32 = 12_582_912.0;
+    let delta = step * n * ONE;
+    if delta.abs() < 4_194_304.0 {
+        ((delta + MAGIC).to_bits() as i32).wrapping_sub(MAGIC.to_bits() as i32)
+    } else {
+        math::round(delta) as i32
+    }
+}
+
+/// [`Difference::cell_clamped`], out of line (the rare path).
+#[cold]
+#[inline(never)]
+fn clamped_cell<B: AsRef<[u8]>>(diff: &Difference<'_, B>, ix: isize, iy: isize) -> [f32; 4] {
+    diff.cell_clamped(ix, iy)
+}
+
+/// How [`Difference::edge_offset`] reads a profile's samples: through a one-cell cache.
+trait Cells {
+    /// The cache: the cell read last.
+    type Cell: Copy;
+    /// No cell yet.
+    const EMPTY: Self::Cell;
+    /// `D` at sample `k` of the profile ([`sample_by_pixels`]), through `cell`.
+    fn sample(&self, k: i32, cell: &mut Self::Cell) -> f32;
+}
+
+/// The scan of [`Difference::edge_offset`] over samples `k` in `-steps..=steps` of a profile,
+/// two caches (one a side of the profile).
+#[inline(always)]
+fn nearest_crossing<S: Cells>(cells: &S, steps: i32, step: f32, min_contrast: f32) -> Option<f32> {
+    let sample = |k: i32, cell: &mut S::Cell| cells.sample(k, cell);
+    // One cell cache for each side of the profile: the ends first, then the scan outwards.
+    let (mut inner, mut outer) = (S::EMPTY, S::EMPTY);
+    let outer_end = sample(-steps, &mut inner);
+    let d_in = 0.5 * (outer_end + sample(-steps + 1, &mut inner));
+    let d_out = 0.5 * (sample(steps, &mut outer) + sample(steps - 1, &mut outer));
+    if !((d_in - d_out).abs() >= min_contrast) {
+        return None;
+    }
+    let level = 0.5 * (d_in + d_out);
+    let sign = if d_in > d_out { 1.0 } else { -1.0 };
+    let centre = sign * (sample(0, &mut outer) - level);
+    inner = outer;
+    // Round r visits the intervals [r, r+1] and [−r−1, −r] (in steps), whose crossings lie
+    // between r·step and (r+1)·step from p.
+    // `neg` and `pos` hold the signed samples at −r and +r.
+    let (mut neg, mut pos) = (centre, centre);
+    let mut best: Option<f32> = None;
+    for r in 0..steps {
+        let before = sign
+            * (if r + 1 == steps {
+                outer_end
+            } else {
+                sample(-r - 1, &mut inner)
+            } - level);
+        let after = sign * (sample(r + 1, &mut outer) - level);
+        for (k, prev, cur) in [(-r, before, neg), (r + 1, pos, after)] {
+            if prev > 0.0 && cur <= 0.0 {
+                let t = prev / (prev - cur);
+                let u = ((k - 1) as f32 + t) * step;
+                if best.is_none_or(|b| u.abs() < b.abs() || (u.abs() == b.abs() && u < b)) {
+                    best = Some(u);
                 }
             }
-            (neg, pos) = (before, after);
-            if best.is_some_and(|b| b.abs() < (r + 1) as f32 * params.step) {
-                break;
-            }
         }
-        best
+        (neg, pos) = (before, after);
+        if best.is_some_and(|b| b.abs() < (r + 1) as f32 * step) {
+            break;
+        }
     }
+    best
+}
+
+/// Fraction bits of the fixed-point sample positions of a profile ([`ProfileRay`]).
+const RAY_FRACTION_BITS: u32 = 16;
+
+/// Most a profile may reach from its point along either axis, px (`search·|normal|`); beyond,
+/// [`Difference::edge_offset`] finds no edge (the fixed-point positions would overflow).
+pub const MAX_PROFILE_REACH: f32 = 16384.0;
+
+/// The sample positions `p + k·step·normal` of one profile, in fixed point.
+///
+/// Per axis, position `k` is the pixel `base` (`p` truncated towards zero) plus
+/// `(start + k·delta) / 2¹⁶` px, where `start` is the rest of `p` (truncated to 1/65536 px) and
+/// `delta` is `step·normal` (rounded to 1/65536 px): within `(|k| + 2)·2⁻¹⁶` px of
+/// `p + k·step·normal`. An arithmetic shift gives each sample's pixel and a mask its fraction,
+/// the same on either side of the image's origin, and the profile's ends bound all its pixels
+/// (the positions are linear in `k`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ProfileRay {
+    base: [isize; 2],
+    start: [i32; 2],
+    delta: [i32; 2],
+}
+
+impl ProfileRay {
+    /// The ray of `steps` samples a side from `p` along `normal`, `step` px apart; `None` for a
+    /// non-finite input or a reach (`steps·step·|normal|` on an axis) beyond
+    /// [`MAX_PROFILE_REACH`]. Coordinates of `p` beyond ±2³⁰ are clamped there (a sample that
+    /// far off reads the image's border either way).
+    #[inline]
+    pub fn new(p: [f32; 2], normal: [f32; 2], step: f32, steps: i32) -> Option<Self> {
+        const ONE: f32 = (1u32 << RAY_FRACTION_BITS) as f32;
+        const FAR: f32 = (1u32 << 30) as f32;
+        let axis = |p: f32, n: f32| -> Option<(isize, i32, i32)> {
+            let reach = steps as f32 * step * n * ONE;
+            if !(p.is_finite() && reach.abs() <= MAX_PROFILE_REACH * ONE) {
+                return None;
+            }
+            let p = p.clamp(-FAR, FAR);
+            // Within ±2³⁰ the truncation is exact and so is `p − base` (below 2²⁴ both keep
+            // every bit; above, `p` is a whole number): the rest lies in (−1, 1).
+            let base = p as i32;
+            let start = ((p - base as f32) * ONE) as i32;
+            Some((base as isize, start, fixed_delta(step, n)))
+        };
+        let (bx, sx, dx) = axis(p[0], normal[0])?;
+        let (by, sy, dy) = axis(p[1], normal[1])?;
+        Some(ProfileRay {
+            base: [bx, by],
+            start: [sx, sy],
+            delta: [dx, dy],
+        })
+    }
+
+    /// Sample `k`'s pixel offset from the base pixel and its fraction in `[0, 1)`, per axis.
+    /// `|k|` must not exceed the `steps` the ray was made for (the positions then stay within
+    /// `MAX_PROFILE_REACH + 1` px of the base, far from overflowing).
+    #[inline(always)]
+    fn offset(&self, k: i32) -> ([i32; 2], [f32; 2]) {
+        const MASK: i32 = (1 << RAY_FRACTION_BITS) - 1;
+        const INV: f32 = 1.0 / (1u32 << RAY_FRACTION_BITS) as f32;
+        let x = self.start[0].wrapping_add(k.wrapping_mul(self.delta[0]));
+        let y = self.start[1].wrapping_add(k.wrapping_mul(self.delta[1]));
+        (
+            [x >> RAY_FRACTION_BITS, y >> RAY_FRACTION_BITS],
+            [(x & MASK) as f32 * INV, (y & MASK) as f32 * INV],
+        )
+    }
+
+    /// Sample `k`'s pixel (the floor of its position) and fraction in `[0, 1)`, per axis.
+    #[inline(always)]
+    pub fn at(&self, k: i32) -> ([isize; 2], [f32; 2]) {
+        let ([ox, oy], t) = self.offset(k);
+        (
+            [
+                self.base[0].wrapping_add(ox as isize),
+                self.base[1].wrapping_add(oy as isize),
+            ],
+            t,
+        )
+    }
+}
+
+/// The bilinear coefficients `[a, b, c, e]` of a cell `[top-left, top-right, bottom-left,
+/// bottom-right]`: its value at the fraction `(tx, ty)` is `a + tx·b + ty·(c + tx·e)`
+/// ([`evaluate`]). The cells hold integer differences, so the coefficients are exact.
+#[inline(always)]
+fn coefficients([d00, d01, d10, d11]: [f32; 4]) -> [f32; 4] {
+    [d00, d01 - d00, d10 - d00, (d11 - d10) - (d01 - d00)]
+}
+
+/// The bilinear interpolation of a cell's [`coefficients`] at the fraction `(tx, ty)`.
+#[inline(always)]
+fn evaluate([a, b, c, e]: [f32; 4], [tx, ty]: [f32; 2]) -> f32 {
+    a + tx * b + ty * (c + tx * e)
+}
+
+/// `D` at sample `k` of `ray`, bilinear from four clamped pixels ([`Difference::at`]): the
+/// definition the profiles of [`Difference::edge_offset`] reproduce, however they read it.
+pub fn sample_by_pixels<B: AsRef<[u8]>>(diff: &Difference<'_, B>, ray: &ProfileRay, k: i32) -> f32 {
+    let ([ix, iy], t) = ray.at(k);
+    evaluate(coefficients(diff.cell_clamped(ix, iy)), t)
+}
+
+/// A profile whose every cell lies inside the image, with `α = 1`: its cells are read from the
+/// frame and background buffers at offsets from the indices of the ray's base pixel.
+struct Window<'d, 'a, B> {
+    diff: &'d Difference<'a, B>,
+    ray: ProfileRay,
+    frame: &'a [u8],
+    background: &'a [u8],
+    stride: usize,
+    width: usize,
+    /// Indices of the base pixel in the frame buffer and the background plane.
+    frame_base: usize,
+    background_base: usize,
+}
+
+impl<'d, 'a, B: AsRef<[u8]>> Window<'d, 'a, B> {
+    /// The window of `ray` over `-steps..=steps`, or `None` unless `α = 1` and the cells of
+    /// all its samples lie inside the image (the samples' pixels lie between those of the
+    /// ends, and a cell reaches one pixel on).
+    #[inline(always)]
+    fn new(diff: &'d Difference<'a, B>, ray: &ProfileRay, steps: i32) -> Option<Self> {
+        if !(diff.alpha.get() >= 1.0) {
+            return None;
+        }
+        let ([x0, y0], _) = ray.at(-steps);
+        let ([x1, y1], _) = ray.at(steps);
+        let (w, h) = (diff.width() as isize, diff.height() as isize);
+        if !(x0.min(x1) >= 0 && y0.min(y1) >= 0 && x0.max(x1) < w - 1 && y0.max(y1) < h - 1) {
+            return None;
+        }
+        let (bx, by) = (ray.base[0] as usize, ray.base[1] as usize);
+        let frame: &'a Frame<B> = diff.frame;
+        let stride = frame.stride();
+        let width = frame.width();
+        // The base pixel lies within the image's extent (between the ends' pixels, or one
+        // pixel beyond with a fraction): the indices are small.
+        Some(Window {
+            diff,
+            ray: *ray,
+            frame: frame.pixels(),
+            background: diff.background,
+            stride,
+            width,
+            frame_base: by.wrapping_mul(stride).wrapping_add(bx),
+            background_base: by.wrapping_mul(width).wrapping_add(bx),
+        })
+    }
+}
+
+impl<B: AsRef<[u8]>> Cells for Window<'_, '_, B> {
+    type Cell = WindowCell;
+    const EMPTY: WindowCell = WindowCell::EMPTY;
+
+    #[inline(always)]
+    fn sample(&self, k: i32, cell: &mut WindowCell) -> f32 {
+        let ([ox, oy], t) = self.ray.offset(k);
+        let (ox, oy) = (ox as isize, oy as isize);
+        let f = self
+            .frame_base
+            .wrapping_add_signed(oy.wrapping_mul(self.stride as isize).wrapping_add(ox));
+        if cell.at != f {
+            let b = self
+                .background_base
+                .wrapping_add_signed(oy.wrapping_mul(self.width as isize).wrapping_add(ox));
+            // A cell's two rows as one run of `stride + 2` (or `width + 2`) bytes: its first two
+            // and last two are the cell's pixels (the window's width is at least 2).
+            let (s, w) = (self.stride, self.width);
+            let frame = self.frame.get(f..f.wrapping_add(s).wrapping_add(2));
+            let background = self.background.get(b..b.wrapping_add(w).wrapping_add(2));
+            let d = match (frame, background) {
+                // The integer difference is exact, so it converts to the same `f32` as the
+                // clamped path's `f − g`.
+                (Some(&[f00, f01, .., f10, f11]), Some(&[b00, b01, .., b10, b11])) => {
+                    let d = |f: u8, g: u8| (i32::from(f) - i32::from(g)) as f32;
+                    [d(f00, b00), d(f01, b01), d(f10, b10), d(f11, b11)]
+                }
+                // Not for a cell inside the image (a short background plane reads 0 there,
+                // as the clamped path does).
+                _ => cell_by_pixels(self.diff, &self.ray, k),
+            };
+            *cell = WindowCell {
+                at: f,
+                c: coefficients(d),
+            };
+        }
+        evaluate(cell.c, t)
+    }
+}
+
+/// The cell of sample `k` of `ray` from four clamped pixels, out of line (the rare path).
+#[cold]
+#[inline(never)]
+fn cell_by_pixels<B: AsRef<[u8]>>(diff: &Difference<'_, B>, ray: &ProfileRay, k: i32) -> [f32; 4] {
+    let ([ix, iy], _) = ray.at(k);
+    clamped_cell(diff, ix, iy)
+}
+
+/// Profiles that reach beyond the image, or `α < 1`: cells from four clamped pixels.
+struct Clamped<'d, 'a, B>(&'d Difference<'a, B>, ProfileRay);
+
+impl<B: AsRef<[u8]>> Cells for Clamped<'_, '_, B> {
+    type Cell = ClampedCell;
+    const EMPTY: ClampedCell = ClampedCell::EMPTY;
+
+    #[inline(always)]
+    fn sample(&self, k: i32, cell: &mut ClampedCell) -> f32 {
+        let (at, t) = self.1.at(k);
+        if cell.at != at {
+            *cell = ClampedCell {
+                at,
+                c: coefficients(self.0.cell_clamped(at[0], at[1])),
+            };
+        }
+        evaluate(cell.c, t)
+    }
+}
+
+/// The cell a [`Window`] read last: its top-left pixel's index in the frame buffer and its
+/// [`coefficients`].
+#[derive(Debug, Clone, Copy)]
+struct WindowCell {
+    at: usize,
+    c: [f32; 4],
+}
+
+impl WindowCell {
+    /// No cell yet (no slice holds an index of `usize::MAX` and the byte after it).
+    const EMPTY: WindowCell = WindowCell {
+        at: usize::MAX,
+        c: [0.0; 4],
+    };
+}
+
+/// The cell the clamped path of [`Difference::edge_offset`] read last: its top-left pixel and
+/// its [`coefficients`].
+#[derive(Debug, Clone, Copy)]
+struct ClampedCell {
+    at: [isize; 2],
+    c: [f32; 4],
+}
+
+impl ClampedCell {
+    /// No cell yet (no sample's pixel lies at `isize::MIN`: positions are clamped to ±2³⁰).
+    const EMPTY: ClampedCell = ClampedCell {
+        at: [isize::MIN; 2],
+        c: [0.0; 4],
+    };
 }
 
 /// A 2×2 cell of `D` read by [`Difference::bilinear_cached`]: its top-left pixel and the four
@@ -391,6 +895,9 @@ pub struct Alignment {
     /// Whether the pose settled (the coarse stage's updates fell below 0.05 px or its points
     /// came within 0.25 px of the edge); an unsettled pose is not refined by the fine stage.
     pub settled: bool,
+    /// Whether the alignment gave up ([`RefineParams::give_up`]): then `pose` is where its last
+    /// step measured, and `distance` and `coverage` are that step's (on its points only).
+    pub gave_up: bool,
 }
 
 /// Aligns the template's edge points (offsets from its area centroid, with unit outward
@@ -403,6 +910,7 @@ pub fn align<B: AsRef<[u8]>>(
     params: &RefineParams,
 ) -> Alignment {
     let coarse_stride = if edge.len() >= 4 * COARSE_POINTS { 4 } else { 1 };
+    let points = edge.len().min(normals.len());
     let mut pose = seed;
     let mut left = params.iterations;
     // Coarse: every 4th point, profiles sampled half as densely, until the pose settles; fine:
@@ -420,13 +928,38 @@ pub fn align<B: AsRef<[u8]>>(
     // The capped distances of the last fine step, when it converged: its update moved the
     // points by less than `CONVERGED`, so they stand for the distances at the final pose.
     let mut converged_distances: Option<(f32, usize)> = None;
+    let mut taken = 0usize;
     'stages: for (coarse_stage, stride, settled, prm) in stages {
         let mut calm = false;
         while left > 0 {
             left -= 1;
-            let Some(step) = gauss_newton_step(diff, edge, normals, pose, stride, prm) else {
-                break 'stages;
+            let profiles = points.div_ceil(stride).max(1) as f32;
+            let step = match gauss_newton_step(diff, edge, normals, pose, stride, prm) {
+                Ok(step) => step,
+                // Too few edges for a step: the alignment ends here, and when those profiles
+                // already lie beyond `give_up` they stand for the final distances.
+                Err(Some((capped_sum, found))) if capped_sum > params.give_up * profiles => {
+                    return Alignment {
+                        pose,
+                        distance: capped_sum / profiles,
+                        coverage: found as f32 / profiles,
+                        settled: settled_once,
+                        gave_up: true,
+                    };
+                }
+                Err(_) => break 'stages,
             };
+            taken += 1;
+            // Giving up: the points at `pose` lie too far from the edge to end up verified.
+            if taken >= GIVE_UP_AFTER && step.capped_sum > params.give_up * profiles {
+                return Alignment {
+                    pose,
+                    distance: step.capped_sum / profiles,
+                    coverage: step.found as f32 / profiles,
+                    settled: settled_once,
+                    gave_up: true,
+                };
+            }
             pose = step.next;
             // Settled: the update is small, or (coarse stage) the points already sit on the edge
             // and only a direction the edge cannot fix moves (a round part's rotation).
@@ -446,12 +979,13 @@ pub fn align<B: AsRef<[u8]>>(
     }
     // Final distances at the converged pose (those of the last step when it converged).
     let (sum, found) = converged_distances.unwrap_or_else(|| capped_distances(diff, edge, normals, pose, params));
-    let count = edge.len().min(normals.len()).max(1) as f32;
+    let count = points.max(1) as f32;
     Alignment {
         pose,
         distance: sum / count,
         coverage: found as f32 / count,
         settled: settled_once,
+        gave_up: false,
     }
 }
 
@@ -466,10 +1000,11 @@ fn capped_distances<B: AsRef<[u8]>>(
 ) -> (f32, usize) {
     let (mut sum, mut found) = (0.0f32, 0usize);
     let sc = math::sin_cos(pose.angle);
+    let finder = diff.edge_finder(params);
     for (t, n) in edge.iter().zip(normals) {
         let p = pose.apply_sc(sc, *t);
         let nf = rotate_sc(sc, *n);
-        match diff.edge_offset(p, nf, params) {
+        match finder.offset(p, nf) {
             Some(r) => {
                 sum += r.abs().min(params.cap);
                 found += 1;
@@ -497,8 +1032,14 @@ struct Step {
 }
 
 /// The alignment stops once an update moves the edge points along their normals by less than
-/// this (root mean square), px.
-const CONVERGED: f32 = 1e-3;
+/// this (root mean square), px. The update is still applied; the distances measured before it
+/// stand for those after it.
+const CONVERGED: f32 = 0.01;
+
+/// [`RefineParams::give_up`] is first tested on this step (counting from 1, both stages): the
+/// DP's seed can lie a pixel off, and the first steps of a right template can still find its
+/// points far from the edge.
+pub const GIVE_UP_AFTER: usize = 4;
 
 /// Levenberg–Marquardt damping of the Gauss–Newton steps, relative to how far each direction
 /// moves the edge points ([`gauss_newton_step`]).
@@ -521,8 +1062,9 @@ const FINE_ITERATIONS: usize = 4;
 
 /// One Gauss–Newton step on every `stride`-th edge point: the next pose, how far it moves the
 /// points along their normals and how far they were from the edge before it (both root mean
-/// square, px); `None` when too few profiles find an edge, the system is singular, or the next
-/// pose is not finite or its scale leaves `[0.5, 2]`.
+/// square, px). An error when too few profiles find an edge (with the capped sum and the count
+/// of those that did, as [`Step`] holds them), or without them when the system is singular or
+/// the next pose is not finite or its scale leaves `[0.5, 2]`.
 fn gauss_newton_step<B: AsRef<[u8]>>(
     diff: &Difference<'_, B>,
     edge: &[[f32; 2]],
@@ -530,7 +1072,7 @@ fn gauss_newton_step<B: AsRef<[u8]>>(
     pose: Pose,
     stride: usize,
     params: &RefineParams,
-) -> Option<Step> {
+) -> Result<Step, Option<(f32, usize)>> {
     // Normal equations for δ = (δx, δy, δθ, δs) of Σ (n·δp − r)².
     let mut ata = [[0.0f32; 4]; 4];
     let mut atb = [0.0f32; 4];
@@ -540,10 +1082,11 @@ fn gauss_newton_step<B: AsRef<[u8]>>(
     let mut capped_sum = 0.0f32;
     let sc = math::sin_cos(pose.angle);
     let (s, c) = sc;
+    let finder = diff.edge_finder(params);
     for (t, n) in edge.iter().zip(normals).step_by(stride.max(1)) {
         let p = pose.apply_sc(sc, *t);
         let nf = rotate_sc(sc, *n);
-        let Some(r) = diff.edge_offset(p, nf, params) else {
+        let Some(r) = finder.offset_inline(p, nf) else {
             capped_sum += params.cap;
             continue;
         };
@@ -569,7 +1112,7 @@ fn gauss_newton_step<B: AsRef<[u8]>>(
         used += 1;
     }
     if used < 4 {
-        return None;
+        return Err(Some((capped_sum, used)));
     }
     // The lower triangle mirrors the upper one.
     for (a, b) in [(1, 0), (2, 0), (2, 1), (3, 0), (3, 1), (3, 2)] {
@@ -595,7 +1138,7 @@ fn gauss_newton_step<B: AsRef<[u8]>>(
             *v += DAMPING * amount + 1e-12;
         }
     }
-    let delta = solve4(ata, atb)?;
+    let delta = solve4(ata, atb).ok_or(None)?;
     let next = Pose {
         x: pose.x + delta[0],
         y: pose.y + delta[1],
@@ -603,7 +1146,7 @@ fn gauss_newton_step<B: AsRef<[u8]>>(
         scale: pose.scale + delta[3],
     };
     if !(next.x.is_finite() && next.y.is_finite() && next.angle.is_finite() && (0.5..=2.0).contains(&next.scale)) {
-        return None;
+        return Err(None);
     }
     // How far the update moves the edge points along their normals (root mean square, from the
     // normal equations: Σ (J·δ)² = δᵀ·JᵀJ·δ); motion along the edge does not count.
@@ -614,7 +1157,7 @@ fn gauss_newton_step<B: AsRef<[u8]>>(
         }
     }
     let moved = math::sqrt(quad.max(0.0) / used as f32);
-    Some(Step {
+    Ok(Step {
         next,
         moved,
         fit: math::sqrt(residual2 / used as f32),
@@ -660,6 +1203,13 @@ fn solve4(mut a: [[f32; 4]; 4], mut b: [f32; 4]) -> Option<[f32; 4]> {
 
 /// Distances from points to a closed polyline (the template outline in verification).
 ///
+/// The segments are grouped into at most [`OUTLINE_CHUNKS`] runs of consecutive segments, each
+/// with a circle that holds its points (the centre of their bounding box, the farthest point's
+/// distance). A query scans the run whose centre lies nearest first, then only the runs whose
+/// circle comes nearer than the best distance so far (with a margin of 10⁻³ px, so rounding
+/// cannot skip a nearer segment): the minimum over every segment, in about a quarter of the
+/// segment tests for a 96-point outline and a query near it.
+///
 /// ```
 /// use vorl_core::refine::Outline;
 /// let square = [[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]];
@@ -672,48 +1222,130 @@ pub struct Outline<'a> {
     points: &'a [[f32; 2]],
     /// The longest segment, px.
     longest: f32,
+    /// Segments per run (the last run may hold fewer).
+    run: usize,
+    /// How many runs.
+    runs: usize,
+    /// Each run's circle: centre x, centre y (apart, so that the distances to all of them
+    /// vectorise), radius.
+    centre_x: [f32; OUTLINE_CHUNKS],
+    centre_y: [f32; OUTLINE_CHUNKS],
+    radius: [f32; OUTLINE_CHUNKS],
 }
 
+/// Most runs of segments an [`Outline`] keeps a bounding circle for (longer outlines get longer
+/// runs).
+pub const OUTLINE_CHUNKS: usize = 32;
+
+/// Segments per run of an [`Outline`] when the outline is short enough.
+const OUTLINE_RUN: usize = 8;
+
+/// How much nearer than the best distance so far a run's circle must come to be scanned, px.
+const OUTLINE_MARGIN: f32 = 1e-3;
+
 impl<'a> Outline<'a> {
-    /// The closed polyline through `points` (the last joins the first).
+    /// The closed polyline through `points` (the last joins the first). Segment `i` joins point
+    /// `i − 1` (the last one for `i = 0`) to point `i`.
     pub fn new(points: &'a [[f32; 2]]) -> Self {
+        let len = points.len();
         let mut longest2 = 0.0f32;
         let mut prev = points.last().copied().unwrap_or([0.0; 2]);
         for &p in points {
             longest2 = longest2.max((p[0] - prev[0]) * (p[0] - prev[0]) + (p[1] - prev[1]) * (p[1] - prev[1]));
             prev = p;
         }
+        let run = OUTLINE_RUN.max(len.div_ceil(OUTLINE_CHUNKS));
+        let runs = len.div_ceil(run).min(OUTLINE_CHUNKS);
+        let (mut centre_x, mut centre_y, mut radius) =
+            ([0.0f32; OUTLINE_CHUNKS], [0.0; OUTLINE_CHUNKS], [0.0; OUTLINE_CHUNKS]);
+        let circles = centre_x.iter_mut().zip(centre_y.iter_mut()).zip(radius.iter_mut());
+        for (r, ((cx, cy), radius)) in circles.enumerate().take(runs) {
+            // The run's segments and the point before its first one.
+            let first = r * run;
+            let before = points.get((first + len - 1) % len.max(1)).copied().unwrap_or([0.0; 2]);
+            let segments = points.get(first..(first + run).min(len)).unwrap_or(&[]);
+            let (mut lo, mut hi) = (before, before);
+            for p in segments {
+                lo = [lo[0].min(p[0]), lo[1].min(p[1])];
+                hi = [hi[0].max(p[0]), hi[1].max(p[1])];
+            }
+            let c = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
+            let dist2 = |p: &[f32; 2]| (p[0] - c[0]) * (p[0] - c[0]) + (p[1] - c[1]) * (p[1] - c[1]);
+            let r2 = segments.iter().fold(dist2(&before), |m, p| m.max(dist2(p)));
+            (*cx, *cy, *radius) = (c[0], c[1], math::sqrt(r2));
+        }
         Outline {
             points,
             longest: math::sqrt(longest2),
+            run,
+            runs,
+            centre_x,
+            centre_y,
+            radius,
         }
     }
 
     /// The distance from `q` to the polyline, or `cap` when that is less (also for a polyline
-    /// of fewer than 2 points). `O(points)`, but a segment whose start lies farther than
-    /// `best + longest` from `q` (it cannot come nearer than `best`) costs a single comparison.
+    /// of fewer than 2 points).
     pub fn capped_distance(&self, q: [f32; 2], cap: f32) -> f32 {
-        let len = self.points.len();
-        if len < 2 {
+        if self.points.len() < 2 {
             return cap;
         }
-        let mut best = cap * cap;
-        let mut reject = (cap + self.longest) * (cap + self.longest);
-        let mut prev = self.points.last().copied().unwrap_or([0.0; 2]);
-        for &cur in self.points {
+        let runs = self.runs.min(OUTLINE_CHUNKS);
+        // Squared distances from `q` to every run's centre (one loop the compiler vectorises),
+        // then the nearest run first: its segments usually hold the answer.
+        let mut far = [f32::INFINITY; OUTLINE_CHUNKS];
+        for ((d2, &cx), &cy) in far.iter_mut().zip(&self.centre_x).zip(&self.centre_y) {
+            *d2 = (q[0] - cx) * (q[0] - cx) + (q[1] - cy) * (q[1] - cy);
+        }
+        let far = far.get(..runs).unwrap_or(&[]);
+        let mut first = 0usize;
+        let mut nearest = f32::INFINITY;
+        for (r, &d2) in far.iter().enumerate() {
+            if d2 < nearest {
+                (first, nearest) = (r, d2);
+            }
+        }
+        // The best squared distance and its square root, taken only when it falls (a square
+        // root is a library call on the Cortex-M4).
+        let mut best = (cap * cap, cap);
+        self.scan_run(first, q, &mut best);
+        for ((r, &d2), &radius) in far.iter().enumerate().zip(&self.radius) {
+            let reach = best.1 + radius + OUTLINE_MARGIN;
+            if d2 < reach * reach && r != first {
+                self.scan_run(r, q, &mut best);
+            }
+        }
+        best.1
+    }
+
+    /// Lowers `best` (a squared distance and its square root) to that of the nearest segment
+    /// of run `r` to `q`. A segment whose start lies farther than `√best + longest` from `q`
+    /// costs one comparison.
+    #[inline]
+    fn scan_run(&self, r: usize, q: [f32; 2], best: &mut (f32, f32)) {
+        let len = self.points.len();
+        let first = r * self.run;
+        let mut prev = self
+            .points
+            .get((first + len - 1) % len.max(1))
+            .copied()
+            .unwrap_or([0.0; 2]);
+        let reach = best.1 + self.longest;
+        let mut reject = reach * reach;
+        for &cur in self.points.iter().skip(first).take(self.run) {
             let (dx, dy) = (prev[0] - q[0], prev[1] - q[1]);
             if dx * dx + dy * dy < reject {
                 let c = crate::pose::closest_on_segment(q, prev, cur);
                 let d = (c[0] - q[0]) * (c[0] - q[0]) + (c[1] - q[1]) * (c[1] - q[1]);
-                if d < best {
-                    best = d;
-                    let r = math::sqrt(d) + self.longest;
+                if d < best.0 {
+                    *best = (d, math::sqrt(d));
+                    let r = best.1 + self.longest;
                     reject = r * r;
                 }
             }
             prev = cur;
         }
-        math::sqrt(best)
     }
 }
 
@@ -739,7 +1371,8 @@ mod tests {
         (frame, bg)
     }
 
-    /// The profile scan as first written: every sample, every crossing, the nearest kept.
+    /// The profile scan as first written: every sample (by four clamped pixels), every crossing,
+    /// the nearest kept.
     fn edge_offset_full<B: AsRef<[u8]>>(
         diff: &Difference<'_, B>,
         p: [f32; 2],
@@ -750,10 +1383,8 @@ mod tests {
         if steps < 2 {
             return None;
         }
-        let sample = |k: i32| {
-            let u = k as f32 * params.step;
-            diff.bilinear_by_pixels(p[0] + u * normal[0], p[1] + u * normal[1])
-        };
+        let ray = ProfileRay::new(p, normal, params.step, steps)?;
+        let sample = |k: i32| sample_by_pixels(diff, &ray, k);
         let d_in = 0.5 * (sample(-steps) + sample(-steps + 1));
         let d_out = 0.5 * (sample(steps) + sample(steps - 1));
         if !((d_in - d_out).abs() >= params.min_contrast) {
@@ -915,6 +1546,193 @@ mod tests {
         assert!(found > 4000, "only {found} profiles held an edge");
     }
 
+    #[test]
+    fn profile_ray_positions_lie_on_the_normal() {
+        let mut rng = Rng(0x5eed_0f7a_7500_1234);
+        let mut checked = 0;
+        for _ in 0..5000 {
+            let scale = [1.0f32, 40.0, 700.0, 20_000.0][(rng.next() % 4) as usize];
+            let p = [(rng.unit() - 0.5) * 2.0 * scale, (rng.unit() - 0.5) * 2.0 * scale];
+            // Whole and half pixels too, where a floor is easy to get wrong.
+            let p = match rng.next() % 5 {
+                0 => [p[0].round(), p[1].round()],
+                1 => [p[0].round() + 0.5, p[1].round() - 0.5],
+                _ => p,
+            };
+            let a = rng.unit() * core::f32::consts::TAU;
+            let normal = [a.cos(), a.sin()];
+            let step = [0.25f32, 0.5, 0.3, 1.7][(rng.next() % 4) as usize];
+            let steps = 2 + (rng.next() % 20) as i32;
+            let ray = ProfileRay::new(p, normal, step, steps).unwrap();
+            for k in -steps..=steps {
+                let ([ix, iy], [tx, ty]) = ray.at(k);
+                assert!(
+                    (0.0..1.0).contains(&tx) && (0.0..1.0).contains(&ty),
+                    "{p:?} k {k}: {tx} {ty}"
+                );
+                // In f64: the ray's position against p + k·step·normal.
+                for (pix, t, want) in [
+                    (ix, tx, p[0] as f64 + k as f64 * step as f64 * normal[0] as f64),
+                    (iy, ty, p[1] as f64 + k as f64 * step as f64 * normal[1] as f64),
+                ] {
+                    let got = pix as f64 + t as f64;
+                    let tolerance = (k.abs() + 2) as f64 / 65536.0 + 1e-7 * want.abs();
+                    assert!(
+                        (got - want).abs() <= tolerance,
+                        "{p:?} {normal:?} k {k}: {got} vs {want}"
+                    );
+                }
+                checked += 1;
+            }
+        }
+        assert!(checked > 50_000);
+        // Non-finite inputs and reaches beyond the limit make no ray.
+        for (p, n, step, steps) in [
+            ([f32::NAN, 1.0], [1.0, 0.0], 0.25, 12),
+            ([1.0, f32::INFINITY], [1.0, 0.0], 0.25, 12),
+            ([1.0, 1.0], [f32::NAN, 0.0], 0.25, 12),
+            ([1.0, 1.0], [0.0, 1.0], 20.0, 1000),
+        ] {
+            assert_eq!(ProfileRay::new(p, n, step, steps), None, "{p:?} {n:?} {step} {steps}");
+        }
+        // Far points are clamped, not wrapped: the profile still reads the image's border.
+        let far = ProfileRay::new([3e9, -3e9], [1.0, 0.0], 0.25, 12).unwrap();
+        assert_eq!(far.at(0).0, [1 << 30, -(1 << 30)]);
+    }
+
+    #[test]
+    fn window_cells_equal_clamped_pixels() {
+        // The fast path (cells straight from the buffers) against the definition, sample by
+        // sample, on rays inside, across and outside the image, one cache per ray.
+        let mut rng = Rng(0x771d_0eca_fef0_0d11);
+        let (mut inside, mut outside) = (0usize, 0usize);
+        for _ in 0..60 {
+            let (w, h) = (2 + (rng.next() % 30) as usize, 2 + (rng.next() % 30) as usize);
+            let (frame_px, bg) = scene(&mut rng, w, h, w as f32 / 2.0, h as f32 / 2.0, 5.0);
+            // Sometimes rows wider than the image (a stride), sometimes a short background.
+            let stride = w + (rng.next() % 3) as usize;
+            let mut strided = [0u8; 1200];
+            for y in 0..h {
+                for x in 0..w {
+                    strided[y * stride + x] = frame_px[y * w + x];
+                }
+                for x in w..stride {
+                    strided[y * stride + x] = 255;
+                }
+            }
+            let frame = Frame::with_stride(&strided[..], w, h, stride).unwrap();
+            let short = if rng.next() % 5 == 0 {
+                w * h - 1 - (rng.next() as usize % (w * h / 2))
+            } else {
+                w * h
+            };
+            for alpha in [Alpha::ONE, Alpha::new(0.5).unwrap()] {
+                let diff = Difference::new(&frame, &bg[..short], alpha);
+                for _ in 0..100 {
+                    let p = [rng.unit() * (w as f32 + 8.0) - 4.0, rng.unit() * (h as f32 + 8.0) - 4.0];
+                    let a = rng.unit() * core::f32::consts::TAU;
+                    let steps = 2 + (rng.next() % 8) as i32;
+                    let step = 0.1 + rng.unit() * 0.6;
+                    let ray = ProfileRay::new(p, [a.cos(), a.sin()], step, steps).unwrap();
+                    let window = Window::new(&diff, &ray, steps);
+                    let mut cell = WindowCell::EMPTY;
+                    let mut clamped = ClampedCell::EMPTY;
+                    // Visit the samples in a shuffled order, with repeats.
+                    for _ in 0..3 * steps {
+                        let k = (rng.next() % (2 * steps as u64 + 1)) as i32 - steps;
+                        let want = sample_by_pixels(&diff, &ray, k);
+                        let got = match &window {
+                            Some(window) => {
+                                inside += 1;
+                                window.sample(k, &mut cell)
+                            }
+                            None => {
+                                outside += 1;
+                                Clamped(&diff, ray).sample(k, &mut clamped)
+                            }
+                        };
+                        assert_eq!(got.to_bits(), want.to_bits(), "{w}×{h} stride {stride} p {p:?} k {k}");
+                    }
+                }
+            }
+        }
+        assert!(inside > 5000 && outside > 5000, "inside {inside}, outside {outside}");
+    }
+
+    #[test]
+    fn direct_path_finds_the_crossing_of_the_ray() {
+        // Profiles read on the direct path (inside the image) and through a ray (across its
+        // edge, α < 1) against the full scan of the ray's samples, bit for bit, with strides,
+        // short background planes and normals that are not unit.
+        let mut rng = Rng(0xd1ec_7a11_0ff5_e7ed);
+        let (mut direct, mut generic) = (0usize, 0usize);
+        for round in 0..120 {
+            let (w, h) = (4 + (rng.next() % 27) as usize, 4 + (rng.next() % 27) as usize);
+            let (cx, cy, radius) = (w as f32 * rng.unit(), h as f32 * rng.unit(), 2.0 + rng.unit() * 8.0);
+            let (frame_px, bg) = scene(&mut rng, w, h, cx, cy, radius);
+            let stride = w + (rng.next() % 3) as usize;
+            let mut strided = [0u8; 1200];
+            for y in 0..h {
+                strided[y * stride..y * stride + w].copy_from_slice(&frame_px[y * w..y * w + w]);
+            }
+            let frame = Frame::with_stride(&strided[..], w, h, stride).unwrap();
+            let short = if round % 7 == 0 {
+                w * h - 1 - (rng.next() as usize % w)
+            } else {
+                w * h
+            };
+            let alpha = if round % 5 == 0 {
+                Alpha::new(0.7).unwrap()
+            } else {
+                Alpha::ONE
+            };
+            let diff = Difference::new(&frame, &bg[..short], alpha);
+            let params = [
+                RefineParams::DEFAULT,
+                RefineParams {
+                    step: 0.5,
+                    ..RefineParams::DEFAULT
+                },
+                RefineParams {
+                    step: 0.3,
+                    search: 1.0,
+                    ..RefineParams::DEFAULT
+                },
+            ][round % 3];
+            let finder = diff.edge_finder(&params);
+            for _ in 0..150 {
+                let p = [rng.unit() * (w as f32 + 4.0) - 2.0, rng.unit() * (h as f32 + 4.0) - 2.0];
+                let a = rng.unit() * core::f32::consts::TAU;
+                let len = if rng.next() % 4 == 0 {
+                    0.5 + rng.unit() * 1.5
+                } else {
+                    1.0
+                };
+                let normal = [len * a.cos(), len * a.sin()];
+                let want = edge_offset_full(&diff, p, normal, &params);
+                assert_eq!(
+                    finder.offset(p, normal),
+                    want,
+                    "{w}×{h} p {p:?} n {normal:?} {params:?}"
+                );
+                if finder.is_direct(p, normal) {
+                    direct += 1;
+                } else {
+                    generic += 1;
+                }
+            }
+        }
+        assert!(direct > 3000 && generic > 3000, "direct {direct}, generic {generic}");
+        // Parameters that make no profile find nothing on either path.
+        let frame = Frame::new_checked(&[0u8; 1024][..], 32, 32).unwrap();
+        let diff = Difference::new(&frame, &[0u8; 1024][..], Alpha::ONE);
+        let bad = RefineParams {
+            step: 0.0,
+            ..RefineParams::DEFAULT
+        };
+        assert_eq!(diff.edge_finder(&bad).offset([16.0, 16.0], [1.0, 0.0]), None);
+    }
+
     /// Aligns a square's edge points (offsets from its centre, outward normals) from a seed at
     /// (24, 24), angle 0, onto a bright square drawn (8×8 supersampled, unblurred) with centre
     /// `(cx, cy)`, half-side `half`, turned by `turn` (radians, counter-clockwise on screen).
@@ -1037,6 +1855,81 @@ mod tests {
         }
     }
 
+    /// 72 edge points (offsets from the centre, evenly spaced along each side) and outward
+    /// normals of a closed counter-clockwise-on-screen polygon given by its `corners`
+    /// (`72 / corners.len()` points a side).
+    fn polygon_edge(corners: &[[f32; 2]]) -> ([[f32; 2]; 72], [[f32; 2]; 72]) {
+        let (mut edge, mut normals) = ([[0.0f32; 2]; 72], [[0.0f32; 2]; 72]);
+        let per_side = 72 / corners.len();
+        for k in 0..72 {
+            let side = (k / per_side).min(corners.len() - 1);
+            let (a, b) = (corners[side], corners[(side + 1) % corners.len()]);
+            let f = ((k - side * per_side) as f32 + 0.5) / per_side as f32;
+            let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+            let len = (dx * dx + dy * dy).sqrt();
+            edge[k] = [a[0] + f * dx, a[1] + f * dy];
+            // Counter-clockwise on screen (y down): the outside lies to the right of the way.
+            normals[k] = [-dy / len, dx / len];
+        }
+        (edge, normals)
+    }
+
+    #[test]
+    fn a_wrong_template_gives_up_and_the_right_one_does_not() {
+        // A 24 px square, edge blurred over about 1.5 px, seen from seeds up to 1 px and 4° off;
+        // the right template never gives up (and ends where it would without the rule), a
+        // triangle of about the same area gives up with its points far off the edge.
+        const W: usize = 64;
+        let (cx, cy, half) = (32.3f32, 31.6f32, 12.0f32);
+        let mut frame_px = [0u8; W * W];
+        for (i, px) in frame_px.iter_mut().enumerate() {
+            let (x, y) = ((i % W) as f32 - cx, (i / W) as f32 - cy);
+            let d = x.abs().max(y.abs()) - half;
+            *px = (50.0 + 150.0 * (0.5 - d / 1.5).clamp(0.0, 1.0) + 0.5) as u8;
+        }
+        let bg = [50u8; W * W];
+        let frame = Frame::new_checked(&frame_px[..], W, W).unwrap();
+        let diff = Difference::new(&frame, &bg[..], Alpha::ONE);
+        let strict = RefineParams {
+            give_up: 1.2,
+            ..RefineParams::DEFAULT
+        };
+        let h = half + 0.5;
+        let (square, square_normals) = polygon_edge(&[[h, h], [h, -h], [-h, -h], [-h, h]]);
+        let (triangle, triangle_normals) = polygon_edge(&[[18.25, 10.5], [0.0, -21.0], [-18.25, 10.5]]);
+        let (bar, bar_normals) = polygon_edge(&[[20.0, 4.0], [20.0, -4.0], [-20.0, -4.0], [-20.0, 4.0]]);
+        for (ox, oy, deg) in [(0.6f32, -0.4f32, 4.0f32), (-1.0, 0.0, -3.0), (0.0, 0.7, 0.0)] {
+            let seed = Pose {
+                x: cx + ox,
+                y: cy + oy,
+                angle: deg.to_radians(),
+                scale: 1.0,
+            };
+            let free = align(&diff, &square, &square_normals, seed, &RefineParams::DEFAULT);
+            let right = align(&diff, &square, &square_normals, seed, &strict);
+            assert_eq!(right, free, "seed {seed:?}");
+            assert!(!right.gave_up && right.settled && right.distance < 0.2, "{right:?}");
+            let wrong = align(&diff, &triangle, &triangle_normals, seed, &strict);
+            assert!(wrong.gave_up && !wrong.settled && wrong.distance > 1.2, "{wrong:?}");
+            // Without the rule the triangle still ends far from the edge: the verification
+            // would not have taken it either.
+            let wrong_free = align(&diff, &triangle, &triangle_normals, seed, &RefineParams::DEFAULT);
+            assert!(!wrong_free.gave_up && wrong_free.distance > 0.6, "{wrong_free:?}");
+            // A bar whose profiles nearly all miss the square cannot take a step: it gives up
+            // at the seed on those profiles' distances, where it would be measured once more.
+            let missed = align(&diff, &bar, &bar_normals, seed, &strict);
+            let measured = align(&diff, &bar, &bar_normals, seed, &RefineParams::DEFAULT);
+            assert!(
+                missed.gave_up && missed.pose == seed && missed.distance > 1.2,
+                "{missed:?}"
+            );
+            assert!(
+                !measured.gave_up && measured.pose == seed && measured.distance > 1.2,
+                "{measured:?}"
+            );
+        }
+    }
+
     #[test]
     fn outline_distance_matches_every_segment() {
         let mut rng = Rng(0x1234_5678_9abc_def1);
@@ -1062,6 +1955,50 @@ mod tests {
         }
         assert_eq!(Outline::new(&[[1.0, 1.0]]).capped_distance([0.0, 0.0], 3.0), 3.0);
         assert_eq!(Outline::new(&[]).capped_distance([0.0, 0.0], 3.0), 3.0);
+    }
+
+    #[test]
+    fn outline_runs_give_the_distance_to_every_segment() {
+        // Outlines of 2–400 points (runs of 8 up to 256 points, longer runs beyond), both
+        // scattered and wavy closed curves, queried near the curve (where the runs' circles
+        // overlap most) and anywhere, against every segment's distance.
+        let mut rng = Rng(0x0ddb_a11c_a5ca_de42);
+        let mut pts = [[0.0f32; 2]; 400];
+        let mut scanned_all = 0usize;
+        for round in 0..300 {
+            let len = 2 + (rng.next() % 399) as usize;
+            let wavy = round % 3 != 0;
+            let (phase, wobble) = (rng.unit() * 6.0, 1.0 + rng.unit() * 8.0);
+            for (i, p) in pts.iter_mut().take(len).enumerate() {
+                *p = if wavy {
+                    let a = i as f32 * core::f32::consts::TAU / len as f32;
+                    let r = 30.0 + wobble * (3.0 * a + phase).sin() + (rng.unit() - 0.5) * 0.5;
+                    [50.0 + r * a.cos(), 50.0 + r * a.sin()]
+                } else {
+                    [rng.unit() * 100.0, rng.unit() * 100.0]
+                };
+            }
+            let outline = Outline::new(&pts[..len]);
+            for _ in 0..40 {
+                let q = if rng.next() % 2 == 0 {
+                    let p = pts[(rng.next() % len as u64) as usize];
+                    [p[0] + (rng.unit() - 0.5) * 3.0, p[1] + (rng.unit() - 0.5) * 3.0]
+                } else {
+                    [rng.unit() * 140.0 - 20.0, rng.unit() * 140.0 - 20.0]
+                };
+                let cap = [0.5f32, 2.0, 6.0, f32::INFINITY][(rng.next() % 4) as usize];
+                let mut best = cap;
+                for i in 0..len {
+                    let (a, b) = (pts[(i + len - 1) % len], pts[i]);
+                    let c = crate::pose::closest_on_segment(q, a, b);
+                    best = best.min(math::hypot(c[0] - q[0], c[1] - q[1]));
+                }
+                let got = outline.capped_distance(q, cap);
+                assert!((got - best).abs() <= 1e-5 * (1.0 + best), "len {len}: {got} vs {best}");
+                scanned_all += (cap.is_infinite()) as usize;
+            }
+        }
+        assert!(scanned_all > 1000);
     }
 
     #[test]
