@@ -604,7 +604,12 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         ratio: f32,
     ) -> Option<(usize, Match)> {
         while scan.found < k.clamp(1, MAX_CANDIDATES) {
-            let bound = scan.lowest * ratio;
+            // (An infinite ratio takes every template in turn, even after a cost of 0.)
+            let bound = if ratio == f32::INFINITY {
+                f32::INFINITY
+            } else {
+                scan.lowest * ratio
+            };
             let ti = self.next_template(scan, n, bound)?;
             let (Some(t), Some(part), Some(assignment)) = (
                 self.templates.get(ti),
