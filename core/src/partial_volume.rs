@@ -1,72 +1,16 @@
 //! Partial-volume centroid: the part's area centroid with its edge pixels counted by coverage.
 //!
-//! [`partial_volume_centroid`]: pixels well inside count 1, pixels in a 2-px band around the
-//! mask's edge count `D / C` clipped to `[0, 1]`, where `D = I' − B` is the difference image and
-//! `C` the local contrast: the mean difference of the ring pixels 3–4 px inside the edge within
-//! 4 px of the band pixel (so shading across the part does not tilt the weights), or the ring's
-//! median where none is near. With blur symmetric about the edge, that is the centroid of the
-//! true silhouette to a few hundredths of a pixel. A part with no interior ring has no contrast
-//! to scale by and gives `None` (the caller keeps the polygon centroid).
-//!
-//! The regions come from the seed's 8-connected component `P` in the box (the border's bounding
-//! box plus 6 px; outside the box counts as background): "inside" is `P` eroded twice by 3×3,
-//! the band is `P` dilated twice minus "inside", the ring is `P` eroded three times minus `P`
-//! eroded five times. Iterated 3×3 erosion (dilation) `k` times is one erosion by the
-//! `(2k+1)`-square, and a square is separable, so each region row is a few word operations on
-//! bit rows (32 px a word): the AND (OR) of the component's rows within `k` of the row, then of
-//! that row shifted by `−k..=k`.
-//!
-//! Method: mark `P` in the mask plane (bit 7) with a scanline fill that scans 8 pixels a step,
-//! noting the rows it covers; then two passes over those rows:
-//! 1. the ring, from the component's rows `y − 5 ..= y + 5` as bit rows; it is marked in the
-//!    plane (bit 6) and its `D` goes into a histogram, whose median is the part's contrast
-//!    (where `D` is not read from the image's rows, `α < 1`, the first 256 values are also kept
-//!    for pass 2);
-//! 2. the weights, in raster order, 4 rows behind the rows read from the plane (and cleared to
-//!    the mask bit): inside and band from the component's rows `y − 2 ..= y + 2`; the ring's `D`
-//!    is kept summed per column over rows `y − 4 ..= y + 4` (a row added when it enters,
-//!    subtracted when it leaves), so a band pixel's local mean is 9 column sums, kept as a sum
-//!    that slides along the row. `D` of a word's inside and band pixels is read in one loop
-//!    over the frame's and background's rows ([`Difference::rows`], `α = 1`: from its first
-//!    such pixel to its last, which the compiler vectorises), and the hole test of its inside
-//!    pixels is one reduction (their least `D`, in the contrast's sense) unless one fails. The
-//!    inside pixels of weight 1 between two
-//!    pixels weighed alone (band, holes) are added as one run: one addition per sum when that
-//!    is sure not to round (every partial sum exact), else one by one, so the sums are the same
-//!    bits as pixel by pixel in raster order.
-//!
-//! The result is the per-pixel definition's (3×3 passes over flag bits, a 9×9 window per band
-//! pixel), which the tests keep as the reference: the same bits where `D` is an integer
-//! (`α = 1`), and within 1e-4 px otherwise (the local sums are added in another order).
-//!
-//! Time: a few word operations per 32 px of a row and pass, one `D` per weighted (inside or
-//! band) pixel, three per ring pixel (histogram, entering and leaving the sums); for `α = 1`
-//! `D` comes from the image's rows, a few instructions a pixel (x86 vectorises the weighted
-//! pixels' loop); through [`Difference::at`] it was about 50. On the bench set (parts of
-//! 100–170 px, 640×480; `vorl detect`, callgrind) a part takes 0.73 M x86 instructions (1.12 M
-//! with `D` through `at`, kept ring values and a hole test per pixel; 1.31 M before the runs of
-//! weight 1). Of it, the weights of the band pixels (`RowWeights::add`, an order-bound chain of
-//! f32 sums) are 0.19 M, the fill 0.08 M. On the Cortex-M4 (QEMU, the firmware's QVGA frames
-//! of 4 parts) the rows save 80–100 K instructions per part. Before all this, the fixture
-//! set's parts (boxes of about 66×66 px) took 0.38 M x86 instructions each, 0.43 M on the
-//! Cortex-M4, where the per-pixel definition took 4.0 M and 4.6 M. Memory: on the Cortex-M4, 2.2 KB of stack for the
-//! fill, then at most 3.6 KB (the 256 ring values; then 264 column sums and counts and about 20
-//! bit rows of 256 px); bits 6 and 7 of the plane inside the box as scratch. Boxes wider than 256 px
-//! take the per-pixel path (bits 2–7 of the plane as scratch), same result, about 10× slower.
+//! DOCS-PLACEHOLDER
 
 use crate::refine::Difference;
-use core::ops::Range;
+use core::ops::{Add, Range, Sub};
 
 /// Below this fraction of the part's contrast an interior pixel is taken for platform (a filled
 /// hole).
 const HOLE_RATIO: f32 = 0.2;
 
-/// Bit of the mask plane marking the seed's component while one part is measured (bit 0 is the
-/// mask).
+/// Bit of the mask plane marking the seed's component on the per-pixel path (bit 0 is the mask).
 const COMPONENT: u8 = 1 << 7;
-
-/// Bit of the mask plane marking the component's ring between the two passes.
-const RING: u8 = 1 << 6;
 
 /// The margin added around the border's bounding box, px.
 const MARGIN: usize = 6;
@@ -83,6 +27,23 @@ type Bits = [u32; WORDS];
 /// An empty bit row.
 const EMPTY: Bits = [0; WORDS];
 
+/// The fields a box row holds on the bit-row path, `n` little-endian words each from byte
+/// `4·n·field` of the row: the mask's row, the component's and the ring's.
+const MASK_FIELD: usize = 0;
+/// See [`MASK_FIELD`].
+const COMP_FIELD: usize = 1;
+/// See [`MASK_FIELD`].
+const RING_FIELD: usize = 2;
+/// The number of fields.
+const FIELDS: usize = 3;
+
+/// The narrowest box measured with bit rows: its rows hold the fields (`4·FIELDS·n` bytes for
+/// `n = ⌈width/32⌉` words fit a row from 12 px on).
+const MIN_WIDTH: usize = 4 * FIELDS;
+
+/// Spans the component fill keeps at most (then raster scans restart it).
+const FILL_STACK: usize = 512;
+
 /// A rectangle of pixels `[x0, x1) × [y0, y1)`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Rect {
@@ -98,9 +59,10 @@ pub struct Rect {
 
 /// The partial-volume area centroid of the part whose border passes through `seed` (a foreground
 /// pixel), within `bbox` (the border's bounding box; a 6 px margin is added, clipped to the
-/// image). `mask` is the 0/1 plane: bits 1–7 inside the box are scratch (they must be 0 on entry,
-/// and are 0 again on return). `None` when the part has no weight, or when `seed` is outside the
-/// image, the box or the mask, or `mask` is shorter than the image (then `mask` is not touched).
+/// image). `mask` is the 0/1 plane: inside the box it is scratch while the call runs (bits 1–7
+/// must be 0 on entry), and it holds its 0/1 values again on return. `None` when the part has no
+/// weight, or when `seed` is outside the image, the box or the mask, or `mask` is shorter than the
+/// image (then `mask` is not touched).
 pub fn partial_volume_centroid<B: AsRef<[u8]>>(
     diff: &Difference<'_, B>,
     mask: &mut [u8],
@@ -123,136 +85,498 @@ pub fn partial_volume_centroid<B: AsRef<[u8]>>(
     if mask.get(seed.1 * w + seed.0).is_none_or(|v| v & 1 == 0) {
         return None;
     }
-    let rows = mark_component(mask, w, r, seed);
-    if r.x1 - r.x0 <= MAX_WIDTH {
-        bit_row_centroid(diff, mask, w, r, rows)
+    let (width, height) = (r.x1 - r.x0, r.y1 - r.y0);
+    if (MIN_WIDTH..=MAX_WIDTH).contains(&width) && height < 1 << 24 {
+        let plane = Plane::new(mask, w, r);
+        let (x, q) = (seed.0 - r.x0, seed.1 - r.y0);
+        // Every row of the box has its D from the frame's and background's rows when the last
+        // has (α = 1, and the background plane reaches that far).
+        if diff.rows(r.y1 - 1).is_some() {
+            bit_rows(&Exact { diff, x0: r.x0, x1: r.x1 }, plane, x, q)
+        } else {
+            bit_rows(&Approx { diff, x0: r.x0 }, plane, x, q)
+        }
     } else {
+        mark_component(mask, w, r, seed);
         per_pixel::centroid(diff, mask, w, r)
     }
 }
 
-/// The box's geometry as the bit-row passes see it.
-#[derive(Clone, Copy)]
-struct Shape {
-    /// Words per bit row that hold columns of the box.
-    words: usize,
+/// The bit-row path: the component from the seed at box column `x` of box row `q`, the ring's
+/// median `D`, the weights; the plane holds its mask again afterwards.
+fn bit_rows<S: Source>(src: &S, mut plane: Plane<'_>, x: usize, q: usize) -> Option<[f32; 2]> {
+    let comp = mark(&mut plane, x, q);
+    let contrast = ring_pass(src, &mut plane, comp.clone());
+    let sums = if contrast.abs() >= 1.0 {
+        weigh(src, &plane, comp, contrast)
+    } else {
+        [0.0; 3]
+    };
+    plane.restore();
+    let [sw, sx, sy] = sums;
+    let r = plane.r;
+    (sw > 0.0).then(|| [r.x0 as f32 + sx / sw, r.y0 as f32 + sy / sw])
+}
+
+/// The box in the mask plane while bit rows are measured. A box row whose fields are set up
+/// ([`Plane::init`]) holds, from its first byte, the mask's row, the component's and the ring's as
+/// [`Bits`] (`n` words each, little-endian): the mask bits of those bytes are then in the first
+/// field only, and [`Plane::restore`] puts them back.
+struct Plane<'m> {
+    mask: &'m mut [u8],
+    /// The image's width.
+    w: usize,
+    r: Rect,
+    width: usize,
+    height: usize,
+    /// Words per bit row.
+    n: usize,
     /// The valid bits of the last of them.
     last: u32,
+    /// The box rows whose fields are set up: `lo..hi`.
+    lo: usize,
+    hi: usize,
 }
 
-impl Shape {
-    fn new(width: usize) -> Self {
-        let words = width.div_ceil(32).min(WORDS);
-        let last = match width % 32 {
-            0 => u32::MAX,
-            bits => (1u32 << bits) - 1,
-        };
-        Shape { words, last }
+impl<'m> Plane<'m> {
+    fn new(mask: &'m mut [u8], w: usize, r: Rect) -> Self {
+        let width = r.x1 - r.x0;
+        Plane {
+            mask,
+            w,
+            r,
+            width,
+            height: r.y1 - r.y0,
+            n: width.div_ceil(32).min(WORDS),
+            last: match width % 32 {
+                0 => u32::MAX,
+                bits => (1u32 << bits) - 1,
+            },
+            lo: 0,
+            hi: 0,
+        }
     }
-}
 
-/// [`partial_volume_centroid`] after the component is marked in the box's rows `rows`, for a box
-/// at most [`MAX_WIDTH`] wide; leaves only the mask bit in the box.
-fn bit_row_centroid<B: AsRef<[u8]>>(
-    diff: &Difference<'_, B>,
-    mask: &mut [u8],
-    w: usize,
-    r: Rect,
-    rows: Range<usize>,
-) -> Option<[f32; 2]> {
-    // Where every image row's D comes from the frame's and background's rows (α = 1 and a full
-    // background plane: then also the rows above the last), a ring pixel's D is read anew as
-    // cheaply as it would be kept.
-    let keep = diff.height().checked_sub(1).and_then(|last| diff.rows(last)).is_none();
-    let mut values = RingValues::new(keep);
-    let contrast = mark_ring(diff, mask, w, r, rows.clone(), &mut values);
-    if contrast.abs() < 1.0 {
-        for q in rows {
-            if let Some(row) = box_row_mut(mask, w, r, q) {
-                keep_mask_bit(row);
+    /// The plane's index of box row `q`'s first byte.
+    fn start(&self, q: usize) -> usize {
+        (self.r.y0 + q) * self.w + self.r.x0
+    }
+
+    /// Field `field` of box row `q` (`EMPTY` where the row's fields are not set up).
+    #[inline]
+    fn load(&self, q: usize, field: usize) -> Bits {
+        let mut out = EMPTY;
+        if (self.lo..self.hi).contains(&q) {
+            let s = self.start(q) + 4 * self.n * field;
+            if let Some(bytes) = self.mask.get(s..s + 4 * self.n) {
+                for (o, b) in out.iter_mut().zip(bytes.chunks_exact(4)) {
+                    *o = u32::from_le_bytes(b.try_into().unwrap_or_default());
+                }
             }
         }
-        return None;
+        out
     }
-    weigh(diff, mask, w, r, rows, contrast, &mut values)
+
+    /// Sets field `field` of box row `q` (a row whose fields are set up).
+    #[inline]
+    fn store(&mut self, q: usize, field: usize, bits: &Bits) {
+        if (self.lo..self.hi).contains(&q) {
+            let s = self.start(q) + 4 * self.n * field;
+            if let Some(bytes) = self.mask.get_mut(s..s + 4 * self.n) {
+                for (b, v) in bytes.chunks_exact_mut(4).zip(bits) {
+                    b.copy_from_slice(&v.to_le_bytes());
+                }
+            }
+        }
+    }
+
+    /// Sets up the fields of box row `q` when it is next to the rows set up (or the first): the
+    /// mask's bits from the row's bytes, the others empty.
+    fn init(&mut self, q: usize) {
+        let first = self.lo == self.hi;
+        if q >= self.height || !(first || q + 1 == self.lo || q == self.hi) {
+            return;
+        }
+        let s = self.start(q);
+        let bytes = 4 * self.n;
+        let Some(row) = self.mask.get_mut(s..s + self.width) else {
+            return;
+        };
+        let m = gather(row);
+        let Some(fields) = row.get_mut(..FIELDS * bytes) else {
+            return;
+        };
+        for (k, chunk) in fields.chunks_exact_mut(4).enumerate() {
+            let v = if k < self.n { m.get(k).copied().unwrap_or(0) } else { 0 };
+            chunk.copy_from_slice(&v.to_le_bytes());
+        }
+        if first {
+            (self.lo, self.hi) = (q, q + 1);
+        } else if q + 1 == self.lo {
+            self.lo = q;
+        } else {
+            self.hi = q + 1;
+        }
+    }
+
+    /// Puts the mask's bits back into the bytes of the fields; no row is set up afterwards.
+    fn restore(&mut self) {
+        let bytes = FIELDS * 4 * self.n;
+        for q in self.lo..self.hi {
+            let m = self.load(q, MASK_FIELD);
+            let s = self.start(q);
+            if let Some(row) = self.mask.get_mut(s..s + bytes) {
+                for (k, chunk) in row.chunks_mut(8).enumerate() {
+                    let byte = m.get(k / 4).map_or(0, |&v| (v >> (8 * (k % 4))) & 0xFF);
+                    for (b, v) in chunk.iter_mut().zip(spread(byte).to_le_bytes()) {
+                        *b = v;
+                    }
+                }
+            }
+        }
+        (self.lo, self.hi) = (0, 0);
+    }
 }
 
-/// First pass: marks the ring (component eroded three times minus eroded five times) with
-/// [`RING`] in the plane and returns the median `D` over it (from a signed histogram; 0 without
-/// ring pixels). Not inlined: its histogram and [`weigh`]'s column sums need not share a stack
-/// frame.
+/// The low bit of each of 8 bytes.
+const LOW: u64 = 0x0101_0101_0101_0101;
+
+/// Bit `i` of the result is the low bit of byte `i` of `v` (the other bits of `v` 0).
+#[inline]
+fn pack(v: u64) -> u32 {
+    (v.wrapping_mul(0x0102_0408_1020_4080) >> 56) as u32
+}
+
+/// Byte `i` of the result is bit `i` of `byte` (< 256).
+#[inline]
+fn spread(byte: u32) -> u64 {
+    let bits = (u64::from(byte) * LOW) & 0x8040_2010_0804_0201;
+    ((bits + 0x7F7F_7F7F_7F7F_7F7F) >> 7) & LOW
+}
+
+/// The bytes of `chunk` (at most 8) as a little-endian word, zeros past its end.
+fn load8(chunk: &[u8]) -> u64 {
+    let mut bytes = [0u8; 8];
+    for (b, v) in bytes.iter_mut().zip(chunk) {
+        *b = *v;
+    }
+    u64::from_le_bytes(bytes)
+}
+
+/// Bit `x` of the result is bit 0 of `row[x]`, `x` < [`MAX_WIDTH`].
+fn gather(row: &[u8]) -> Bits {
+    let mut out = EMPTY;
+    let mut chunks = row.chunks_exact(32);
+    for (o, chunk) in out.iter_mut().zip(&mut chunks) {
+        let mut word = 0;
+        for (j, b) in chunk.chunks_exact(8).enumerate() {
+            word |= pack(u64::from_le_bytes(b.try_into().unwrap_or_default()) & LOW) << (8 * j);
+        }
+        *o = word;
+    }
+    let rest = chunks.remainder();
+    if let Some(o) = out.get_mut(row.len() / 32) {
+        for (j, b) in rest.chunks(8).enumerate() {
+            *o |= pack(load8(b) & LOW) << (8 * j);
+        }
+    }
+    out
+}
+
+/// The bits of word `k` of a bit row within columns `lo..=hi`.
+#[inline]
+fn range_word(k: usize, lo: usize, hi: usize) -> u32 {
+    let (a, b) = (32 * k, 32 * k + 31);
+    if hi < a || lo > b {
+        return 0;
+    }
+    let low = if lo > a { u32::MAX << (lo - a) } else { u32::MAX };
+    let high = if hi < b { u32::MAX >> (b - hi) } else { u32::MAX };
+    low & high
+}
+
+/// Whether column `x` of `bits` is set.
+#[inline]
+fn bit(bits: &Bits, x: usize) -> bool {
+    bits.get(x / 32).is_some_and(|&v| v >> (x % 32) & 1 != 0)
+}
+
+/// The run of set bits of `free` around column `x` (which is set): its first and last column.
+fn run_around(free: &Bits, x: usize) -> (usize, usize) {
+    let (i, b) = (x / 32, x % 32);
+    let word = |k: usize| free.get(k).copied().unwrap_or(0);
+    let mut k = i;
+    let mut z = !word(k) & (u32::MAX << b);
+    let right = loop {
+        if z != 0 {
+            break (32 * k + z.trailing_zeros() as usize).saturating_sub(1);
+        }
+        k += 1;
+        if k >= WORDS {
+            break MAX_WIDTH - 1;
+        }
+        z = !word(k);
+    };
+    let mut k = i;
+    let mut z = !word(k) & ((1u32 << b) - 1);
+    let left = loop {
+        if z != 0 {
+            break 32 * k + 32 - z.leading_zeros() as usize;
+        }
+        if k == 0 {
+            break 0;
+        }
+        k -= 1;
+        z = !word(k);
+    };
+    (left, right)
+}
+
+/// Marks the 8-connected component of the mask's pixel at box column `x` of box row `q` in the
+/// fields (a scanline fill over bit rows, setting up the rows it reaches); returns the box rows
+/// that hold it.
+fn mark(plane: &mut Plane<'_>, x: usize, q: usize) -> Range<usize> {
+    mark_with::<FILL_STACK>(plane, x, q)
+}
+
+/// [`mark`] with a stack of `STACK` spans: when it overflows, raster scans push the free pixels
+/// next to the component until there are none. Not inlined: its stack need not stay allocated
+/// while the centroid is measured.
 #[inline(never)]
-fn mark_ring<B: AsRef<[u8]>>(
-    diff: &Difference<'_, B>,
-    mask: &mut [u8],
-    w: usize,
-    r: Rect,
-    comp_rows: Range<usize>,
-    values: &mut RingValues,
-) -> f32 {
-    let n = Shape::new(r.x1 - r.x0).words;
+fn mark_with<const STACK: usize>(plane: &mut Plane<'_>, x: usize, q: usize) -> Range<usize> {
+    // (column, row) as `column | row << 8` (the box is at most 256 wide and 2^24 high).
+    let mut stack = [0u32; STACK];
+    let mut top = 0usize;
+    let mut rows = q..q;
+    plane.init(q);
+    if let (Some(slot), Ok(x), Ok(q)) = (stack.get_mut(0), u32::try_from(x), u32::try_from(q)) {
+        *slot = x | q << 8;
+        top = 1;
+    }
+    let mut pending = spans(plane, &mut stack, &mut top, &mut rows);
+    while pending {
+        // Spans were dropped: push the free pixels next to the component (as many as fit).
+        let mut dropped = false;
+        for q in plane.lo..plane.hi {
+            let (above, below) = (plane.load(q.wrapping_sub(1), COMP_FIELD), plane.load(q + 1, COMP_FIELD));
+            let (m, c) = (plane.load(q, MASK_FIELD), plane.load(q, COMP_FIELD));
+            let near = dilate::<1>(&or(&or(&above, &below), &c));
+            for (k, ((&m, &c), &v)) in m.iter().zip(&c).zip(&near).enumerate() {
+                let mut cand = m & !c & v;
+                while cand != 0 {
+                    let col = 32 * k as u32 + cand.trailing_zeros();
+                    cand &= cand - 1;
+                    match stack.get_mut(top) {
+                        Some(slot) => {
+                            *slot = col | (q as u32) << 8;
+                            top += 1;
+                        }
+                        None => dropped = true,
+                    }
+                }
+            }
+        }
+        if top == 0 {
+            break;
+        }
+        pending = spans(plane, &mut stack, &mut top, &mut rows) || dropped;
+    }
+    rows
+}
+
+/// The scanline fill's loop: pops spans until the stack is empty; `rows` grows to the rows
+/// marked. Returns whether a span was dropped because the stack was full.
+fn spans(plane: &mut Plane<'_>, stack: &mut [u32], top: &mut usize, rows: &mut Range<usize>) -> bool {
+    let mut overflow = false;
+    let (width, height) = (plane.width, plane.height);
+    while *top > 0 {
+        *top -= 1;
+        let Some(&entry) = stack.get(*top) else { break };
+        let (x, q) = ((entry & 0xFF) as usize, (entry >> 8) as usize);
+        let m = plane.load(q, MASK_FIELD);
+        let mut c = plane.load(q, COMP_FIELD);
+        let mut free = EMPTY;
+        for ((f, &m), &c) in free.iter_mut().zip(&m).zip(&c) {
+            *f = m & !c;
+        }
+        if !bit(&free, x) {
+            continue;
+        }
+        let (xl, xr) = run_around(&free, x);
+        for (k, c) in c.iter_mut().enumerate().take(xr / 32 + 1).skip(xl / 32) {
+            *c |= range_word(k, xl, xr);
+        }
+        plane.store(q, COMP_FIELD, &c);
+        *rows = if rows.start == rows.end {
+            q..q + 1
+        } else {
+            rows.start.min(q)..rows.end.max(q + 1)
+        };
+        let (lo, hi) = (xl.saturating_sub(1), (xr + 1).min(width - 1));
+        for nq in [q.wrapping_sub(1), q + 1] {
+            if nq >= height {
+                continue;
+            }
+            plane.init(nq);
+            let (m, c) = (plane.load(nq, MASK_FIELD), plane.load(nq, COMP_FIELD));
+            let mut carry = 0u32;
+            for k in lo / 32..=hi / 32 {
+                let f = m.get(k).copied().unwrap_or(0) & !c.get(k).copied().unwrap_or(0) & range_word(k, lo, hi);
+                let mut starts = f & !((f << 1) | carry);
+                carry = f >> 31;
+                while starts != 0 {
+                    let col = 32 * k as u32 + starts.trailing_zeros();
+                    starts &= starts - 1;
+                    match stack.get_mut(*top) {
+                        Some(slot) => {
+                            *slot = col | (nq as u32) << 8;
+                            *top += 1;
+                        }
+                        None => overflow = true,
+                    }
+                }
+            }
+        }
+    }
+    overflow
+}
+
+/// Bit `c` of the result is bit `c + S` of `x` (0 past the row's end); `S < 32`.
+#[inline]
+fn shift_down<const S: u32>(x: &Bits) -> Bits {
+    let mut out = EMPTY;
+    for (i, o) in out.iter_mut().enumerate() {
+        let cur = x.get(i).copied().unwrap_or(0);
+        let next = x.get(i + 1).copied().unwrap_or(0);
+        *o = (cur >> S) | next.checked_shl(32 - S).unwrap_or(0);
+    }
+    out
+}
+
+/// Bit `c` of the result is bit `c − S` of `x` (0 before the row's start); `S < 32`.
+#[inline]
+fn shift_up<const S: u32>(x: &Bits) -> Bits {
+    let mut out = EMPTY;
+    for (i, o) in out.iter_mut().enumerate() {
+        let cur = x.get(i).copied().unwrap_or(0);
+        let prev = i.checked_sub(1).and_then(|p| x.get(p)).copied().unwrap_or(0);
+        *o = (cur << S) | prev.checked_shr(32 - S).unwrap_or(0);
+    }
+    out
+}
+
+#[inline]
+fn and(a: &Bits, b: &Bits) -> Bits {
+    let mut out = *a;
+    for (o, &b) in out.iter_mut().zip(b) {
+        *o &= b;
+    }
+    out
+}
+
+#[inline]
+fn or(a: &Bits, b: &Bits) -> Bits {
+    let mut out = *a;
+    for (o, &b) in out.iter_mut().zip(b) {
+        *o |= b;
+    }
+    out
+}
+
+/// Horizontal erosion by the `(2K+1)`-segment (columns outside the row count as 0), `K` 2, 3 or 5.
+#[inline]
+fn erode<const K: u32>(x: &Bits) -> Bits {
+    // AND over windows from the column on: 2 columns, 4, then 5 (K = 2), 7 (K = 3) or 8 and 11
+    // (K = 5); then centred.
+    let a2 = and(x, &shift_down::<1>(x));
+    let a4 = and(&a2, &shift_down::<2>(&a2));
+    match K {
+        2 => shift_up::<2>(&and(&a4, &shift_down::<4>(x))),
+        3 => shift_up::<3>(&and(&a4, &shift_down::<3>(&a4))),
+        _ => {
+            let a8 = and(&a4, &shift_down::<4>(&a4));
+            shift_up::<5>(&and(&a8, &shift_down::<7>(&a4)))
+        }
+    }
+}
+
+/// Horizontal dilation by the `(2K+1)`-segment, `K` 1 or 2 (not clipped to the box).
+#[inline]
+fn dilate<const K: u32>(x: &Bits) -> Bits {
+    let one = or(&or(x, &shift_down::<1>(x)), &shift_up::<1>(x));
+    if K == 1 {
+        one
+    } else {
+        or(&or(&one, &shift_down::<2>(x)), &shift_up::<2>(x))
+    }
+}
+
+/// Calls `f` with the column of every set bit of `bits`, in increasing order.
+#[inline]
+fn for_each_bit(bits: &Bits, mut f: impl FnMut(usize)) {
+    for (i, &word) in bits.iter().enumerate() {
+        let mut word = word;
+        while word != 0 {
+            let col = 32 * i + word.trailing_zeros() as usize;
+            word &= word - 1;
+            f(col);
+        }
+    }
+}
+
+/// First pass: the ring (component eroded three times minus eroded five times) into the ring
+/// field of its rows, and the median `D` over it (from a signed histogram; 0 without ring
+/// pixels). Not inlined: its histogram and [`weigh`]'s column sums need not share a stack frame.
+#[inline(never)]
+fn ring_pass<S: Source>(src: &S, plane: &mut Plane<'_>, comp: Range<usize>) -> f32 {
     let mut hist = [0u16; 511];
     let mut ring_count = 0usize;
-    // The component's row q as bits (empty outside `comp_rows`).
-    let comp = |mask: &[u8], q: usize| match box_row(mask, w, r, q) {
-        Some(row) if comp_rows.contains(&q) => gather(row, 7),
-        _ => EMPTY,
+    let load = |plane: &Plane<'_>, q: usize| {
+        if comp.contains(&q) {
+            plane.load(q, COMP_FIELD)
+        } else {
+            EMPTY
+        }
     };
     // Ring rows have the component 3 rows above and below.
-    let ring_rows = comp_rows.start + 3..comp_rows.end.saturating_sub(3);
-    // The component's rows j − 5 ..= j + 5 around row j: row q in slot (q + 5) mod 11 (the slots of
-    // rows above the box stay empty).
+    let ring_rows = comp.start + 3..comp.end.saturating_sub(3);
+    // The component's rows j − 5 ..= j + 5 around row j: row q in slot (q + 5) mod 11 (the slots
+    // of rows above the box stay empty).
     let mut rows = [EMPTY; 11];
     for q in ring_rows.start.saturating_sub(5)..ring_rows.start + 5 {
         if let Some(slot) = rows.get_mut((q + 5) % 11) {
-            *slot = comp(mask, q);
+            *slot = load(plane, q);
         }
     }
     for j in ring_rows {
         if let Some(slot) = rows.get_mut((j + 10) % 11) {
-            *slot = comp(mask, j + 5);
+            *slot = load(plane, j + 5);
         }
         let row = |t: usize| rows.get((j + t) % 11).unwrap_or(&EMPTY);
         // Erosion by the (2k+1)-square: AND of the rows within k, then of the columns within k.
         let mut v3 = *row(5);
         for t in [2, 3, 4, 6, 7, 8] {
-            and_into(&mut v3, row(t));
+            v3 = and(&v3, row(t));
         }
         if v3 == EMPTY {
             continue;
         }
         let mut v5 = v3;
         for t in [0, 1, 9, 10] {
-            and_into(&mut v5, row(t));
+            v5 = and(&v5, row(t));
         }
-        let (e3, e5) = (erode::<3>(&v3, n), erode::<5>(&v5, n));
+        let (e3, e5) = (erode::<3>(&v3), erode::<5>(&v5));
         let mut ring = EMPTY;
-        for ((o, a), b) in ring.iter_mut().zip(e3).zip(e5).take(n) {
+        for ((o, a), b) in ring.iter_mut().zip(e3).zip(e5) {
             *o = a & !b;
         }
         if ring == EMPTY {
             continue;
         }
-        if let Some(plane) = box_row_mut(mask, w, r, j) {
-            scatter(plane, &ring, RING);
-        }
-        let y = r.y0 + j;
-        let rows = diff.rows(y);
-        for_each_bit(&ring, n, |col| {
-            let x = r.x0 + col;
-            let (d, bin) = match rows.and_then(|(f, b)| Some((*f.get(x)?, *b.get(x)?))) {
-                // An integer in −255..=255: its bin without the conversion back from `f32`.
-                Some((f, b)) => {
-                    let i = i32::from(f) - i32::from(b);
-                    (i as f32, (i + 255) as usize)
-                }
-                None => {
-                    let d = diff.at(x as isize, y as isize);
-                    (d, (d as i32 + 255).clamp(0, 510) as usize)
-                }
-            };
-            values.store(d);
-            if let Some(hb) = hist.get_mut(bin) {
+        plane.store(j, RING_FIELD, &ring);
+        let image_row = src.row(plane.r.y0 + j);
+        for_each_bit(&ring, |c| {
+            if let Some(hb) = hist.get_mut(src.bin(image_row, c)) {
                 *hb = hb.saturating_add(1);
             }
             ring_count += 1;
@@ -271,46 +595,53 @@ fn mark_ring<B: AsRef<[u8]>>(
     0.0
 }
 
-/// Second pass: the weighted centroid, in raster order. Row `p` of the plane is read (and left
-/// with only its mask bit) 4 rows ahead of the weights, so the ring's column sums cover rows
-/// `y − 4 ..= y + 4` when row `y` is weighed. Not inlined (see [`mark_ring`]).
+/// Second pass: the sums (Σw, Σw·x, Σw·y, box coordinates) of the weights, in raster order. Row
+/// `p` of the fields is read 4 rows ahead of the weights, so the ring's column sums cover rows
+/// `y − 4 ..= y + 4` when row `y` is weighed. Not inlined (see [`ring_pass`]).
 #[inline(never)]
-fn weigh<B: AsRef<[u8]>>(
-    diff: &Difference<'_, B>,
-    mask: &mut [u8],
-    w: usize,
-    r: Rect,
-    comp_rows: Range<usize>,
-    contrast: f32,
-    values: &mut RingValues,
-) -> Option<[f32; 2]> {
-    let shape = Shape::new(r.x1 - r.x0);
-    let n = shape.words;
-    let height = r.y1 - r.y0;
-    // f32 sums of coordinates relative to the box's corner (small numbers, so single precision
-    // keeps the centroid to about 1e-4 px; the MCU has no double-precision FPU).
+fn weigh<S: Source>(src: &S, plane: &Plane<'_>, comp: Range<usize>, contrast: f32) -> [f32; 3] {
+    let height = plane.height;
     let mut sums = [0.0f32; 3];
-    // D of the pixels of one word of a row, by bit.
-    let mut d_at = [0.0f32; 32];
     // The component's rows p − 7 ..= p (row q in slot q mod 8) and the ring's rows p − 9 ..= p
     // (slot q mod 10); the slots of rows above the component stay empty.
-    let mut comp = [EMPTY; 8];
+    let mut comp_rows = [EMPTY; 8];
     let mut rings = [EMPTY; 10];
-    let mut columns = Columns::new();
+    // The ring's values summed per column over 9 rows: column c of the box at c + 4.
+    let mut columns = [S::Col::default(); MAX_WIDTH + 8];
+    let weights = Weights {
+        contrast,
+        sign: contrast.signum(),
+    };
     // Rows with inside or band pixels: the component's, and 2 more above and below.
-    for p in comp_rows.start..(comp_rows.end + 2).min(height) + 4 {
-        let (c, ring) = match box_row_mut(mask, w, r, p) {
-            Some(plane) if comp_rows.contains(&p) => gather_and_clear(plane),
-            _ => (EMPTY, EMPTY),
+    for p in comp.start..(comp.end + 2).min(height) + 4 {
+        let (c, ring) = if comp.contains(&p) {
+            (plane.load(p, COMP_FIELD), plane.load(p, RING_FIELD))
+        } else {
+            (EMPTY, EMPTY)
         };
-        if let Some(slot) = comp.get_mut(p % 8) {
+        if let Some(slot) = comp_rows.get_mut(p % 8) {
             *slot = c;
         }
         // The column sums move on to rows p − 8 ..= p.
         if let Some(q) = p.checked_sub(9) {
-            columns.remove_row(diff, values, rings.get(q % 10).unwrap_or(&EMPTY), r, q, n);
+            let leaving = rings.get(q % 10).unwrap_or(&EMPTY);
+            if *leaving != EMPTY {
+                let image_row = src.row(plane.r.y0 + q);
+                for_each_bit(leaving, |col| {
+                    if let Some(s) = columns.get_mut(col + 4) {
+                        *s = *s - src.col(image_row, col);
+                    }
+                });
+            }
         }
-        columns.add_row(diff, values, &ring, r, p, n);
+        if ring != EMPTY {
+            let image_row = src.row(plane.r.y0 + p);
+            for_each_bit(&ring, |col| {
+                if let Some(s) = columns.get_mut(col + 4) {
+                    *s = *s + src.col(image_row, col);
+                }
+            });
+        }
         if let Some(slot) = rings.get_mut(p % 10) {
             *slot = ring;
         }
@@ -318,186 +649,92 @@ fn weigh<B: AsRef<[u8]>>(
             continue;
         };
         // Inside = eroded twice, band = dilated twice minus inside: rows y − 2 ..= y + 2.
-        let mut v2 = *comp.get((y + 6) % 8).unwrap_or(&EMPTY);
+        let mut v2 = *comp_rows.get((y + 6) % 8).unwrap_or(&EMPTY);
         let mut grown = v2;
         for k in 7..11 {
-            let row = comp.get((y + k) % 8).unwrap_or(&EMPTY);
-            for ((a, o), b) in v2.iter_mut().zip(grown.iter_mut()).zip(row).take(n) {
-                *a &= b;
-                *o |= b;
-            }
+            let row = comp_rows.get((y + k) % 8).unwrap_or(&EMPTY);
+            v2 = and(&v2, row);
+            grown = or(&grown, row);
         }
         if grown == EMPTY {
             continue;
         }
-        let inside = erode::<2>(&v2, n);
-        let mut band = dilate2(&grown, shape);
-        for (b, s) in band.iter_mut().zip(inside).take(n) {
-            *b &= !s;
-        }
-        let yy = r.y0 + y;
-        let image_rows = diff.rows(yy);
-        let mut slide = Slide::default();
-        for (i, (&si, &bi)) in inside.iter().zip(&band).enumerate().take(n) {
-            let word = si | bi;
-            if word == 0 {
-                continue;
-            }
-            // D of the word's pixels first (of all between its first and last: one loop), then
-            // the weights (no call between the sums).
-            let (lo, hi) = (word.trailing_zeros() as usize, 32 - word.leading_zeros() as usize);
-            if let Some(span) = d_at.get_mut(lo..hi) {
-                d_span(diff, image_rows, r.x0 + 32 * i + lo, yy, span);
-            }
-            let ones = at_least_hole_ratio(&d_at, si, contrast);
-            let row = RowWeights {
-                contrast,
-                y: y as f32,
-                first: 32 * i,
+        let inside = erode::<2>(&v2);
+        let mut band = dilate::<2>(&grown);
+        for (i, (b, &s)) in band.iter_mut().zip(&inside).enumerate() {
+            let valid = match i.cmp(&(plane.n - 1)) {
+                core::cmp::Ordering::Less => u32::MAX,
+                core::cmp::Ordering::Equal => plane.last,
+                core::cmp::Ordering::Greater => 0,
             };
-            sums = row.add(sums, &d_at, [si, bi, ones], &mut slide, &columns);
+            *b &= !s & valid;
         }
+        let image_row = src.row(plane.r.y0 + y);
+        sums = weights.row(src, image_row, y, &inside, &band, &columns, sums);
     }
-    let [sw, sx, sy] = sums;
-    (sw > 0.0).then(|| [r.x0 as f32 + sx / sw, r.y0 as f32 + sy / sw])
+    sums
 }
 
-/// The bits of `inside` (a word's inside pixels) whose `d_at[bit] / contrast ≥ HOLE_RATIO`: the
-/// inside pixels that weigh 1. Division by `contrast` is monotonic, so when the pixel of the
-/// least `D · sign(contrast)` from the first inside pixel to the last passes, all pass (one
-/// reduction, no branch a pixel); else pixel by pixel.
-#[inline]
-fn at_least_hole_ratio(d_at: &[f32; 32], inside: u32, contrast: f32) -> u32 {
-    let (lo, hi) = (inside.trailing_zeros() as usize, 32 - inside.leading_zeros() as usize);
-    let sign = contrast.signum();
-    // `sign` is ±1: the products are exact.
-    // (A select rather than `f32::min`: D is never NaN, and the compiler makes it one vector
-    // instruction.)
-    let least = d_at
-        .get(lo..hi)
-        .unwrap_or(&[])
-        .iter()
-        .fold(f32::INFINITY, |m, &d| if d * sign < m { d * sign } else { m });
-    if (least * sign) / contrast >= HOLE_RATIO {
-        return inside;
-    }
-    let mut ones = 0u32;
-    let mut bits = inside;
-    while bits != 0 {
-        let bit = bits.trailing_zeros();
-        bits &= bits - 1;
-        let d = d_at.get(bit as usize).copied().unwrap_or(0.0);
-        ones |= u32::from(d / contrast >= HOLE_RATIO) << bit;
-    }
-    ones
-}
-
-/// What the weights of one row's pixels depend on, besides `D`.
-struct RowWeights {
+/// What the weights depend on besides `D` and the ring's column sums.
+struct Weights {
     contrast: f32,
-    /// The row in the box.
-    y: f32,
-    /// The column of bit 0 of the word.
-    first: usize,
+    /// The contrast's sign, ±1.
+    sign: f32,
 }
 
-impl RowWeights {
-    /// `sums` (Σw, Σw·x, Σw·y) plus weight 1 for each pixel of `run` (bits of the word), the
-    /// same bits as adding them one by one in increasing column: at once when the sums are
-    /// sure to stay exact, else one by one.
-    #[inline]
-    fn add_ones(&self, sums: [f32; 3], run: u32) -> [f32; 3] {
-        self.add_ones_at_once(sums, run).unwrap_or_else(|| {
-            let [mut sw, mut sx, mut sy] = sums;
-            let mut bits = run;
-            while bits != 0 {
-                let col = self.first + bits.trailing_zeros() as usize;
-                bits &= bits - 1;
-                sw += 1.0;
-                sx += col as u32 as f32;
-                sy += self.y;
-            }
-            [sw, sx, sy]
-        })
-    }
-
-    /// [`Self::add_ones`] with one addition per sum, `None` when that might round differently.
-    #[inline]
-    fn add_ones_at_once(&self, sums: [f32; 3], run: u32) -> Option<[f32; 3]> {
-        // The number of pixels and the sum of their bits' indices.
-        let low = run.trailing_zeros();
-        let span = run.checked_shr(low).unwrap_or(0);
-        let (count, bit_sum) = if span & span.wrapping_add(1) == 0 {
-            // Columns low .. low + count.
-            let count = span.count_ones();
-            (count, count * low + count * count.saturating_sub(1) / 2)
-        } else {
-            let bit_sum = (run & 0xAAAA_AAAA).count_ones()
-                + 2 * (run & 0xCCCC_CCCC).count_ones()
-                + 4 * (run & 0xF0F0_F0F0).count_ones()
-                + 8 * (run & 0xFF00_FF00).count_ones()
-                + 16 * (run & 0xFFFF_0000).count_ones();
-            (run.count_ones(), bit_sum)
-        };
-        let cols = u32::try_from(self.first)
-            .ok()?
-            .checked_mul(count)?
-            .checked_add(bit_sum)?;
-        let [sw, sx, sy] = sums;
-        Some([
-            exact_sum(sw, count as f32)?,
-            exact_sum(sx, exact_integer(cols)?)?,
-            // y is an integer and count ≤ 32: the product is exact when it is below 2^24.
-            exact_sum(sy, exact_integer_f32(self.y * count as f32)?)?,
-        ])
-    }
-
-    /// `sums` (Σw, Σw·x, Σw·y) plus the weights of the word's inside and band pixels, in
-    /// increasing column; `d_at[bit]` is `D` of the pixel of `bit`, `ones` the inside pixels of
-    /// weight 1 (their runs between the other pixels are added at once). Not inlined, so the
-    /// sums stay in registers.
+impl Weights {
+    /// `sums` plus the weights of box row `y`'s inside and band pixels, in increasing column.
+    /// Inside pixels come in runs between band pixels (next to an inside pixel is an inside or a
+    /// band pixel); a run whose pixels all pass the hole test is added at once.
     #[inline(never)]
-    fn add(
+    fn row<S: Source>(
         &self,
+        src: &S,
+        image_row: S::Row,
+        y: usize,
+        inside: &Bits,
+        band: &Bits,
+        columns: &[S::Col; MAX_WIDTH + 8],
         sums: [f32; 3],
-        d_at: &[f32; 32],
-        [inside, band, ones]: [u32; 3],
-        slide: &mut Slide,
-        columns: &Columns,
     ) -> [f32; 3] {
         let [mut sw, mut sx, mut sy] = sums;
-        let contrast = self.contrast;
-        let sign = contrast.signum();
-        let mut bits = inside | band;
-        // The pixels weighed one by one.
-        let single = bits & !ones;
-        while bits != 0 {
-            let next = bits & single;
-            let lowest = next & next.wrapping_neg();
-            // The pixels of weight 1 before the next one weighed alone (all when there is none).
-            let run = bits & lowest.wrapping_sub(1);
-            if run != 0 {
-                [sw, sx, sy] = self.add_ones([sw, sx, sy], run);
-                bits &= !run;
-            }
-            if lowest == 0 {
-                break;
-            }
-            bits &= !lowest;
-            let bit = lowest.trailing_zeros();
-            let col = self.first + bit as usize;
-            let d = d_at.get(bit as usize).copied().unwrap_or(0.0);
-            let weight = if inside & lowest != 0 {
-                // Inside counts 1, unless the pixel looks like the platform: a small hole or a
-                // narrow gap that the mask's closing filled. Printed labels keep at least a third
-                // of the part's contrast, holes keep none. (Here the ratio is below
-                // HOLE_RATIO: the others are in `ones`.)
-                (d / contrast).clamp(0.0, 1.0)
-            } else if d * sign > 0.0 {
+        let yf = y as f32;
+        let (contrast, sign) = (self.contrast, self.sign);
+        // The window sum of the last band pixel's column, and that column plus 1 (0: none).
+        let mut window = S::Col::default();
+        let mut next = 0usize;
+        // The column after the last band pixel.
+        let mut after = 0usize;
+        for (i, &word) in band.iter().enumerate() {
+            let mut bits = word;
+            while bits != 0 {
+                let c = 32 * i + bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                if c > after && bit(inside, after) {
+                    [sw, sx, sy] = self.inside_run(src, image_row, after..c, y, [sw, sx, sy]);
+                }
+                after = c + 1;
+                // The ring's values within 4 columns (padded: columns c .. c + 9).
+                if next != 0 && c == next {
+                    if let (Some(&enter), Some(&leave)) = (columns.get(c + 8), columns.get(c - 1)) {
+                        window = window + enter - leave;
+                    }
+                } else {
+                    window = columns
+                        .get(c..c + 9)
+                        .unwrap_or(&[])
+                        .iter()
+                        .fold(S::Col::default(), |a, &s| a + s);
+                }
+                next = c + 1;
+                let d = src.d(image_row, c);
+                // A D of the other sign than the contrast weighs 0.
+                if !(d * sign > 0.0) {
+                    continue;
+                }
                 // The local contrast: mean D of the ring pixels within 4 px (shading across the
-                // part changes it from one side to the other), else the part's median. (It has
-                // the contrast's sign, so a D of the other sign weighs 0.)
-                let (sum, count) = slide.around(col, columns);
+                // part changes it from one side to the other), else the part's median.
+                let (sum, count) = S::split(window);
                 let mut local = contrast;
                 if count > 0 {
                     // At least 1 in size, of the contrast's sign (`sign` is ±1: exact).
@@ -506,33 +743,121 @@ impl RowWeights {
                         local = mean;
                     }
                 }
-                (d / local).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            if weight > 0.0 {
-                sw += weight;
-                sx += weight * col as u32 as f32;
-                sy += weight * self.y;
+                let weight = (d / local).clamp(0.0, 1.0);
+                if weight > 0.0 {
+                    sw += weight;
+                    sx += weight * c as f32;
+                    sy += weight * yf;
+                }
             }
         }
         [sw, sx, sy]
     }
+
+    /// `sums` plus the weights of the inside pixels `cols` of box row `y`: 1, unless the pixel
+    /// looks like the platform (a small hole or a narrow gap that the mask's closing filled;
+    /// printed labels keep at least a third of the part's contrast, holes keep none).
+    #[inline]
+    fn inside_run<S: Source>(
+        &self,
+        src: &S,
+        image_row: S::Row,
+        cols: Range<usize>,
+        y: usize,
+        sums: [f32; 3],
+    ) -> [f32; 3] {
+        let (contrast, sign) = (self.contrast, self.sign);
+        // Division by the contrast is monotonic: when the least `D · sign` passes, all do.
+        let least = src.least(image_row, cols.clone(), sign);
+        if (least * sign) / contrast >= HOLE_RATIO {
+            return add_ones(sums, cols, y);
+        }
+        let mut sums = sums;
+        let mut ones = cols.start;
+        for c in cols.clone() {
+            let ratio = src.d(image_row, c) / contrast;
+            if ratio >= HOLE_RATIO {
+                continue;
+            }
+            sums = add_ones(sums, ones..c, y);
+            ones = c + 1;
+            let weight = ratio.clamp(0.0, 1.0);
+            if weight > 0.0 {
+                let [sw, sx, sy] = sums;
+                sums = [sw + weight, sx + weight * c as f32, sy + weight * y as f32];
+            }
+        }
+        add_ones(sums, ones..cols.end, y)
+    }
+}
+
+/// `sums` (Σw, Σw·x, Σw·y) plus weight 1 for each pixel of columns `cols` of box row `y`: the
+/// same bits as adding them one by one in increasing column.
+#[inline]
+fn add_ones(sums: [f32; 3], cols: Range<usize>, y: usize) -> [f32; 3] {
+    let Ok(count) = u32::try_from(cols.len()) else {
+        return sums;
+    };
+    if count == 0 {
+        return sums;
+    }
+    let first = u32::try_from(cols.start).unwrap_or(u32::MAX);
+    let y = u32::try_from(y).unwrap_or(u32::MAX);
+    let [sw, sx, sy] = sums;
+    [
+        add_sequence(sw, 1, 0, count),
+        add_sequence(sx, first, 1, count),
+        add_sequence(sy, y, 0, count),
+    ]
+}
+
+/// `s` plus the `count` integers `first + step·k` (`k = 0, 1, …`) one by one in `f32`: at once as
+/// far as none of the additions rounds ([`exact_sum`]), the one that does on its own.
+fn add_sequence(s: f32, first: u32, step: u32, count: u32) -> f32 {
+    // The sum of the first `k` terms (exact: below 2^64).
+    let terms = |first: u32, k: u32| {
+        let (first, k, step) = (u64::from(first), u64::from(k), u64::from(step));
+        first * k + step * (k * k.saturating_sub(1) / 2)
+    };
+    let at_once = |s: f32, t: u64| exact_integer(t).and_then(|t| exact_sum(s, t));
+    let (mut s, mut first, mut count) = (s, first, count);
+    while count > 0 {
+        if let Some(total) = at_once(s, terms(first, count)) {
+            return total;
+        }
+        // The most terms that go at once (none at least, when `s` is a sum that rounds on its
+        // own): a bisection, the test is monotonic in the number of terms.
+        let (mut lo, mut hi) = (0u32, count);
+        if at_once(s, 0).is_none() {
+            hi = 1;
+        }
+        while hi - lo > 1 {
+            let mid = lo + (hi - lo) / 2;
+            if at_once(s, terms(first, mid)).is_some() {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        if let Some(part) = at_once(s, terms(first, lo)) {
+            s = part;
+        }
+        // The next term alone (it rounds, or is the first of a new binade).
+        let next = first.saturating_add(step.saturating_mul(lo));
+        s += next as f32;
+        first = next.saturating_add(step);
+        count -= lo + 1;
+    }
+    s
 }
 
 /// Below this, every integer is an `f32`.
 const EXACT: f32 = 16_777_216.0;
 
-/// `v` as an `f32` when that is exact.
+/// `v` as an `f32` when that is exact (at most 2^24).
 #[inline]
-fn exact_integer(v: u32) -> Option<f32> {
+fn exact_integer(v: u64) -> Option<f32> {
     (v <= 1 << 24).then_some(v as f32)
-}
-
-/// `v` (an integer-valued product) when it is below 2^24, so that it was computed exactly.
-#[inline]
-fn exact_integer_f32(v: f32) -> Option<f32> {
-    (v < EXACT).then_some(v)
 }
 
 /// `s + t` for `s ≥ 0` and an integer `t ≥ 0` that stands for several integer terms added to `s`
@@ -552,212 +877,168 @@ fn exact_sum(s: f32, t: f32) -> Option<f32> {
     (same_binade || s as u32 as f32 == s).then_some(total)
 }
 
-/// The frame's and the background's image row (see [`Difference::rows`]), when `D` is their
-/// difference.
-type ImageRows<'a> = Option<(&'a [u8], &'a [u8])>;
-
-/// `D` at column `x` of image row `y` whose [`Difference::rows`] are `rows`: the value of
-/// [`Difference::at`], from the rows when there are.
-#[inline]
-fn d_pixel<B: AsRef<[u8]>>(diff: &Difference<'_, B>, rows: ImageRows<'_>, x: usize, y: usize) -> f32 {
-    match rows.and_then(|(f, b)| Some((f.get(x)?, b.get(x)?))) {
-        // Both exact integers, so the difference is exact: the same `f32` as `at`'s.
-        Some((&f, &b)) => (i32::from(f) - i32::from(b)) as f32,
-        None => diff.at(x as isize, y as isize),
-    }
+/// Where `D` comes from: the frame's and background's image rows ([`Exact`], `α = 1`: integers)
+/// or [`Difference::at`] ([`Approx`]). Columns are the box's.
+trait Source {
+    /// What a row's values are read from.
+    type Row: Copy;
+    /// A sum of ring values: their `D` and how many.
+    type Col: Copy + Default + Add<Output = Self::Col> + Sub<Output = Self::Col>;
+    /// Image row `y`.
+    fn row(&self, y: usize) -> Self::Row;
+    /// `D` at column `c`: the value of [`Difference::at`].
+    fn d(&self, row: Self::Row, c: usize) -> f32;
+    /// The signed histogram's bin of `D` at column `c`, `D + 255` clamped to 0..=510.
+    fn bin(&self, row: Self::Row, c: usize) -> usize;
+    /// The ring value at column `c`.
+    fn col(&self, row: Self::Row, c: usize) -> Self::Col;
+    /// The sum of `D` and the count of a sum of ring values.
+    fn split(col: Self::Col) -> (f32, u32);
+    /// The least `D · sign` over the columns `cols` (not empty), or a value that is not above 0
+    /// when it is not above 0.
+    fn least(&self, row: Self::Row, cols: Range<usize>, sign: f32) -> f32;
 }
 
-/// `D` of columns `x .. x + out.len()` of image row `y` into `out`, the values of
-/// [`Difference::at`]: one loop over `rows` (which the compiler vectorises) when they hold the
-/// columns, else pixel by pixel.
-#[inline]
-fn d_span<B: AsRef<[u8]>>(diff: &Difference<'_, B>, rows: ImageRows<'_>, x: usize, y: usize, out: &mut [f32]) {
-    let end = x + out.len();
-    if let Some((f, b)) = rows.and_then(|(f, b)| Some((f.get(x..end)?, b.get(x..end)?))) {
-        for ((o, &f), &b) in out.iter_mut().zip(f).zip(b) {
-            *o = (i32::from(f) - i32::from(b)) as f32;
+/// `D` from the frame's and background's rows ([`Difference::rows`]): integers in −255..=255.
+struct Exact<'d, 'a, B> {
+    diff: &'d Difference<'a, B>,
+    x0: usize,
+    x1: usize,
+}
+
+impl<'a, B: AsRef<[u8]>> Source for Exact<'_, 'a, B> {
+    /// The box's columns of the frame's and the background's row.
+    type Row = (&'a [u8], &'a [u8]);
+    /// `128·ΣD + count` (counts are at most 81, |ΣD| at most 81·255).
+    type Col = i32;
+
+    #[inline]
+    fn row(&self, y: usize) -> Self::Row {
+        self.diff
+            .rows(y)
+            .and_then(|(f, b)| Some((f.get(self.x0..self.x1)?, b.get(self.x0..self.x1)?)))
+            .unwrap_or((&[], &[]))
+    }
+
+    #[inline]
+    fn d(&self, (f, b): Self::Row, c: usize) -> f32 {
+        match (f.get(c), b.get(c)) {
+            // Both exact integers, so the difference is exact: the same `f32` as `at`'s.
+            (Some(&f), Some(&b)) => (i32::from(f) - i32::from(b)) as f32,
+            _ => 0.0,
         }
-    } else {
-        for (o, col) in out.iter_mut().zip(x..) {
-            *o = diff.at(col as isize, y as isize);
+    }
+
+    #[inline]
+    fn bin(&self, (f, b): Self::Row, c: usize) -> usize {
+        match (f.get(c), b.get(c)) {
+            (Some(&f), Some(&b)) => (i32::from(f) - i32::from(b) + 255) as usize,
+            _ => 255,
         }
     }
-}
 
-/// Row `q` of the box in the plane.
-fn box_row(mask: &[u8], w: usize, r: Rect, q: usize) -> Option<&[u8]> {
-    let start = (r.y0 + q) * w + r.x0;
-    mask.get(start..start + (r.x1 - r.x0))
-}
-
-/// Row `q` of the box in the plane, mutable.
-fn box_row_mut(mask: &mut [u8], w: usize, r: Rect, q: usize) -> Option<&mut [u8]> {
-    let start = (r.y0 + q) * w + r.x0;
-    mask.get_mut(start..start + (r.x1 - r.x0))
-}
-
-#[inline]
-fn and_into(acc: &mut Bits, row: &Bits) {
-    for (a, b) in acc.iter_mut().zip(row) {
-        *a &= b;
-    }
-}
-
-/// Horizontal erosion by the `(2K+1)`-segment (columns outside the row count as 0); `K < 32`.
-fn erode<const K: u32>(src: &Bits, n: usize) -> Bits {
-    let mut out = EMPTY;
-    let mut prev = 0u32;
-    for (i, o) in out.iter_mut().enumerate().take(n) {
-        let cur = src.get(i).copied().unwrap_or(0);
-        let next = src.get(i + 1).copied().unwrap_or(0);
-        let mut acc = cur;
-        for s in 1..=K {
-            acc &= ((cur << s) | (prev >> (32 - s))) & ((cur >> s) | (next << (32 - s)));
+    #[inline]
+    fn col(&self, (f, b): Self::Row, c: usize) -> i32 {
+        match (f.get(c), b.get(c)) {
+            (Some(&f), Some(&b)) => 128 * (i32::from(f) - i32::from(b)) + 1,
+            _ => 0,
         }
-        *o = acc;
-        prev = cur;
     }
-    out
-}
 
-/// Horizontal dilation by the 5-segment, clipped to the box.
-#[inline]
-fn dilate2(src: &Bits, shape: Shape) -> Bits {
-    let n = shape.words;
-    let mut out = EMPTY;
-    let mut prev = 0u32;
-    for (i, o) in out.iter_mut().enumerate().take(n) {
-        let cur = src.get(i).copied().unwrap_or(0);
-        let next = if i + 1 < n {
-            src.get(i + 1).copied().unwrap_or(0)
-        } else {
-            0
+    #[inline]
+    fn split(col: i32) -> (f32, u32) {
+        ((col >> 7) as f32, (col & 127) as u32)
+    }
+
+    /// The least of `D · sign` where it is positive, else 0: the minimum of the bytes' saturating
+    /// difference (which the compiler vectorises).
+    #[inline]
+    fn least(&self, (f, b): Self::Row, cols: Range<usize>, sign: f32) -> f32 {
+        let (Some(f), Some(b)) = (f.get(cols.clone()), b.get(cols)) else {
+            return 0.0;
         };
-        let left = (cur << 1) | (prev >> 31) | (cur << 2) | (prev >> 30);
-        let right = (cur >> 1) | (next << 31) | (cur >> 2) | (next << 30);
-        *o = cur | left | right;
-        if i + 1 == n {
-            *o &= shape.last;
-        }
-        prev = cur;
-    }
-    out
-}
-
-/// Calls `f` with the column of every set bit of the first `n` words of `bits`, in increasing
-/// order.
-#[inline]
-fn for_each_bit(bits: &[u32], n: usize, mut f: impl FnMut(usize)) {
-    for (i, &word) in bits.iter().enumerate().take(n) {
-        let mut word = word;
-        while word != 0 {
-            let col = 32 * i + word.trailing_zeros() as usize;
-            word &= word - 1;
-            f(col);
-        }
+        let (hi, lo) = if sign > 0.0 { (f, b) } else { (b, f) };
+        hi.iter()
+            .zip(lo)
+            .fold(u8::MAX, |m, (&h, &l)| m.min(h.saturating_sub(l))) as f32
     }
 }
 
-/// The low bit of each of 8 bytes.
-const LOW: u64 = 0x0101_0101_0101_0101;
-
-/// Bit `i` of the result is the low bit of byte `i` of `v` (the other bits of `v` 0).
-#[inline]
-fn pack(v: u64) -> u32 {
-    (v.wrapping_mul(0x0102_0408_1020_4080) >> 56) as u32
+/// `D` through [`Difference::at`] (`α < 1`, or a background plane that ends within the box).
+struct Approx<'d, 'a, B> {
+    diff: &'d Difference<'a, B>,
+    x0: usize,
 }
 
-/// The bytes of `chunk` (at most 8) as a little-endian word, zeros past its end.
-fn load8(chunk: &[u8]) -> u64 {
-    let mut bytes = [0u8; 8];
-    for (b, v) in bytes.iter_mut().zip(chunk) {
-        *b = *v;
-    }
-    u64::from_le_bytes(bytes)
+/// A sum of `f32` ring values and their count.
+#[derive(Clone, Copy, Default)]
+struct FloatSum {
+    sum: f32,
+    count: u32,
 }
 
-/// Bit `x` of the result is bit `bit` of `row[x]`, `x` < [`MAX_WIDTH`]. (Chunks of 8 bytes without
-/// the bit, as most of a box's are, cost a test.)
-fn gather(row: &[u8], bit: u32) -> Bits {
-    let mut out = EMPTY;
-    let mut chunks = row.chunks_exact(8);
-    let mut k = 0usize;
-    for chunk in &mut chunks {
-        if let Ok(bytes) = <[u8; 8]>::try_from(chunk) {
-            let v = (u64::from_le_bytes(bytes) >> bit) & LOW;
-            if v != 0 {
-                if let Some(word) = out.get_mut(k / 4) {
-                    *word |= pack(v) << (8 * (k % 4));
-                }
-            }
+impl Add for FloatSum {
+    type Output = Self;
+    #[inline]
+    fn add(self, o: Self) -> Self {
+        FloatSum {
+            sum: self.sum + o.sum,
+            count: self.count + o.count,
         }
-        k += 1;
     }
-    if let Some(word) = out.get_mut(k / 4) {
-        *word |= pack((load8(chunks.remainder()) >> bit) & LOW) << (8 * (k % 4));
-    }
-    out
 }
 
-/// [`COMPONENT`] and [`RING`] of `row` as bit rows (see [`gather`]); the row's bytes keep only
-/// the mask bit. (Chunks of 8 bytes with only mask bits cost a test.)
-fn gather_and_clear(row: &mut [u8]) -> (Bits, Bits) {
-    let (mut comp, mut ring) = (EMPTY, EMPTY);
-    let mut put = |k: usize, v: u64| {
-        if let (Some(c), Some(g)) = (comp.get_mut(k / 4), ring.get_mut(k / 4)) {
-            *c |= pack((v >> 7) & LOW) << (8 * (k % 4));
-            *g |= pack((v >> 6) & LOW) << (8 * (k % 4));
+impl Sub for FloatSum {
+    type Output = Self;
+    /// An empty sum restarts from an exact 0.
+    #[inline]
+    fn sub(self, o: Self) -> Self {
+        let count = self.count.saturating_sub(o.count);
+        FloatSum {
+            sum: if count == 0 { 0.0 } else { self.sum - o.sum },
+            count,
         }
-    };
-    let mut chunks = row.chunks_exact_mut(8);
-    let mut k = 0usize;
-    for chunk in &mut chunks {
-        if let Ok(bytes) = <&mut [u8; 8]>::try_from(chunk) {
-            let v = u64::from_le_bytes(*bytes);
-            if v & !LOW != 0 {
-                put(k, v);
-                *bytes = (v & LOW).to_le_bytes();
-            }
-        }
-        k += 1;
     }
-    let rest = chunks.into_remainder();
-    put(k, load8(rest));
-    for b in rest {
-        *b &= 1;
-    }
-    (comp, ring)
 }
 
-/// Sets `flag` in the bytes of `row` whose bit in `bits` is set (8 bytes a step, only where
-/// `bits` has any: ring rows are sparse).
-fn scatter(row: &mut [u8], bits: &Bits, flag: u8) {
-    for (i, &word) in bits.iter().enumerate() {
-        let mut rest = word;
-        while rest != 0 {
-            // The byte of the bit row with the lowest set bit: bytes 8k .. 8k + 8 of `row`.
-            let b = rest.trailing_zeros() / 8;
-            let byte = (rest >> (8 * b)) & 0xFF;
-            rest &= !(0xFF << (8 * b));
-            // Byte j of `set` is `flag` when bit j of `byte` is set.
-            let high = (((byte as u64 * LOW) & 0x8040_2010_0804_0201) + 0x7F7F_7F7F_7F7F_7F7F) & 0x8080_8080_8080_8080;
-            let set = (high >> 7) * flag as u64;
-            let start = 8 * (4 * i + b as usize);
-            match row.get_mut(start..start + 8).map(<&mut [u8; 8]>::try_from) {
-                Some(Ok(bytes)) => *bytes = (u64::from_le_bytes(*bytes) | set).to_le_bytes(),
-                // The row's last bytes.
-                _ => {
-                    for (v, m) in row
-                        .get_mut(start..)
-                        .unwrap_or(&mut [])
-                        .iter_mut()
-                        .zip(set.to_le_bytes())
-                    {
-                        *v |= m;
-                    }
-                }
-            }
+impl<B: AsRef<[u8]>> Source for Approx<'_, '_, B> {
+    /// The image row.
+    type Row = usize;
+    type Col = FloatSum;
+
+    #[inline]
+    fn row(&self, y: usize) -> usize {
+        y
+    }
+
+    #[inline]
+    fn d(&self, y: usize, c: usize) -> f32 {
+        self.diff.at((self.x0 + c) as isize, y as isize)
+    }
+
+    #[inline]
+    fn bin(&self, y: usize, c: usize) -> usize {
+        (self.d(y, c) as i32 + 255).clamp(0, 510) as usize
+    }
+
+    #[inline]
+    fn col(&self, y: usize, c: usize) -> FloatSum {
+        FloatSum {
+            sum: self.d(y, c),
+            count: 1,
         }
+    }
+
+    #[inline]
+    fn split(col: FloatSum) -> (f32, u32) {
+        (col.sum, col.count)
+    }
+
+    fn least(&self, y: usize, cols: Range<usize>, sign: f32) -> f32 {
+        // `sign` is ±1: the products are exact. (A select rather than `f32::min`: D is never
+        // NaN.)
+        cols.map(|c| self.d(y, c) * sign)
+            .fold(f32::INFINITY, |m, v| if v < m { v } else { m })
     }
 }
 
@@ -774,206 +1055,6 @@ fn keep_mask_bit(row: &mut [u8]) {
     }
 }
 
-/// Capacity of [`RingValues`].
-const RING_VALUES: usize = 256;
-
-/// `D` of consecutive ring pixels (numbered in raster order), so that each is read from the
-/// difference image once: the first pass stores the first [`RING_VALUES`]; the second reads each
-/// pixel's value twice, when its row enters the column sums and when it leaves them, and stores
-/// the values it has to read anew while there is room. Not kept at all (each read when asked
-/// for) when `D` comes from the image's rows, as cheap as a kept value.
-struct RingValues {
-    /// Whether values are kept at all (else each is read when asked for).
-    keep: bool,
-    values: [f32; RING_VALUES],
-    /// The pixels stored, `[from, to)` (pixel `k` in slot `k mod RING_VALUES`).
-    from: usize,
-    to: usize,
-    /// The next pixel to enter the sums, and to leave them.
-    entering: usize,
-    leaving: usize,
-}
-
-impl RingValues {
-    fn new(keep: bool) -> Self {
-        RingValues {
-            keep,
-            values: [0.0; RING_VALUES],
-            from: 0,
-            to: 0,
-            entering: 0,
-            leaving: 0,
-        }
-    }
-
-    /// First pass: the next ring pixel's `D`.
-    fn store(&mut self, d: f32) {
-        if !self.keep {
-            return;
-        }
-        if let Some(slot) = self.values.get_mut(self.to) {
-            *slot = d;
-            self.to += 1;
-        }
-    }
-
-    /// `D` of the next pixel to enter the sums (`read` when it is not stored).
-    #[inline]
-    fn enter(&mut self, read: impl FnOnce() -> f32) -> f32 {
-        if !self.keep {
-            return read();
-        }
-        let k = self.entering;
-        self.entering += 1;
-        // Pixels leave in the order they enter, so `from <= k` here.
-        if k < self.to {
-            return self.values.get(k % RING_VALUES).copied().unwrap_or(0.0);
-        }
-        let d = read();
-        // Stored while the stored pixels stay consecutive and fit, or afresh once none is.
-        if self.from == self.to {
-            (self.from, self.to) = (k, k);
-        }
-        if k == self.to && k - self.from < RING_VALUES {
-            if let Some(slot) = self.values.get_mut(k % RING_VALUES) {
-                *slot = d;
-                self.to = k + 1;
-            }
-        }
-        d
-    }
-
-    /// `D` of ring pixel `k` when it is stored: a pixel between entering and leaving the sums
-    /// is, unless it was read when there was no room. (For the tests.)
-    #[cfg(test)]
-    fn peek(&self, k: usize) -> Option<f32> {
-        if (self.from..self.to).contains(&k) {
-            self.values.get(k % RING_VALUES).copied()
-        } else {
-            None
-        }
-    }
-
-    /// `D` of the next pixel to leave the sums (`read` when it is not stored).
-    #[inline]
-    fn leave(&mut self, read: impl FnOnce() -> f32) -> f32 {
-        if !self.keep {
-            return read();
-        }
-        let k = self.leaving;
-        self.leaving += 1;
-        // While any pixel is stored, `k <= from`.
-        if k == self.from && k < self.to {
-            self.from += 1;
-            return self.values.get(k % RING_VALUES).copied().unwrap_or(0.0);
-        }
-        read()
-    }
-}
-
-/// The ring's `D` summed per column over 9 consecutive rows, and the number of ring pixels in each
-/// sum; column `c` of the box at index `c + 4` (4 empty columns each side).
-struct Columns {
-    sum: [f32; MAX_WIDTH + 8],
-    count: [u8; MAX_WIDTH + 8],
-}
-
-impl Columns {
-    fn new() -> Self {
-        Columns {
-            sum: [0.0; MAX_WIDTH + 8],
-            count: [0; MAX_WIDTH + 8],
-        }
-    }
-
-    /// Adds the ring pixels `ring` of box row `q`.
-    fn add_row<B: AsRef<[u8]>>(
-        &mut self,
-        diff: &Difference<'_, B>,
-        values: &mut RingValues,
-        ring: &Bits,
-        r: Rect,
-        q: usize,
-        n: usize,
-    ) {
-        let y = r.y0 + q;
-        let rows = diff.rows(y);
-        for_each_bit(ring, n, |col| {
-            let d = values.enter(|| d_pixel(diff, rows, r.x0 + col, y));
-            if let (Some(s), Some(c)) = (self.sum.get_mut(col + 4), self.count.get_mut(col + 4)) {
-                *s += d;
-                // At most 9 (one a row).
-                *c = c.saturating_add(1);
-            }
-        });
-    }
-
-    /// Removes the ring pixels `ring` of box row `q` (the oldest row in the sums).
-    fn remove_row<B: AsRef<[u8]>>(
-        &mut self,
-        diff: &Difference<'_, B>,
-        values: &mut RingValues,
-        ring: &Bits,
-        r: Rect,
-        q: usize,
-        n: usize,
-    ) {
-        let y = r.y0 + q;
-        let rows = diff.rows(y);
-        for_each_bit(ring, n, |col| {
-            let d = values.leave(|| d_pixel(diff, rows, r.x0 + col, y));
-            if let (Some(s), Some(c)) = (self.sum.get_mut(col + 4), self.count.get_mut(col + 4)) {
-                *c = c.saturating_sub(1);
-                // An empty column restarts from an exact 0.
-                *s = if *c == 0 { 0.0 } else { *s - d };
-            }
-        });
-    }
-}
-
-/// The sum of the 9 column sums around a column, sliding right along a row.
-#[derive(Default)]
-struct Slide {
-    /// The column of the last call plus 1 (0: none yet).
-    next: usize,
-    sum: f32,
-    count: u32,
-}
-
-impl Slide {
-    /// The ring's `D` summed over columns `col − 4 ..= col + 4` (clipped to the box), and the
-    /// number of ring pixels in the sum; `col` above the previous call's.
-    #[inline]
-    fn around(&mut self, col: usize, columns: &Columns) -> (f32, u32) {
-        // Padded, the window is [col, col + 9).
-        if self.next != 0 && col == self.next {
-            // One column enters, one leaves.
-            let enter = (columns.sum.get(col + 8), columns.count.get(col + 8));
-            let leave = (
-                columns.sum.get(col.wrapping_sub(1)),
-                columns.count.get(col.wrapping_sub(1)),
-            );
-            if let ((Some(s_in), Some(&c_in)), (Some(s_out), Some(&c_out))) = (enter, leave) {
-                self.sum = self.sum + s_in - s_out;
-                self.count = (self.count + c_in as u32).saturating_sub(c_out as u32);
-            }
-        } else {
-            let window = col..col + 9;
-            self.sum = columns
-                .sum
-                .get(window.clone())
-                .unwrap_or(&[])
-                .iter()
-                .fold(0.0, |a, s| a + s);
-            self.count = columns.count.get(window).unwrap_or(&[]).iter().map(|&c| c as u32).sum();
-        }
-        if self.count == 0 {
-            self.sum = 0.0;
-        }
-        self.next = col + 1;
-        (self.sum, self.count)
-    }
-}
 
 /// Marks the 8-connected foreground component of `seed` (inside `r`) with [`COMPONENT`]: a
 /// scanline fill with a fixed stack; when the stack overflows, repeated raster passes finish the
@@ -1344,6 +1425,7 @@ mod per_pixel {
         }
     }
 }
+
 
 #[cfg(test)]
 mod tests {
@@ -1812,47 +1894,6 @@ mod tests {
         }
     }
 
-    /// The weights of a word's pixels added one by one in increasing column, as `RowWeights::add`
-    /// did before it added runs of weight 1 at once (and as the per-pixel path does).
-    fn one_by_one(
-        row: &RowWeights,
-        sums: [f32; 3],
-        d_at: &[f32; 32],
-        inside: u32,
-        band: u32,
-        slide: &mut Slide,
-        columns: &Columns,
-    ) -> [f32; 3] {
-        let [mut sw, mut sx, mut sy] = sums;
-        let sign = row.contrast.signum();
-        for (bit, &d) in d_at.iter().enumerate() {
-            let col = row.first + bit;
-            let weight = if inside >> bit & 1 != 0 {
-                let ratio = d / row.contrast;
-                if ratio >= HOLE_RATIO {
-                    1.0
-                } else {
-                    ratio.clamp(0.0, 1.0)
-                }
-            } else if band >> bit & 1 != 0 && d * sign > 0.0 {
-                let (sum, count) = slide.around(col, columns);
-                let mut local = row.contrast;
-                if count > 0 && (sum / count as f32) * sign >= 1.0 {
-                    local = sum / count as f32;
-                }
-                (d / local).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            if weight > 0.0 {
-                sw += weight;
-                sx += weight * col as u32 as f32;
-                sy += weight * row.y;
-            }
-        }
-        [sw, sx, sy]
-    }
-
     /// Sums as they come up while a part is weighed: integers, fractions, values just below a
     /// power of two and up to 2^24 and beyond.
     fn random_sum(rng: &mut Rng) -> f32 {
@@ -1868,84 +1909,182 @@ mod tests {
         }
     }
 
-    #[test]
-    fn runs_of_weight_one_add_up_like_one_pixel_at_a_time() {
-        // `add` (runs of weight 1 at once when exact) against `one_by_one`: the same bits for
-        // random words, D (integer as with α = 1, or fractional), ring sums and running sums.
-        let mut rng = Rng(0x5EED_0001);
-        let (mut at_once, mut words) = (0usize, 0usize);
-        for case in 0..40_000 {
-            let contrast = if rng.chance(0.5) { 1.0 } else { -1.0 } * (1 + rng.below(200)) as f32;
-            let row = RowWeights {
-                contrast,
-                y: rng.below(if case % 8 == 0 { 70_000 } else { 400 }) as f32,
-                first: 32 * rng.below(WORDS),
-            };
-            let integer = rng.chance(0.5);
-            let mut d_at = [0.0f32; 32];
-            for d in &mut d_at {
-                // Mostly the part's contrast, some holes and other-signed values.
-                let v = match rng.below(6) {
-                    0 => rng.range(-255.0, 255.0),
-                    1 => contrast * rng.range(0.0, 0.3),
-                    _ => contrast * rng.range(0.5, 1.5),
-                };
-                *d = if integer { v.round() } else { v };
-            }
-            let mut columns = Columns::new();
-            for (s, c) in columns.sum.iter_mut().zip(columns.count.iter_mut()) {
-                *c = rng.below(4) as u8;
-                *s = if *c == 0 { 0.0 } else { contrast * rng.range(0.0, 3.0) };
-            }
-            // Inside in the middle, band at the ends, as at a part's edge; or random bits.
-            let (inside, band) = if rng.chance(0.5) {
-                let (a, b) = (rng.below(33) as u32, rng.below(33) as u32);
-                let (lo, hi) = (a.min(b), a.max(b));
-                let span = |from: u32, to: u32| {
-                    if to <= from {
-                        0
-                    } else {
-                        (u32::MAX >> (32 - (to - from))) << from
-                    }
-                };
-                let inside = span(lo, hi);
-                (
-                    inside,
-                    span(lo.saturating_sub(2), hi.saturating_add(2).min(32)) & !inside,
-                )
-            } else {
-                let inside = rng.next() as u32 & rng.next() as u32 | rng.next() as u32;
-                (inside, rng.next() as u32 & !inside)
-            };
-            let ones = (0..32).fold(0u32, |m, b| m | (((d_at[b] / contrast >= HOLE_RATIO) as u32) << b)) & inside;
-            let sums = [random_sum(&mut rng), random_sum(&mut rng), random_sum(&mut rng)];
-            let got = row.add(sums, &d_at, [inside, band, ones], &mut Slide::default(), &columns);
-            let want = one_by_one(&row, sums, &d_at, inside, band, &mut Slide::default(), &columns);
-            assert_eq!(got.map(f32::to_bits), want.map(f32::to_bits), "case {case}");
-            // The runs alone, and how often they go at once.
-            if ones != 0 {
-                words += 1;
-                let by_pixel = one_by_one(&row, sums, &[contrast; 32], ones, 0, &mut Slide::default(), &columns);
-                let run = row.add_ones(sums, ones);
-                assert_eq!(run.map(f32::to_bits), by_pixel.map(f32::to_bits), "case {case}");
-                if let Some(sum) = row.add_ones_at_once(sums, ones) {
-                    assert_eq!(sum.map(f32::to_bits), by_pixel.map(f32::to_bits), "case {case}");
-                    at_once += 1;
-                }
+    /// A random bit row of `width` columns (the bits past it 0).
+    fn random_bits(rng: &mut Rng, width: usize) -> Bits {
+        let mut bits = EMPTY;
+        let density = rng.unit();
+        for x in 0..width {
+            if rng.chance(density) {
+                bits[x / 32] |= 1 << (x % 32);
             }
         }
-        // Runs are added at once often (here a third: the random sums are small and cross
-        // binades more often than a part's); not near 2^24 nor across a binade.
-        assert!(at_once > words / 5 && at_once < words, "{at_once} of {words}");
+        bits
+    }
+
+    /// One row of inside and band pixels as a part's rows have them: runs of inside pixels with
+    /// band pixels on both sides, band runs alone, outside pixels between.
+    fn random_row_regions(rng: &mut Rng, width: usize) -> (Bits, Bits) {
+        let (mut inside, mut band) = (EMPTY, EMPTY);
+        let mut x = rng.below(6);
+        let set = |bits: &mut Bits, from: usize, len: usize| {
+            for c in from..(from + len).min(width) {
+                bits[c / 32] |= 1 << (c % 32);
+            }
+        };
+        while x < width {
+            let left = 1 + rng.below(6);
+            set(&mut band, x, left);
+            x += left;
+            if rng.chance(0.7) {
+                let longest = if rng.chance(0.3) { 250 } else { 40 };
+                let run = 1 + rng.below(longest);
+                if x + run < width {
+                    set(&mut inside, x, run);
+                    x += run;
+                    let right = 1 + rng.below(6);
+                    set(&mut band, x, right);
+                    x += right;
+                } else {
+                    continue;
+                }
+            }
+            let gap = if rng.chance(0.5) { 3 } else { 60 };
+            x += rng.below(gap);
+        }
+        (inside, band)
     }
 
     #[test]
-    fn image_rows_give_the_values_of_at() {
-        // D from the frame's and background's rows (α = 1), pixel by pixel and a span at a
-        // time, against `Difference::at`; with α < 1 and short background planes the rows are
-        // missing and the same functions fall back to `at`.
+    fn row_weights_are_the_per_pixel_weights() {
+        // `Weights::row` (runs of weight 1 at once, the window sum sliding along the band) against
+        // the per-pixel definition with the pixels added one by one in increasing column: the
+        // same bits for random rows, integer D (α = 1), column sums and running sums.
+        let mut rng = Rng(0x5EED_0001);
+        let (mut runs, mut pixels) = (0usize, 0usize);
+        for case in 0..6000 {
+            let width = MIN_WIDTH + rng.below(MAX_WIDTH - MIN_WIDTH + 1);
+            let contrast = if rng.chance(0.5) { 1.0 } else { -1.0 } * (1 + rng.below(200)) as f32;
+            let base = rng.below(256) as f32;
+            let frame_row: Vec<u8> = (0..width)
+                .map(|_| {
+                    // Mostly the part's contrast, some holes and other-signed values.
+                    let d = match rng.below(8) {
+                        0 => rng.range(-255.0, 255.0),
+                        1 => contrast * rng.range(0.0, 0.3),
+                        _ => contrast * rng.range(0.5, 1.5),
+                    };
+                    (base + d).round().clamp(0.0, 255.0) as u8
+                })
+                .collect();
+            let background = vec![base as u8; width];
+            let frame = Frame::new_checked(&frame_row[..], width, 1).unwrap();
+            let diff = Difference::new(&frame, &background, Alpha::ONE);
+            let src = Exact {
+                diff: &diff,
+                x0: 0,
+                x1: width,
+            };
+            let image_row = src.row(0);
+            let mut columns = [0i32; MAX_WIDTH + 8];
+            for c in columns.iter_mut().skip(4).take(width) {
+                let count = rng.below(10) as i32;
+                let sum: i32 = (0..count)
+                    .map(|_| {
+                        if rng.chance(0.8) {
+                            (contrast * rng.range(0.5, 1.5)).round().clamp(-255.0, 255.0) as i32
+                        } else {
+                            rng.below(511) as i32 - 255
+                        }
+                    })
+                    .sum();
+                *c = 128 * sum + count;
+            }
+            let (inside, band) = random_row_regions(&mut rng, width);
+            let y = rng.below(if case % 8 == 0 { 70_000 } else { 400 });
+            let sums = if rng.chance(0.2) {
+                [0.0; 3]
+            } else {
+                [random_sum(&mut rng), random_sum(&mut rng), random_sum(&mut rng)]
+            };
+            let weights = Weights {
+                contrast,
+                sign: contrast.signum(),
+            };
+            let got = weights.row(&src, image_row, y, &inside, &band, &columns, sums);
+            let [mut sw, mut sx, mut sy] = sums;
+            for c in 0..width {
+                let d = diff.at(c as isize, 0);
+                let weight = if bit(&inside, c) {
+                    let ratio = d / contrast;
+                    if ratio >= HOLE_RATIO {
+                        1.0
+                    } else {
+                        ratio.clamp(0.0, 1.0)
+                    }
+                } else if bit(&band, c) {
+                    let window: i32 = columns[c..c + 9].iter().sum();
+                    let (sum, count) = ((window >> 7) as f32, window & 127);
+                    let local = (count > 0)
+                        .then(|| sum / count as f32)
+                        .filter(|m| m.abs() >= 1.0 && m.signum() == contrast.signum());
+                    (d / local.unwrap_or(contrast)).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                if weight > 0.0 {
+                    sw += weight;
+                    sx += weight * c as f32;
+                    sy += weight * y as f32;
+                }
+            }
+            assert_eq!(got.map(f32::to_bits), [sw, sx, sy].map(f32::to_bits), "case {case}");
+            runs += inside.iter().map(|w| (w & !(w << 1)).count_ones() as usize).sum::<usize>();
+            pixels += band.iter().map(|w| w.count_ones() as usize).sum::<usize>();
+        }
+        assert!(runs > 5000 && pixels > 50_000, "{runs} {pixels}");
+    }
+
+    #[test]
+    fn sequences_add_up_like_one_term_at_a_time() {
+        // `add_sequence` (at once where nothing rounds, the rounding terms alone) against adding
+        // the terms one by one, across binades, at 2^24 and beyond, from 0 and from fractions.
+        let mut rng = Rng(0x5EED_0002);
+        let mut split = 0usize;
+        for case in 0..40_000 {
+            let s = match rng.below(4) {
+                0 => 0.0,
+                1 => rng.below(300) as f32,
+                _ => random_sum(&mut rng),
+            };
+            let step = rng.below(2) as u32;
+            let first = match rng.below(3) {
+                0 => rng.below(3) as u32,
+                1 => rng.below(256) as u32,
+                _ => rng.below(100_000) as u32,
+            };
+            let most = if rng.chance(0.2) { 2000 } else { 256 };
+            let count = 1 + rng.below(most) as u32;
+            let mut want = s;
+            for k in 0..count {
+                want += (first + step * k) as f32;
+            }
+            let got = add_sequence(s, first, step, count);
+            assert_eq!(got.to_bits(), want.to_bits(), "case {case}: {s} + {first} + {step}·k, {count} terms");
+            let total = u64::from(first) * u64::from(count) + u64::from(step) * u64::from(count * (count - 1) / 2);
+            split += usize::from(exact_integer(total).and_then(|t| exact_sum(s, t)).is_none());
+        }
+        // Many sums had to be split where a term rounds.
+        assert!(split > 5000, "{split}");
+    }
+
+    #[test]
+    fn sources_give_the_values_of_at() {
+        // D from the frame's and background's rows (α = 1) and through `at` (α < 1, or a short
+        // background plane): values, bins, ring values and the hole test's least value, against
+        // `Difference::at` and the pixel-by-pixel test.
         let mut rng = Rng(4242);
-        for case in 0..300 {
+        let mut shortcut = 0usize;
+        for case in 0..400 {
             let (w, h) = (1 + rng.below(40), 1 + rng.below(12));
             let pixels: Vec<u8> = (0..w * h).map(|_| rng.below(256) as u8).collect();
             let full = rng.chance(0.6);
@@ -1954,70 +2093,59 @@ mod tests {
             let frame = Frame::new_checked(&pixels[..], w, h).unwrap();
             for alpha in [1.0, 0.5] {
                 let diff = Difference::new(&frame, &background, Alpha::new(alpha).unwrap());
+                assert_eq!(diff.rows(h - 1).is_some(), alpha >= 1.0 && bg_len == w * h, "case {case}");
+                let x0 = rng.below(w);
+                let x1 = x0 + 1 + rng.below(w - x0);
+                let exact = Exact { diff: &diff, x0, x1 };
+                let approx = Approx { diff: &diff, x0 };
                 for y in 0..h {
-                    let rows = diff.rows(y);
-                    assert_eq!(
-                        rows.is_some(),
-                        alpha >= 1.0 && (y + 1) * w <= bg_len,
-                        "case {case} row {y}"
-                    );
-                    if let Some((f, b)) = rows {
-                        assert_eq!((f.len(), b.len()), (w, w));
+                    let rows = diff.rows(y).is_some();
+                    let (er, ar) = (exact.row(y), approx.row(y));
+                    for c in 0..x1 - x0 {
+                        let want = diff.at((x0 + c) as isize, y as isize);
+                        let bin = (want as i32 + 255).clamp(0, 510) as usize;
+                        assert_eq!(approx.d(ar, c).to_bits(), want.to_bits());
+                        assert_eq!(approx.bin(ar, c), bin);
+                        let (s, n) = <Approx<'_, '_, &[u8]> as Source>::split(approx.col(ar, c));
+                        assert_eq!((s.to_bits(), n), (want.to_bits(), 1));
+                        if rows {
+                            assert_eq!(exact.d(er, c).to_bits(), want.to_bits(), "case {case} ({c}, {y})");
+                            assert_eq!(exact.bin(er, c), bin);
+                            let (s, n) = <Exact<'_, '_, &[u8]> as Source>::split(exact.col(er, c));
+                            assert_eq!((s.to_bits(), n), (want.to_bits(), 1));
+                        }
                     }
-                    for x in 0..w {
-                        let (got, want) = (d_pixel(&diff, rows, x, y), diff.at(x as isize, y as isize));
-                        assert_eq!(got.to_bits(), want.to_bits(), "case {case} α {alpha} ({x}, {y})");
-                    }
-                    // Spans, some past the row's end (those read through `at`, clamped).
-                    let x = rng.below(w);
-                    let mut span = vec![f32::NAN; rng.below(w + 4 - x)];
-                    d_span(&diff, rows, x, y, &mut span);
-                    for (k, got) in span.iter().enumerate() {
-                        let want = diff.at((x + k) as isize, y as isize);
-                        assert_eq!(
-                            got.to_bits(),
-                            want.to_bits(),
-                            "case {case} α {alpha} span ({x}+{k}, {y})"
-                        );
+                    // The hole test of a run by its least value, both signs of contrast, at the
+                    // threshold too.
+                    for _ in 0..8 {
+                        let a = rng.below(x1 - x0);
+                        let e = a + 1 + rng.below(x1 - x0 - a);
+                        let contrast = match rng.below(3) {
+                            0 => (1 + rng.below(255)) as f32,
+                            1 => -((1 + rng.below(255)) as f32),
+                            _ => {
+                                // A contrast that puts a pixel of the run at the threshold.
+                                let d = diff.at((x0 + a) as isize, y as isize);
+                                if d.abs() >= 1.0 {
+                                    (d / HOLE_RATIO).round()
+                                } else {
+                                    7.0
+                                }
+                            }
+                        };
+                        let sign = contrast.signum();
+                        let all = (a..e).all(|c| diff.at((x0 + c) as isize, y as isize) / contrast >= HOLE_RATIO);
+                        let by_least = |least: f32| (least * sign) / contrast >= HOLE_RATIO;
+                        assert_eq!(by_least(approx.least(ar, a..e, sign)), all, "case {case}");
+                        if rows {
+                            assert_eq!(by_least(exact.least(er, a..e, sign)), all, "case {case} {a}..{e}");
+                        }
+                        shortcut += usize::from(all);
                     }
                 }
             }
         }
-        let frame = Frame::new_checked(&[0u8; 6][..], 3, 2).unwrap();
-        let diff = Difference::new(&frame, &[0u8; 6], Alpha::new(1.0).unwrap());
-        assert!(diff.rows(2).is_none());
-    }
-
-    #[test]
-    fn hole_test_by_reduction_is_the_per_pixel_test() {
-        // Words where every inside pixel passes (the reduction's shortcut), where some fail, and
-        // values at the threshold, both signs of contrast.
-        let mut rng = Rng(777);
-        let mut shortcut = 0;
-        for case in 0..40_000 {
-            let contrast = rng.range(1.0, 200.0) * if rng.chance(0.5) { 1.0 } else { -1.0 };
-            let at_threshold = contrast * HOLE_RATIO;
-            let mode = rng.below(3);
-            let d_at: [f32; 32] = core::array::from_fn(|_| match mode {
-                0 => contrast * rng.range(0.2, 1.5),
-                1 => at_threshold + [-1.0, 0.0, 1.0][rng.below(3)] * at_threshold.abs() * f32::EPSILON,
-                _ => rng.below(511) as f32 - 255.0,
-            });
-            let inside = match rng.below(3) {
-                0 => u32::MAX,
-                1 => (rng.next() as u32) & (rng.next() as u32),
-                _ => (u32::MAX >> rng.below(32)) << rng.below(32),
-            };
-            let mut want = 0u32;
-            for (bit, &d) in d_at.iter().enumerate() {
-                if inside >> bit & 1 == 1 && d / contrast >= HOLE_RATIO {
-                    want |= 1 << bit;
-                }
-            }
-            assert_eq!(at_least_hole_ratio(&d_at, inside, contrast), want, "case {case}");
-            shortcut += usize::from(want == inside && inside != 0);
-        }
-        assert!(shortcut > 10_000, "{shortcut}");
+        assert!(shortcut > 1000, "{shortcut}");
     }
 
     #[test]
@@ -2048,103 +2176,169 @@ mod tests {
     }
 
     #[test]
-    fn ring_values_give_each_pixel_its_own_value() {
-        // Rows of ring pixels enter the column sums and leave them 9 rows later, as in `weigh`;
-        // whatever is stored or not, each pixel must come back with its own D.
-        let mut rng = Rng(4242);
-        for case in 0..200 {
-            let rows: Vec<usize> = (0..1 + rng.below(60))
-                .map(|_| match case % 4 {
-                    0 => rng.below(8),
-                    1 => rng.below(40),
-                    2 => rng.below(3) * 150,
-                    _ => rng.below(400),
-                })
-                .collect();
-            let total: usize = rows.iter().sum();
-            let value = |k: usize| k as f32 * 0.75 - 100.0;
-            let mut values = RingValues::new(true);
-            for k in 0..total {
-                values.store(value(k));
-            }
-            let (mut entered, mut left, mut reads) = (0usize, 0usize, 0usize);
-            for p in 0..rows.len() + 9 {
-                if let Some(q) = p.checked_sub(9) {
-                    for _ in 0..rows[q] {
-                        let d = values.leave(|| {
-                            reads += 1;
-                            value(left)
-                        });
-                        assert_eq!(d, value(left), "case {case} leaving {left}");
-                        left += 1;
+    fn bit_row_morphology_is_the_per_bit_definition() {
+        // Erosion and dilation by segments, and the shifts they are made of, against the
+        // definition column by column (outside the row is 0).
+        let mut rng = Rng(2024);
+        for case in 0..3000 {
+            let width = 1 + rng.below(MAX_WIDTH);
+            let x = random_bits(&mut rng, width);
+            let at = |c: isize| c >= 0 && bit(&x, c as usize);
+            for c in 0..MAX_WIDTH {
+                let ci = c as isize;
+                let window = |k: isize, all: bool| {
+                    let mut v = (-k..=k).map(|d| at(ci + d));
+                    if all {
+                        v.all(|b| b)
+                    } else {
+                        v.any(|b| b)
                     }
-                }
-                for _ in 0..rows.get(p).copied().unwrap_or(0) {
-                    let d = values.enter(|| {
-                        reads += 1;
-                        value(entered)
-                    });
-                    assert_eq!(d, value(entered), "case {case} entering {entered}");
-                    entered += 1;
-                }
-                // What is kept is the pixel's own value (`weigh` reads the pixels 4 rows after
-                // they entered), and nothing that left; all is kept when it fits.
-                for k in left.saturating_sub(3)..total.min(entered + 600) {
-                    match values.peek(k) {
-                        Some(d) => {
-                            // (Or stored by the first pass and yet to enter.)
-                            assert!(k >= left, "case {case} peek {k}");
-                            assert_eq!(d, value(k), "case {case} peek {k}");
-                        }
-                        None => assert!(!(left..entered).contains(&k) || total > RING_VALUES),
-                    }
-                }
+                };
+                assert_eq!(bit(&erode::<2>(&x), c), window(2, true), "case {case} erode 2 at {c}");
+                assert_eq!(bit(&erode::<3>(&x), c), window(3, true), "case {case} erode 3 at {c}");
+                assert_eq!(bit(&erode::<5>(&x), c), window(5, true), "case {case} erode 5 at {c}");
+                assert_eq!(bit(&dilate::<1>(&x), c), window(1, false), "case {case} dilate 1 at {c}");
+                assert_eq!(bit(&dilate::<2>(&x), c), window(2, false), "case {case} dilate 2 at {c}");
+                assert_eq!(bit(&shift_down::<7>(&x), c), at(ci + 7));
+                assert_eq!(bit(&shift_up::<5>(&x), c), at(ci - 5));
             }
-            assert_eq!((entered, left), (total, total));
-            // Small parts need no second read at all.
-            if total <= RING_VALUES {
-                assert_eq!(reads, 0, "case {case}");
+            // Runs around a set bit, and the words of a column range.
+            let set: Vec<usize> = (0..width).filter(|&c| bit(&x, c)).collect();
+            if let Some(&c) = set.get(rng.below(set.len().max(1))) {
+                let (l, r) = run_around(&x, c);
+                assert!((l..=r).all(|k| bit(&x, k)), "case {case}");
+                assert!(l == 0 || !bit(&x, l - 1));
+                assert!(!bit(&x, r + 1));
+            }
+            let lo = rng.below(MAX_WIDTH);
+            let hi = lo + rng.below(MAX_WIDTH - lo);
+            for c in 0..MAX_WIDTH {
+                assert_eq!(range_word(c / 32, lo, hi) >> (c % 32) & 1 != 0, (lo..=hi).contains(&c));
             }
         }
     }
 
     #[test]
-    fn bit_rows_gather_scatter_and_clear() {
+    fn plane_fields_hold_bit_rows_and_give_the_mask_back() {
+        // Rows set up from the mask's bytes, next to each other only; their fields loaded and
+        // stored; the plane as it was after `restore`.
         let mut rng = Rng(99);
-        for len in [0, 1, 3, 7, 8, 9, 31, 32, 33, 100, 255, 256] {
-            let mut row: Vec<u8> = (0..len).map(|_| rng.next() as u8).collect();
-            let before = row.clone();
-            let comp = gather(&row, 7);
-            assert_eq!(gather(&row, 6), gather(&before, 6));
-            let (c, g) = gather_and_clear(&mut row);
-            assert_eq!(comp, c);
-            for (x, &v) in before.iter().enumerate() {
-                assert_eq!(c[x / 32] >> (x % 32) & 1 != 0, v & COMPONENT != 0);
-                assert_eq!(g[x / 32] >> (x % 32) & 1 != 0, v & RING != 0);
-                assert_eq!(row[x], v & 1);
+        for case in 0..300 {
+            let (w, h) = (MIN_WIDTH + rng.below(300), 1 + rng.below(20));
+            let mask: Vec<u8> = (0..w * h).map(|_| rng.chance(0.5) as u8).collect();
+            let x0 = rng.below(w - MIN_WIDTH + 1);
+            let x1 = (x0 + MIN_WIDTH + rng.below(MAX_WIDTH - MIN_WIDTH + 1)).min(w);
+            let y0 = rng.below(h);
+            let r = Rect {
+                x0,
+                y0,
+                x1,
+                y1: y0 + 1 + rng.below(h - y0),
+            };
+            let mut plane_bytes = mask.clone();
+            let mut plane = Plane::new(&mut plane_bytes, w, r);
+            let first = rng.below(plane.height);
+            plane.init(first);
+            // Not next to the rows set up: refused.
+            plane.init(first + 2);
+            assert_eq!((plane.lo, plane.hi), (first, first + 1));
+            for q in (0..first).rev().chain(first + 1..plane.height) {
+                plane.init(q);
             }
-            for x in len..MAX_WIDTH {
-                assert_eq!(c[x / 32] >> (x % 32) & 1, 0);
-                assert_eq!(g[x / 32] >> (x % 32) & 1, 0);
-            }
-            let mut again = before.clone();
-            keep_mask_bit(&mut again);
-            assert_eq!(again, row);
-            // Scatter sets exactly the flagged bytes' bit.
-            let mut bits = EMPTY;
-            for x in 0..len {
-                if rng.chance(0.3) {
-                    bits[x / 32] |= 1 << (x % 32);
+            assert_eq!((plane.lo, plane.hi), (0, plane.height));
+            let mut rings = Vec::new();
+            for q in 0..plane.height {
+                let m = plane.load(q, MASK_FIELD);
+                for c in 0..MAX_WIDTH {
+                    let want = c < x1 - x0 && mask[(y0 + q) * w + x0 + c] == 1;
+                    assert_eq!(bit(&m, c), want, "case {case} row {q} column {c}");
                 }
+                assert_eq!(plane.load(q, COMP_FIELD), EMPTY);
+                assert_eq!(plane.load(q, RING_FIELD), EMPTY);
+                let (c, g) = (random_bits(&mut rng, x1 - x0), random_bits(&mut rng, x1 - x0));
+                plane.store(q, COMP_FIELD, &c);
+                plane.store(q, RING_FIELD, &g);
+                rings.push((c, g, m));
             }
-            let mut plane = row.clone();
-            scatter(&mut plane, &bits, RING);
-            for x in 0..len {
-                let on = bits[x / 32] >> (x % 32) & 1 != 0;
-                assert_eq!(plane[x], row[x] | if on { RING } else { 0 });
+            for (q, &(c, g, m)) in rings.iter().enumerate() {
+                assert_eq!(plane.load(q, COMP_FIELD), c);
+                assert_eq!(plane.load(q, RING_FIELD), g);
+                assert_eq!(plane.load(q, MASK_FIELD), m);
             }
-            assert_eq!(gather(&plane, 6), bits);
+            assert_eq!(plane.load(plane.height, MASK_FIELD), EMPTY);
+            plane.restore();
+            assert_eq!(plane.load(0, MASK_FIELD), EMPTY);
+            assert!(plane_bytes == mask, "case {case}: plane not restored");
         }
+        for byte in 0..256u32 {
+            let v = spread(byte);
+            assert_eq!(v & !LOW, 0);
+            assert_eq!(pack(v), byte);
+        }
+    }
+
+    #[test]
+    fn bit_row_fill_finds_the_component() {
+        // The scanline fill over bit rows, with stacks that overflow and the default: exactly the
+        // 8-connected component within the box, the rows that hold it, and the mask back after
+        // `restore`.
+        let mut rng = Rng(12345);
+        let mut overflowed = 0usize;
+        for case in 0..300 {
+            let (w, h) = (MIN_WIDTH + rng.below(280), 1 + rng.below(60));
+            let density = rng.range(0.3, 0.8);
+            let mask: Vec<u8> = (0..w * h).map(|_| rng.chance(density) as u8).collect();
+            let x0 = rng.below(w - MIN_WIDTH + 1);
+            let x1 = (x0 + MIN_WIDTH + rng.below(MAX_WIDTH - MIN_WIDTH + 1)).min(w);
+            let y0 = rng.below(h);
+            let r = Rect {
+                x0,
+                y0,
+                x1,
+                y1: y0 + 1 + rng.below(h - y0),
+            };
+            let seed = (r.x0 + rng.below(r.x1 - r.x0), r.y0 + rng.below(r.y1 - r.y0));
+            if mask[seed.1 * w + seed.0] == 0 {
+                continue;
+            }
+            let (bw, bh) = (r.x1 - r.x0, r.y1 - r.y0);
+            let boxed: Vec<u8> = (0..bw * bh)
+                .map(|i| mask[(r.y0 + i / bw) * w + r.x0 + i % bw])
+                .collect();
+            let comps = components(&boxed, bw, bh);
+            let want = comps
+                .iter()
+                .find(|c| c.contains(&(seed.0 - r.x0, seed.1 - r.y0)))
+                .unwrap();
+            let top = want.iter().map(|p| p.1).min().unwrap();
+            let bottom = want.iter().map(|p| p.1).max().unwrap() + 1;
+            for stack in [1, 2, 8, FILL_STACK] {
+                let mut bytes = mask.clone();
+                let mut plane = Plane::new(&mut bytes, w, r);
+                let (x, q) = (seed.0 - r.x0, seed.1 - r.y0);
+                let rows = match stack {
+                    1 => mark_with::<1>(&mut plane, x, q),
+                    2 => mark_with::<2>(&mut plane, x, q),
+                    8 => mark_with::<8>(&mut plane, x, q),
+                    _ => mark(&mut plane, x, q),
+                };
+                assert_eq!(rows, top..bottom, "case {case} stack {stack}");
+                assert!(plane.lo <= top.saturating_sub(1) && (bottom + 1).min(bh) <= plane.hi);
+                let mut marked = 0;
+                for q in 0..bh {
+                    let c = plane.load(q, COMP_FIELD);
+                    marked += c.iter().map(|v| v.count_ones() as usize).sum::<usize>();
+                    for x in 0..bw {
+                        assert_eq!(bit(&c, x), want.contains(&(x, q)), "case {case} stack {stack} ({x}, {q})");
+                    }
+                }
+                assert_eq!(marked, want.len());
+                plane.restore();
+                assert!(bytes == mask, "case {case}: plane not restored");
+            }
+            overflowed += usize::from(want.len() > 40);
+        }
+        assert!(overflowed > 30, "{overflowed}");
     }
 
     mod reference {
