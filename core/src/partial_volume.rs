@@ -15,34 +15,41 @@ const COMPONENT: u8 = 1 << 7;
 /// The margin added around the border's bounding box, px.
 const MARGIN: usize = 6;
 
-/// Words of one bit row.
-const WORDS: usize = 8;
-
 /// The widest box (px) measured with bit rows.
-const MAX_WIDTH: usize = 32 * WORDS;
+const MAX_WIDTH: usize = 256;
 
-/// One row of the box as bits: bit `j` of word `i` is the box's column `32·i + j`.
-type Bits = [u32; WORDS];
+/// A word of a bit row: the machine's (64 columns on 64-bit targets, 32 on the Cortex-M4).
+type Word = usize;
+
+/// Columns a word.
+const BITS: usize = Word::BITS as usize;
+
+/// Bytes a word.
+const WORD_BYTES: usize = BITS / 8;
+
+/// Words of one bit row.
+const WORDS: usize = MAX_WIDTH / BITS;
+
+/// One row of the box as bits: bit `j` of word `i` is the box's column `BITS·i + j`; the bits past
+/// the box's width are 0.
+type Bits = [Word; WORDS];
 
 /// An empty bit row.
 const EMPTY: Bits = [0; WORDS];
 
-/// The fields a box row holds on the bit-row path, `n` little-endian words each from byte
-/// `4·n·field` of the row: the mask's row, the component's and the ring's.
+/// The fields of a box row on the bit-row path (see [`Plane`]): the mask's row,
 const MASK_FIELD: usize = 0;
-/// See [`MASK_FIELD`].
+/// the component's row (after the shape pass: its inside, the component eroded twice),
 const COMP_FIELD: usize = 1;
-/// See [`MASK_FIELD`].
+/// the ring's row (the component eroded three times minus eroded five times),
 const RING_FIELD: usize = 2;
+/// and the band's row (the component dilated twice minus its inside).
+const BAND_FIELD: usize = 3;
 /// The number of fields.
-const FIELDS: usize = 3;
+const FIELDS: usize = 4;
 
-/// The narrowest box measured with bit rows: its rows hold the fields (`4·FIELDS·n` bytes for
-/// `n = ⌈width/32⌉` words fit a row from 12 px on).
-const MIN_WIDTH: usize = 4 * FIELDS;
-
-/// Spans the component fill keeps at most (then raster scans restart it).
-const FILL_STACK: usize = 512;
+/// The narrowest box measured with bit rows: the fields need `FIELDS · ⌈width/8⌉` bytes of a row.
+const MIN_WIDTH: usize = FIELDS;
 
 /// A rectangle of pixels `[x0, x1) × [y0, y1)`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -85,8 +92,7 @@ pub fn partial_volume_centroid<B: AsRef<[u8]>>(
     if mask.get(seed.1 * w + seed.0).is_none_or(|v| v & 1 == 0) {
         return None;
     }
-    let (width, height) = (r.x1 - r.x0, r.y1 - r.y0);
-    if (MIN_WIDTH..=MAX_WIDTH).contains(&width) && height < 1 << 24 {
+    if (MIN_WIDTH..=MAX_WIDTH).contains(&(r.x1 - r.x0)) {
         let plane = Plane::new(mask, w, r);
         let (x, q) = (seed.0 - r.x0, seed.1 - r.y0);
         // Every row of the box has its D from the frame's and background's rows when the last
@@ -102,13 +108,16 @@ pub fn partial_volume_centroid<B: AsRef<[u8]>>(
     }
 }
 
-/// The bit-row path: the component from the seed at box column `x` of box row `q`, the ring's
-/// median `D`, the weights; the plane holds its mask again afterwards.
+/// The bit-row path: the component from the seed at box column `x` of box row `q`, its inside,
+/// band and ring and the ring's median `D`, then the weights; the plane holds its mask again
+/// afterwards.
 fn bit_rows<S: Source>(src: &S, mut plane: Plane<'_>, x: usize, q: usize) -> Option<[f32; 2]> {
     let comp = mark(&mut plane, x, q);
-    let contrast = ring_pass(src, &mut plane, comp.clone());
+    // Rows with inside or band pixels: the component's, and 2 more above and below.
+    let rows = comp.start.saturating_sub(2)..(comp.end + 2).min(plane.height);
+    let contrast = shape_pass(src, &mut plane, comp, rows.clone());
     let sums = if contrast.abs() >= 1.0 {
-        weigh(src, &plane, comp, contrast)
+        weigh(src, &plane, rows, contrast)
     } else {
         [0.0; 3]
     };
@@ -119,9 +128,9 @@ fn bit_rows<S: Source>(src: &S, mut plane: Plane<'_>, x: usize, q: usize) -> Opt
 }
 
 /// The box in the mask plane while bit rows are measured. A box row whose fields are set up
-/// ([`Plane::init`]) holds, from its first byte, the mask's row, the component's and the ring's as
-/// [`Bits`] (`n` words each, little-endian): the mask bits of those bytes are then in the first
-/// field only, and [`Plane::restore`] puts them back.
+/// ([`Plane::init`]) holds [`FIELDS`] bit rows from its first byte, `stride` bytes each (its
+/// words little-endian): the mask bits of those bytes are then in the first field only, and
+/// [`Plane::restore`] puts them back.
 struct Plane<'m> {
     mask: &'m mut [u8],
     /// The image's width.
@@ -132,7 +141,9 @@ struct Plane<'m> {
     /// Words per bit row.
     n: usize,
     /// The valid bits of the last of them.
-    last: u32,
+    last: Word,
+    /// Bytes of a field: whole words where they fit, else `⌈width/8⌉`.
+    stride: usize,
     /// The box rows whose fields are set up: `lo..hi`.
     lo: usize,
     hi: usize,
@@ -141,36 +152,52 @@ struct Plane<'m> {
 impl<'m> Plane<'m> {
     fn new(mask: &'m mut [u8], w: usize, r: Rect) -> Self {
         let width = r.x1 - r.x0;
+        let n = width.div_ceil(BITS).min(WORDS);
         Plane {
             mask,
             w,
             r,
             width,
             height: r.y1 - r.y0,
-            n: width.div_ceil(32).min(WORDS),
-            last: match width % 32 {
-                0 => u32::MAX,
-                bits => (1u32 << bits) - 1,
+            n,
+            last: match width % BITS {
+                0 => Word::MAX,
+                bits => (1 << bits) - 1,
+            },
+            stride: if FIELDS * n * WORD_BYTES <= width {
+                n * WORD_BYTES
+            } else {
+                width.div_ceil(8)
             },
             lo: 0,
             hi: 0,
         }
     }
 
-    /// The plane's index of box row `q`'s first byte.
-    fn start(&self, q: usize) -> usize {
-        (self.r.y0 + q) * self.w + self.r.x0
+    /// The plane's index of field `field` of box row `q`.
+    #[inline(always)]
+    fn at(&self, q: usize, field: usize) -> usize {
+        (self.r.y0 + q) * self.w + self.r.x0 + self.stride * field
     }
 
     /// Field `field` of box row `q` (`EMPTY` where the row's fields are not set up).
-    #[inline]
+    #[inline(always)]
     fn load(&self, q: usize, field: usize) -> Bits {
         let mut out = EMPTY;
-        if (self.lo..self.hi).contains(&q) {
-            let s = self.start(q) + 4 * self.n * field;
-            if let Some(bytes) = self.mask.get(s..s + 4 * self.n) {
-                for (o, b) in out.iter_mut().zip(bytes.chunks_exact(4)) {
-                    *o = u32::from_le_bytes(b.try_into().unwrap_or_default());
+        if q >= self.lo && q < self.hi {
+            let s = self.at(q, field);
+            if let Some(bytes) = self.mask.get(s..s + self.stride) {
+                let mut chunks = bytes.chunks_exact(WORD_BYTES);
+                for (o, c) in out.iter_mut().zip(&mut chunks) {
+                    *o = Word::from_le_bytes(c.try_into().unwrap_or_default());
+                }
+                let rest = chunks.remainder();
+                if let (false, Some(o)) = (rest.is_empty(), out.get_mut(bytes.len() / WORD_BYTES)) {
+                    let mut word = [0u8; WORD_BYTES];
+                    for (b, v) in word.iter_mut().zip(rest) {
+                        *b = *v;
+                    }
+                    *o = Word::from_le_bytes(word);
                 }
             }
         }
@@ -178,59 +205,66 @@ impl<'m> Plane<'m> {
     }
 
     /// Sets field `field` of box row `q` (a row whose fields are set up).
-    #[inline]
+    #[inline(always)]
     fn store(&mut self, q: usize, field: usize, bits: &Bits) {
-        if (self.lo..self.hi).contains(&q) {
-            let s = self.start(q) + 4 * self.n * field;
-            if let Some(bytes) = self.mask.get_mut(s..s + 4 * self.n) {
-                for (b, v) in bytes.chunks_exact_mut(4).zip(bits) {
-                    b.copy_from_slice(&v.to_le_bytes());
+        if q >= self.lo && q < self.hi {
+            let s = self.at(q, field);
+            if let Some(bytes) = self.mask.get_mut(s..s + self.stride) {
+                let whole = bytes.len() / WORD_BYTES;
+                let mut chunks = bytes.chunks_exact_mut(WORD_BYTES);
+                for (c, v) in (&mut chunks).zip(bits) {
+                    c.copy_from_slice(&v.to_le_bytes());
+                }
+                let v = bits.get(whole).copied().unwrap_or(0).to_le_bytes();
+                for (b, v) in chunks.into_remainder().iter_mut().zip(v) {
+                    *b = v;
                 }
             }
         }
     }
 
     /// Sets up the fields of box row `q` when it is next to the rows set up (or the first): the
-    /// mask's bits from the row's bytes, the others empty.
+    /// mask's bits from the row's bytes, the component empty. (The ring and the band are set by
+    /// the shape pass.)
     fn init(&mut self, q: usize) {
         let first = self.lo == self.hi;
         if q >= self.height || !(first || q + 1 == self.lo || q == self.hi) {
             return;
         }
-        let s = self.start(q);
-        let bytes = 4 * self.n;
+        let s = self.at(q, 0);
+        let stride = self.stride;
         let Some(row) = self.mask.get_mut(s..s + self.width) else {
             return;
         };
         let m = gather(row);
-        let Some(fields) = row.get_mut(..FIELDS * bytes) else {
+        let Some(fields) = row.get_mut(..2 * stride) else {
             return;
         };
-        for (k, chunk) in fields.chunks_exact_mut(4).enumerate() {
-            let v = if k < self.n { m.get(k).copied().unwrap_or(0) } else { 0 };
-            chunk.copy_from_slice(&v.to_le_bytes());
-        }
-        if first {
-            (self.lo, self.hi) = (q, q + 1);
-        } else if q + 1 == self.lo {
-            self.lo = q;
-        } else {
-            self.hi = q + 1;
-        }
+        fields.fill(0);
+        (self.lo, self.hi) = match (first, q + 1 == self.lo) {
+            (true, _) => (q, q + 1),
+            (false, true) => (q, self.hi),
+            (false, false) => (self.lo, q + 1),
+        };
+        self.store(q, MASK_FIELD, &m);
     }
 
     /// Puts the mask's bits back into the bytes of the fields; no row is set up afterwards.
     fn restore(&mut self) {
-        let bytes = FIELDS * 4 * self.n;
+        let bytes = FIELDS * self.stride;
         for q in self.lo..self.hi {
             let m = self.load(q, MASK_FIELD);
-            let s = self.start(q);
+            let s = self.at(q, 0);
             if let Some(row) = self.mask.get_mut(s..s + bytes) {
-                for (k, chunk) in row.chunks_mut(8).enumerate() {
-                    let byte = m.get(k / 4).map_or(0, |&v| (v >> (8 * (k % 4))) & 0xFF);
-                    for (b, v) in chunk.iter_mut().zip(spread(byte).to_le_bytes()) {
-                        *b = v;
-                    }
+                let mut chunks = row.chunks_exact_mut(8);
+                let mut k = 0;
+                for c in &mut chunks {
+                    c.copy_from_slice(&spread(byte_of(&m, k)).to_le_bytes());
+                    k += 1;
+                }
+                let v = spread(byte_of(&m, k)).to_le_bytes();
+                for (b, v) in chunks.into_remainder().iter_mut().zip(v) {
+                    *b = v;
                 }
             }
         }
@@ -238,90 +272,100 @@ impl<'m> Plane<'m> {
     }
 }
 
+/// Byte `k` of a bit row (columns `8k .. 8k + 8`).
+#[inline(always)]
+fn byte_of(bits: &Bits, k: usize) -> u32 {
+    bits.get(k / WORD_BYTES)
+        .map_or(0, |&v| (v >> (8 * (k % WORD_BYTES))) as u32 & 0xFF)
+}
+
 /// The low bit of each of 8 bytes.
 const LOW: u64 = 0x0101_0101_0101_0101;
 
 /// Bit `i` of the result is the low bit of byte `i` of `v` (the other bits of `v` 0).
-#[inline]
-fn pack(v: u64) -> u32 {
-    (v.wrapping_mul(0x0102_0408_1020_4080) >> 56) as u32
+#[inline(always)]
+fn pack(v: u64) -> Word {
+    (v.wrapping_mul(0x0102_0408_1020_4080) >> 56) as Word
 }
 
-/// Byte `i` of the result is bit `i` of `byte` (< 256).
-#[inline]
+/// Byte `i` of the result is bit `i` of `byte` (< 256), 0 or 1.
+#[inline(always)]
 fn spread(byte: u32) -> u64 {
     let bits = (u64::from(byte) * LOW) & 0x8040_2010_0804_0201;
     ((bits + 0x7F7F_7F7F_7F7F_7F7F) >> 7) & LOW
 }
 
-/// The bytes of `chunk` (at most 8) as a little-endian word, zeros past its end.
-fn load8(chunk: &[u8]) -> u64 {
-    let mut bytes = [0u8; 8];
-    for (b, v) in bytes.iter_mut().zip(chunk) {
-        *b = *v;
-    }
-    u64::from_le_bytes(bytes)
-}
-
 /// Bit `x` of the result is bit 0 of `row[x]`, `x` < [`MAX_WIDTH`].
 fn gather(row: &[u8]) -> Bits {
     let mut out = EMPTY;
-    let mut chunks = row.chunks_exact(32);
-    for (o, chunk) in out.iter_mut().zip(&mut chunks) {
-        let mut word = 0;
-        for (j, b) in chunk.chunks_exact(8).enumerate() {
-            word |= pack(u64::from_le_bytes(b.try_into().unwrap_or_default()) & LOW) << (8 * j);
+    let mut chunks = row.chunks_exact(8);
+    let mut k = 0usize;
+    for c in &mut chunks {
+        if let Some(o) = out.get_mut(k / WORD_BYTES) {
+            *o |= pack(u64::from_le_bytes(c.try_into().unwrap_or_default()) & LOW) << (8 * (k % WORD_BYTES));
         }
-        *o = word;
+        k += 1;
     }
-    let rest = chunks.remainder();
-    if let Some(o) = out.get_mut(row.len() / 32) {
-        for (j, b) in rest.chunks(8).enumerate() {
-            *o |= pack(load8(b) & LOW) << (8 * j);
-        }
+    let mut bytes = [0u8; 8];
+    for (b, v) in bytes.iter_mut().zip(chunks.remainder()) {
+        *b = *v;
+    }
+    if let Some(o) = out.get_mut(k / WORD_BYTES) {
+        *o |= pack(u64::from_le_bytes(bytes) & LOW) << (8 * (k % WORD_BYTES));
     }
     out
 }
 
 /// The bits of word `k` of a bit row within columns `lo..=hi`.
 #[inline]
-fn range_word(k: usize, lo: usize, hi: usize) -> u32 {
-    let (a, b) = (32 * k, 32 * k + 31);
+fn range_word(k: usize, lo: usize, hi: usize) -> Word {
+    let (a, b) = (BITS * k, BITS * k + BITS - 1);
     if hi < a || lo > b {
         return 0;
     }
-    let low = if lo > a { u32::MAX << (lo - a) } else { u32::MAX };
-    let high = if hi < b { u32::MAX >> (b - hi) } else { u32::MAX };
+    let low = if lo > a { Word::MAX << (lo - a) } else { Word::MAX };
+    let high = if hi < b { Word::MAX >> (b - hi) } else { Word::MAX };
     low & high
 }
 
 /// Whether column `x` of `bits` is set.
-#[inline]
+#[inline(always)]
 fn bit(bits: &Bits, x: usize) -> bool {
-    bits.get(x / 32).is_some_and(|&v| v >> (x % 32) & 1 != 0)
+    bits.get(x / BITS).is_some_and(|&v| v >> (x % BITS) & 1 != 0)
 }
 
-/// The run of set bits of `free` around column `x` (which is set): its first and last column.
-fn run_around(free: &Bits, x: usize) -> (usize, usize) {
-    let (i, b) = (x / 32, x % 32);
-    let word = |k: usize| free.get(k).copied().unwrap_or(0);
-    let mut k = i;
-    let mut z = !word(k) & (u32::MAX << b);
-    let right = loop {
-        if z != 0 {
-            break (32 * k + z.trailing_zeros() as usize).saturating_sub(1);
+/// The first column at or after `x` whose bit is `set` ([`MAX_WIDTH`] when none is).
+#[inline(always)]
+fn next_bit(bits: &Bits, x: usize, set: bool) -> usize {
+    let mut k = x / BITS;
+    let flip = if set { 0 } else { Word::MAX };
+    let mut word = match bits.get(k) {
+        Some(&v) => (v ^ flip) & (Word::MAX << (x % BITS)),
+        None => return MAX_WIDTH,
+    };
+    loop {
+        if word != 0 {
+            return BITS * k + word.trailing_zeros() as usize;
         }
         k += 1;
-        if k >= WORDS {
-            break MAX_WIDTH - 1;
+        match bits.get(k) {
+            Some(&v) => word = v ^ flip,
+            None => return MAX_WIDTH,
         }
-        z = !word(k);
-    };
+    }
+}
+
+/// The run of set bits of `bits` around column `x` (which is set): its first and last column.
+#[inline]
+fn run_around(bits: &Bits, x: usize) -> (usize, usize) {
+    let right = next_bit(bits, x, false) - 1;
+    let (i, b) = (x / BITS, x % BITS);
+    let word = |k: usize| bits.get(k).copied().unwrap_or(0);
     let mut k = i;
-    let mut z = !word(k) & ((1u32 << b) - 1);
+    let mut z = !word(k) & ((1 << b) - 1);
     let left = loop {
         if z != 0 {
-            break 32 * k + 32 - z.leading_zeros() as usize;
+            break BITS * k + BITS - z.leading_zeros() as usize;
         }
         if k == 0 {
             break 0;
@@ -332,255 +376,330 @@ fn run_around(free: &Bits, x: usize) -> (usize, usize) {
     (left, right)
 }
 
-/// Marks the 8-connected component of the mask's pixel at box column `x` of box row `q` in the
-/// fields (a scanline fill over bit rows, setting up the rows it reaches); returns the box rows
-/// that hold it.
-fn mark(plane: &mut Plane<'_>, x: usize, q: usize) -> Range<usize> {
-    mark_with::<FILL_STACK>(plane, x, q)
+/// Sets columns `lo..=hi` of `bits`.
+#[inline]
+fn set_range(bits: &mut Bits, lo: usize, hi: usize) {
+    for (k, v) in bits.iter_mut().enumerate().take(hi / BITS + 1).skip(lo / BITS) {
+        *v |= range_word(k, lo, hi);
+    }
 }
 
-/// [`mark`] with a stack of `STACK` spans: when it overflows, raster scans push the free pixels
-/// next to the component until there are none. Not inlined: its stack need not stay allocated
-/// while the centroid is measured.
-#[inline(never)]
-fn mark_with<const STACK: usize>(plane: &mut Plane<'_>, x: usize, q: usize) -> Range<usize> {
-    // (column, row) as `column | row << 8` (the box is at most 256 wide and 2^24 high).
-    let mut stack = [0u32; STACK];
-    let mut top = 0usize;
-    let mut rows = q..q;
-    plane.init(q);
-    if let (Some(slot), Ok(x), Ok(q)) = (stack.get_mut(0), u32::try_from(x), u32::try_from(q)) {
-        *slot = x | q << 8;
-        top = 1;
+/// The runs of set bits of `m` that hold a bit of `seeds` (which is within `m`).
+fn runs_of(m: &Bits, seeds: &Bits) -> Bits {
+    let mut out = EMPTY;
+    let mut x = next_bit(seeds, 0, true);
+    while x < MAX_WIDTH {
+        let (a, b) = run_around(m, x);
+        set_range(&mut out, a, b);
+        x = next_bit(seeds, b + 1, true);
     }
-    let mut pending = spans(plane, &mut stack, &mut top, &mut rows);
-    while pending {
-        // Spans were dropped: push the free pixels next to the component (as many as fit).
-        let mut dropped = false;
-        for q in plane.lo..plane.hi {
-            let (above, below) = (plane.load(q.wrapping_sub(1), COMP_FIELD), plane.load(q + 1, COMP_FIELD));
-            let (m, c) = (plane.load(q, MASK_FIELD), plane.load(q, COMP_FIELD));
-            let near = dilate::<1>(&or(&or(&above, &below), &c));
-            for (k, ((&m, &c), &v)) in m.iter().zip(&c).zip(&near).enumerate() {
-                let mut cand = m & !c & v;
-                while cand != 0 {
-                    let col = 32 * k as u32 + cand.trailing_zeros();
-                    cand &= cand - 1;
-                    match stack.get_mut(top) {
-                        Some(slot) => {
-                            *slot = col | (q as u32) << 8;
-                            top += 1;
-                        }
-                        None => dropped = true,
-                    }
-                }
-            }
+    out
+}
+
+/// Whether any bit of `a & b` is set.
+#[inline(always)]
+fn meet(a: &Bits, b: &Bits) -> bool {
+    a.iter().zip(b).any(|(&a, &b)| a & b != 0)
+}
+
+/// Marks the 8-connected component of the mask's pixel at box column `x` of box row `q` in the
+/// component field, setting up the rows it reaches and one more above and below; returns the box
+/// rows that hold it. One sweep down from the seed's row marks the runs next to the row above;
+/// when a row's runs also touch a free pixel of the row above (the component turns upward),
+/// sweeps down and up follow until none adds a pixel.
+#[inline(never)]
+fn mark(plane: &mut Plane<'_>, x: usize, q: usize) -> Range<usize> {
+    plane.init(q);
+    let m = plane.load(q, MASK_FIELD);
+    if !bit(&m, x) {
+        return q..q;
+    }
+    let (a, b) = run_around(&m, x);
+    let mut c = EMPTY;
+    set_range(&mut c, a, b);
+    plane.store(q, COMP_FIELD, &c);
+    let mut grown = dilate::<1>(&c, plane.n);
+    // Free pixels of the row above next to the row's, or of the row above that.
+    let mut upward = false;
+    if q > 0 {
+        plane.init(q - 1);
+        upward = meet(&plane.load(q - 1, MASK_FIELD), &grown);
+    }
+    let (mut above_m, mut above_c) = (m, c);
+    let mut end = q + 1;
+    while end < plane.height {
+        plane.init(end);
+        let m = plane.load(end, MASK_FIELD);
+        let mut seeds = grown;
+        for (s, &m) in seeds.iter_mut().zip(&m) {
+            *s &= m;
         }
-        if top == 0 {
+        if seeds == EMPTY {
             break;
         }
-        pending = spans(plane, &mut stack, &mut top, &mut rows) || dropped;
+        let c = runs_of(&m, &seeds);
+        plane.store(end, COMP_FIELD, &c);
+        grown = dilate::<1>(&c, plane.n);
+        let mut free = above_m;
+        for (f, &c) in free.iter_mut().zip(&above_c) {
+            *f &= !c;
+        }
+        upward |= meet(&free, &grown);
+        (above_m, above_c) = (m, c);
+        end += 1;
+    }
+    if !upward {
+        return q..end;
+    }
+    sweeps(plane)
+}
+
+/// Sweeps down and up over the rows set up, each adding to a row the free runs next to the
+/// component in the rows above and below, until one adds nothing; returns the rows that hold the
+/// component.
+fn sweeps(plane: &mut Plane<'_>) -> Range<usize> {
+    // A sweep that adds a pixel is followed by another, and there are finitely many pixels.
+    loop {
+        let mut changed = false;
+        let mut r = plane.lo;
+        while r < plane.hi {
+            changed |= grow_row(plane, r);
+            r += 1;
+        }
+        while r > plane.lo {
+            r -= 1;
+            changed |= grow_row(plane, r);
+        }
+        if !changed {
+            break;
+        }
+    }
+    let mut rows = 0..0;
+    for r in plane.lo..plane.hi {
+        if plane.load(r, COMP_FIELD) != EMPTY {
+            rows = if rows.start == rows.end { r..r + 1 } else { rows.start..r + 1 };
+        }
     }
     rows
 }
 
-/// The scanline fill's loop: pops spans until the stack is empty; `rows` grows to the rows
-/// marked. Returns whether a span was dropped because the stack was full.
-fn spans(plane: &mut Plane<'_>, stack: &mut [u32], top: &mut usize, rows: &mut Range<usize>) -> bool {
-    let mut overflow = false;
-    let (width, height) = (plane.width, plane.height);
-    while *top > 0 {
-        *top -= 1;
-        let Some(&entry) = stack.get(*top) else { break };
-        let (x, q) = ((entry & 0xFF) as usize, (entry >> 8) as usize);
-        let m = plane.load(q, MASK_FIELD);
-        let mut c = plane.load(q, COMP_FIELD);
-        let mut free = EMPTY;
-        for ((f, &m), &c) in free.iter_mut().zip(&m).zip(&c) {
-            *f = m & !c;
-        }
-        if !bit(&free, x) {
-            continue;
-        }
-        let (xl, xr) = run_around(&free, x);
-        for (k, c) in c.iter_mut().enumerate().take(xr / 32 + 1).skip(xl / 32) {
-            *c |= range_word(k, xl, xr);
-        }
-        plane.store(q, COMP_FIELD, &c);
-        *rows = if rows.start == rows.end {
-            q..q + 1
-        } else {
-            rows.start.min(q)..rows.end.max(q + 1)
-        };
-        let (lo, hi) = (xl.saturating_sub(1), (xr + 1).min(width - 1));
-        for nq in [q.wrapping_sub(1), q + 1] {
-            if nq >= height {
-                continue;
-            }
-            plane.init(nq);
-            let (m, c) = (plane.load(nq, MASK_FIELD), plane.load(nq, COMP_FIELD));
-            let mut carry = 0u32;
-            for k in lo / 32..=hi / 32 {
-                let f = m.get(k).copied().unwrap_or(0) & !c.get(k).copied().unwrap_or(0) & range_word(k, lo, hi);
-                let mut starts = f & !((f << 1) | carry);
-                carry = f >> 31;
-                while starts != 0 {
-                    let col = 32 * k as u32 + starts.trailing_zeros();
-                    starts &= starts - 1;
-                    match stack.get_mut(*top) {
-                        Some(slot) => {
-                            *slot = col | (nq as u32) << 8;
-                            *top += 1;
-                        }
-                        None => overflow = true,
-                    }
-                }
-            }
-        }
+/// Adds to row `r` its free runs next to the component in rows `r − 1` and `r + 1`, and sets up
+/// the rows next to it when it holds some; whether it added any.
+fn grow_row(plane: &mut Plane<'_>, r: usize) -> bool {
+    let (m, c) = (plane.load(r, MASK_FIELD), plane.load(r, COMP_FIELD));
+    let (above, below) = (plane.load(r.wrapping_sub(1), COMP_FIELD), plane.load(r + 1, COMP_FIELD));
+    let mut near = above;
+    for (v, &b) in near.iter_mut().zip(&below) {
+        *v |= b;
     }
-    overflow
+    let near = dilate::<1>(&near, plane.n);
+    let mut free = m;
+    let mut seeds = near;
+    for ((f, s), &c) in free.iter_mut().zip(seeds.iter_mut()).zip(&c) {
+        *f &= !c;
+        *s &= *f;
+    }
+    if seeds == EMPTY {
+        return false;
+    }
+    let mut c = c;
+    for (c, &a) in c.iter_mut().zip(&runs_of(&free, &seeds)) {
+        *c |= a;
+    }
+    plane.store(r, COMP_FIELD, &c);
+    if r + 1 == plane.hi {
+        plane.init(r + 1);
+    }
+    if r == plane.lo && r > 0 {
+        plane.init(r - 1);
+    }
+    true
 }
 
-/// Bit `c` of the result is bit `c + S` of `x` (0 past the row's end); `S < 32`.
-#[inline]
-fn shift_down<const S: u32>(x: &Bits) -> Bits {
+/// Bit `c` of the result is bit `c + S` of `x` (0 past the row's end), over its first `n`
+/// words; `0 < S < BITS`.
+#[inline(always)]
+fn shift_down<const S: usize>(x: &Bits, n: usize) -> Bits {
     let mut out = EMPTY;
-    for (i, o) in out.iter_mut().enumerate() {
-        let cur = x.get(i).copied().unwrap_or(0);
-        let next = x.get(i + 1).copied().unwrap_or(0);
-        *o = (cur >> S) | next.checked_shl(32 - S).unwrap_or(0);
+    for (k, o) in out.iter_mut().enumerate().take(n) {
+        let cur = x.get(k).copied().unwrap_or(0);
+        let next = x.get(k + 1).copied().unwrap_or(0);
+        *o = (cur >> S) | (next << (BITS - S));
     }
     out
 }
 
-/// Bit `c` of the result is bit `c − S` of `x` (0 before the row's start); `S < 32`.
-#[inline]
-fn shift_up<const S: u32>(x: &Bits) -> Bits {
+/// Bit `c` of the result is bit `c − S` of `x` (0 before the row's start), over its first `n`
+/// words; `0 < S < BITS`.
+#[inline(always)]
+fn shift_up<const S: usize>(x: &Bits, n: usize) -> Bits {
     let mut out = EMPTY;
-    for (i, o) in out.iter_mut().enumerate() {
-        let cur = x.get(i).copied().unwrap_or(0);
-        let prev = i.checked_sub(1).and_then(|p| x.get(p)).copied().unwrap_or(0);
-        *o = (cur << S) | prev.checked_shr(32 - S).unwrap_or(0);
+    let mut prev = 0;
+    for (k, o) in out.iter_mut().enumerate().take(n) {
+        let cur = x.get(k).copied().unwrap_or(0);
+        *o = (cur << S) | (prev >> (BITS - S));
+        prev = cur;
     }
     out
 }
 
-#[inline]
-fn and(a: &Bits, b: &Bits) -> Bits {
+#[inline(always)]
+fn and_n(a: &Bits, b: &Bits, n: usize) -> Bits {
     let mut out = *a;
-    for (o, &b) in out.iter_mut().zip(b) {
+    for (o, &b) in out.iter_mut().zip(b).take(n) {
         *o &= b;
     }
     out
 }
 
-#[inline]
-fn or(a: &Bits, b: &Bits) -> Bits {
+#[inline(always)]
+fn or_n(a: &Bits, b: &Bits, n: usize) -> Bits {
     let mut out = *a;
-    for (o, &b) in out.iter_mut().zip(b) {
+    for (o, &b) in out.iter_mut().zip(b).take(n) {
         *o |= b;
     }
     out
 }
 
-/// Horizontal erosion by the `(2K+1)`-segment (columns outside the row count as 0), `K` 2, 3 or 5.
-#[inline]
-fn erode<const K: u32>(x: &Bits) -> Bits {
+/// Horizontal erosion by the `(2K+1)`-segment (columns outside the row count as 0), `K` 2, 3 or
+/// 5, over the first `n` words (the rest of `x` 0).
+#[inline(always)]
+fn erode<const K: usize>(x: &Bits, n: usize) -> Bits {
     // AND over windows from the column on: 2 columns, 4, then 5 (K = 2), 7 (K = 3) or 8 and 11
     // (K = 5); then centred.
-    let a2 = and(x, &shift_down::<1>(x));
-    let a4 = and(&a2, &shift_down::<2>(&a2));
+    let a2 = and_n(x, &shift_down::<1>(x, n), n);
+    let a4 = and_n(&a2, &shift_down::<2>(&a2, n), n);
     match K {
-        2 => shift_up::<2>(&and(&a4, &shift_down::<4>(x))),
-        3 => shift_up::<3>(&and(&a4, &shift_down::<3>(&a4))),
+        2 => shift_up::<2>(&and_n(&a4, &shift_down::<4>(x, n), n), n),
+        3 => shift_up::<3>(&and_n(&a4, &shift_down::<3>(&a4, n), n), n),
         _ => {
-            let a8 = and(&a4, &shift_down::<4>(&a4));
-            shift_up::<5>(&and(&a8, &shift_down::<7>(&a4)))
+            let a8 = and_n(&a4, &shift_down::<4>(&a4, n), n);
+            shift_up::<5>(&and_n(&a8, &shift_down::<7>(&a4, n), n), n)
         }
     }
 }
 
-/// Horizontal dilation by the `(2K+1)`-segment, `K` 1 or 2 (not clipped to the box).
-#[inline]
-fn dilate<const K: u32>(x: &Bits) -> Bits {
-    let one = or(&or(x, &shift_down::<1>(x)), &shift_up::<1>(x));
+/// Horizontal dilation by the `(2K+1)`-segment, `K` 1 or 2, over the first `n` words (not
+/// clipped to the box: the bits past its width may be set).
+#[inline(always)]
+fn dilate<const K: usize>(x: &Bits, n: usize) -> Bits {
+    let one = or_n(&or_n(x, &shift_down::<1>(x, n), n), &shift_up::<1>(x, n), n);
     if K == 1 {
         one
     } else {
-        or(&or(&one, &shift_down::<2>(x)), &shift_up::<2>(x))
+        or_n(&or_n(&one, &shift_down::<2>(x, n), n), &shift_up::<2>(x, n), n)
     }
 }
 
-/// Calls `f` with the column of every set bit of `bits`, in increasing order.
-#[inline]
-fn for_each_bit(bits: &Bits, mut f: impl FnMut(usize)) {
-    for (i, &word) in bits.iter().enumerate() {
-        let mut word = word;
-        while word != 0 {
-            let col = 32 * i + word.trailing_zeros() as usize;
-            word &= word - 1;
-            f(col);
+/// Calls `f` with the first and end column of every run of set bits of `bits`, in increasing
+/// order.
+#[inline(always)]
+fn for_each_run(bits: &Bits, mut f: impl FnMut(usize, usize)) {
+    let mut x = next_bit(bits, 0, true);
+    while x < MAX_WIDTH {
+        let end = next_bit(bits, x, false);
+        f(x, end);
+        x = next_bit(bits, end, true);
+    }
+}
+
+/// Slot of row `q` in a window of 16 rows.
+#[inline(always)]
+fn slot(q: usize) -> usize {
+    q % 16
+}
+
+/// First pass: each row of `rows` gets its inside (component eroded twice), band (dilated twice
+/// minus inside) and ring (eroded three times minus eroded five times) in its fields, the
+/// component's rows being `comp`; returns the median `D` over the ring (from a signed histogram;
+/// 0 without ring pixels). Not inlined: its histogram and [`weigh`]'s column sums need not share
+/// a stack frame.
+#[inline(never)]
+fn shape_pass<S: Source>(src: &S, plane: &mut Plane<'_>, comp: Range<usize>, rows: Range<usize>) -> f32 {
+    let n = plane.n;
+    // Fields for every row weighed.
+    while plane.lo > rows.start {
+        let lo = plane.lo;
+        plane.init(lo - 1);
+        if plane.lo == lo {
+            break;
         }
     }
-}
-
-/// First pass: the ring (component eroded three times minus eroded five times) into the ring
-/// field of its rows, and the median `D` over it (from a signed histogram; 0 without ring
-/// pixels). Not inlined: its histogram and [`weigh`]'s column sums need not share a stack frame.
-#[inline(never)]
-fn ring_pass<S: Source>(src: &S, plane: &mut Plane<'_>, comp: Range<usize>) -> f32 {
+    while plane.hi < rows.end {
+        let hi = plane.hi;
+        plane.init(hi);
+        if plane.hi == hi {
+            break;
+        }
+    }
     let mut hist = [0u16; 511];
     let mut ring_count = 0usize;
-    let load = |plane: &Plane<'_>, q: usize| {
-        if comp.contains(&q) {
-            plane.load(q, COMP_FIELD)
-        } else {
-            EMPTY
-        }
-    };
-    // Ring rows have the component 3 rows above and below.
-    let ring_rows = comp.start + 3..comp.end.saturating_sub(3);
-    // The component's rows j − 5 ..= j + 5 around row j: row q in slot (q + 5) mod 11 (the slots
-    // of rows above the box stay empty).
-    let mut rows = [EMPTY; 11];
-    for q in ring_rows.start.saturating_sub(5)..ring_rows.start + 5 {
-        if let Some(slot) = rows.get_mut((q + 5) % 11) {
-            *slot = load(plane, q);
+    // The component's rows j − 5 ..= j + 5 around row j (empty outside `comp`).
+    let mut window = [EMPTY; 16];
+    for q in rows.start.saturating_sub(5)..rows.start + 5 {
+        if let (Some(w), true) = (window.get_mut(slot(q)), comp.contains(&q)) {
+            *w = plane.load(q, COMP_FIELD);
         }
     }
-    for j in ring_rows {
-        if let Some(slot) = rows.get_mut((j + 10) % 11) {
-            *slot = load(plane, j + 5);
+    let valid = {
+        let mut v = EMPTY;
+        for (k, v) in v.iter_mut().enumerate().take(n) {
+            *v = if k + 1 == n { plane.last } else { Word::MAX };
         }
-        let row = |t: usize| rows.get((j + t) % 11).unwrap_or(&EMPTY);
-        // Erosion by the (2k+1)-square: AND of the rows within k, then of the columns within k.
-        let mut v3 = *row(5);
-        for t in [2, 3, 4, 6, 7, 8] {
-            v3 = and(&v3, row(t));
+        v
+    };
+    for j in rows {
+        let q = j + 5;
+        if let Some(w) = window.get_mut(slot(q)) {
+            *w = if comp.contains(&q) {
+                plane.load(q, COMP_FIELD)
+            } else {
+                EMPTY
+            };
         }
-        if v3 == EMPTY {
-            continue;
-        }
-        let mut v5 = v3;
-        for t in [0, 1, 9, 10] {
-            v5 = and(&v5, row(t));
-        }
-        let (e3, e5) = (erode::<3>(&v3), erode::<5>(&v5));
-        let mut ring = EMPTY;
-        for ((o, a), b) in ring.iter_mut().zip(e3).zip(e5) {
-            *o = a & !b;
-        }
-        if ring == EMPTY {
-            continue;
-        }
-        plane.store(j, RING_FIELD, &ring);
-        let image_row = src.row(plane.r.y0 + j);
-        for_each_bit(&ring, |c| {
-            if let Some(hb) = hist.get_mut(src.bin(image_row, c)) {
-                *hb = hb.saturating_add(1);
+        // Rows j + t − 6 for t = 1..=11.
+        let row = |t: usize| window.get(slot(j + t + 10)).unwrap_or(&EMPTY);
+        // Erosion by the (2k+1)-square: AND of the rows within k, then of the columns within k;
+        // dilation likewise with OR.
+        let (mut v2, mut grown, mut v3, mut v5) = (EMPTY, EMPTY, EMPTY, EMPTY);
+        for k in 0..n {
+            let w = |t: usize| row(t).get(k).copied().unwrap_or(0);
+            let (a, b, c, d, e) = (w(4), w(5), w(6), w(7), w(8));
+            let inner = a & b & c & d & e;
+            let three = inner & w(3) & w(9);
+            if let (Some(v2), Some(g), Some(v3), Some(v5)) = (v2.get_mut(k), grown.get_mut(k), v3.get_mut(k), v5.get_mut(k)) {
+                *v2 = inner;
+                *g = a | b | c | d | e;
+                *v3 = three;
+                *v5 = three & w(1) & w(2) & w(10) & w(11);
             }
-            ring_count += 1;
-        });
+        }
+        let inside = erode::<2>(&v2, n);
+        let mut band = dilate::<2>(&grown, n);
+        for ((b, &i), &v) in band.iter_mut().zip(&inside).zip(&valid) {
+            *b &= !i & v;
+        }
+        let mut ring = EMPTY;
+        if v3 != EMPTY {
+            let (e3, e5) = (erode::<3>(&v3, n), erode::<5>(&v5, n));
+            for ((o, &a), &b) in ring.iter_mut().zip(&e3).zip(&e5) {
+                *o = a & !b;
+            }
+        }
+        plane.store(j, COMP_FIELD, &inside);
+        plane.store(j, BAND_FIELD, &band);
+        plane.store(j, RING_FIELD, &ring);
+        if ring != EMPTY {
+            let image_row = src.row(plane.r.y0 + j);
+            for_each_run(&ring, |a, e| {
+                for c in a..e {
+                    if let Some(hb) = hist.get_mut(src.bin(image_row, c)) {
+                        *hb = hb.saturating_add(1);
+                    }
+                }
+                ring_count += e - a;
+            });
+        }
     }
     if ring_count == 0 {
         return 0.0;
@@ -595,82 +714,54 @@ fn ring_pass<S: Source>(src: &S, plane: &mut Plane<'_>, comp: Range<usize>) -> f
     0.0
 }
 
-/// Second pass: the sums (Σw, Σw·x, Σw·y, box coordinates) of the weights, in raster order. Row
-/// `p` of the fields is read 4 rows ahead of the weights, so the ring's column sums cover rows
-/// `y − 4 ..= y + 4` when row `y` is weighed. Not inlined (see [`ring_pass`]).
+/// Second pass: the sums (Σw, Σw·x, Σw·y, box coordinates) of the weights of the rows `rows`, in
+/// raster order, from the fields the shape pass left. The ring's values are summed per column
+/// over rows `y − 4 ..= y + 4` while row `y` is weighed. Not inlined (see [`shape_pass`]).
 #[inline(never)]
-fn weigh<S: Source>(src: &S, plane: &Plane<'_>, comp: Range<usize>, contrast: f32) -> [f32; 3] {
-    let height = plane.height;
+fn weigh<S: Source>(src: &S, plane: &Plane<'_>, rows: Range<usize>, contrast: f32) -> [f32; 3] {
     let mut sums = [0.0f32; 3];
-    // The component's rows p − 7 ..= p (row q in slot q mod 8) and the ring's rows p − 9 ..= p
-    // (slot q mod 10); the slots of rows above the component stay empty.
-    let mut comp_rows = [EMPTY; 8];
-    let mut rings = [EMPTY; 10];
-    // The ring's values summed per column over 9 rows: column c of the box at c + 4.
+    // The ring's values summed per column: column c of the box at c + 4.
     let mut columns = [S::Col::default(); MAX_WIDTH + 8];
     let weights = Weights {
         contrast,
         sign: contrast.signum(),
     };
-    // Rows with inside or band pixels: the component's, and 2 more above and below.
-    for p in comp.start..(comp.end + 2).min(height) + 4 {
-        let (c, ring) = if comp.contains(&p) {
-            (plane.load(p, COMP_FIELD), plane.load(p, RING_FIELD))
+    let weighed = rows.clone();
+    let ring = |q: usize| {
+        if weighed.contains(&q) {
+            plane.load(q, RING_FIELD)
         } else {
-            (EMPTY, EMPTY)
-        };
-        if let Some(slot) = comp_rows.get_mut(p % 8) {
-            *slot = c;
+            EMPTY
         }
-        // The column sums move on to rows p − 8 ..= p.
-        if let Some(q) = p.checked_sub(9) {
-            let leaving = rings.get(q % 10).unwrap_or(&EMPTY);
-            if *leaving != EMPTY {
-                let image_row = src.row(plane.r.y0 + q);
-                for_each_bit(leaving, |col| {
-                    if let Some(s) = columns.get_mut(col + 4) {
-                        *s = *s - src.col(image_row, col);
-                    }
-                });
-            }
+    };
+    let move_row = |columns: &mut [S::Col; MAX_WIDTH + 8], q: usize, enter: bool| {
+        let bits = ring(q);
+        if bits == EMPTY {
+            return;
         }
-        if ring != EMPTY {
-            let image_row = src.row(plane.r.y0 + p);
-            for_each_bit(&ring, |col| {
-                if let Some(s) = columns.get_mut(col + 4) {
-                    *s = *s + src.col(image_row, col);
+        let image_row = src.row(plane.r.y0 + q);
+        for_each_run(&bits, |a, e| {
+            if let Some(cols) = columns.get_mut(a + 4..e + 4) {
+                for (s, c) in cols.iter_mut().zip(a..e) {
+                    let v = src.col(image_row, c);
+                    *s = if enter { *s + v } else { *s - v };
                 }
-            });
+            }
+        });
+    };
+    for q in rows.start.saturating_sub(4)..rows.start + 4 {
+        move_row(&mut columns, q, true);
+    }
+    for y in rows {
+        move_row(&mut columns, y + 4, true);
+        let (inside, band) = (plane.load(y, COMP_FIELD), plane.load(y, BAND_FIELD));
+        if band != EMPTY {
+            let image_row = src.row(plane.r.y0 + y);
+            sums = weights.row(src, image_row, y, &inside, &band, &columns, sums);
         }
-        if let Some(slot) = rings.get_mut(p % 10) {
-            *slot = ring;
+        if let Some(q) = y.checked_sub(4) {
+            move_row(&mut columns, q, false);
         }
-        let Some(y) = p.checked_sub(4) else {
-            continue;
-        };
-        // Inside = eroded twice, band = dilated twice minus inside: rows y − 2 ..= y + 2.
-        let mut v2 = *comp_rows.get((y + 6) % 8).unwrap_or(&EMPTY);
-        let mut grown = v2;
-        for k in 7..11 {
-            let row = comp_rows.get((y + k) % 8).unwrap_or(&EMPTY);
-            v2 = and(&v2, row);
-            grown = or(&grown, row);
-        }
-        if grown == EMPTY {
-            continue;
-        }
-        let inside = erode::<2>(&v2);
-        let mut band = dilate::<2>(&grown);
-        for (i, (b, &s)) in band.iter_mut().zip(&inside).enumerate() {
-            let valid = match i.cmp(&(plane.n - 1)) {
-                core::cmp::Ordering::Less => u32::MAX,
-                core::cmp::Ordering::Equal => plane.last,
-                core::cmp::Ordering::Greater => 0,
-            };
-            *b &= !s & valid;
-        }
-        let image_row = src.row(plane.r.y0 + y);
-        sums = weights.row(src, image_row, y, &inside, &band, &columns, sums);
     }
     sums
 }
@@ -697,43 +788,52 @@ impl Weights {
         columns: &[S::Col; MAX_WIDTH + 8],
         sums: [f32; 3],
     ) -> [f32; 3] {
-        let [mut sw, mut sx, mut sy] = sums;
+        let mut sums = sums;
         let yf = y as f32;
-        let (contrast, sign) = (self.contrast, self.sign);
-        // The window sum of the last band pixel's column, and that column plus 1 (0: none).
-        let mut window = S::Col::default();
-        let mut next = 0usize;
         // The column after the last band pixel.
         let mut after = 0usize;
-        for (i, &word) in band.iter().enumerate() {
-            let mut bits = word;
-            while bits != 0 {
-                let c = 32 * i + bits.trailing_zeros() as usize;
-                bits &= bits - 1;
-                if c > after && bit(inside, after) {
-                    [sw, sx, sy] = self.inside_run(src, image_row, after..c, y, [sw, sx, sy]);
-                }
-                after = c + 1;
-                // The ring's values within 4 columns (padded: columns c .. c + 9).
-                if next != 0 && c == next {
-                    if let (Some(&enter), Some(&leave)) = (columns.get(c + 8), columns.get(c - 1)) {
-                        window = window + enter - leave;
-                    }
-                } else {
-                    window = columns
-                        .get(c..c + 9)
-                        .unwrap_or(&[])
-                        .iter()
-                        .fold(S::Col::default(), |a, &s| a + s);
-                }
-                next = c + 1;
-                let d = src.d(image_row, c);
-                // A D of the other sign than the contrast weighs 0.
-                if !(d * sign > 0.0) {
-                    continue;
-                }
-                // The local contrast: mean D of the ring pixels within 4 px (shading across the
-                // part changes it from one side to the other), else the part's median.
+        for_each_run(band, |a, e| {
+            if a > after && bit(inside, after) {
+                sums = self.inside_run(src, image_row, after..a, y, sums);
+            }
+            after = e;
+            sums = self.band_run(src, image_row, a..e, yf, columns, sums);
+        });
+        sums
+    }
+
+    /// `sums` plus the weights of the band pixels `cols` of a row: `D` over the local contrast,
+    /// the mean `D` of the ring pixels within 4 px (shading across the part changes it from one
+    /// side to the other), else the part's median, clipped to `[0, 1]`.
+    #[inline(always)]
+    fn band_run<S: Source>(
+        &self,
+        src: &S,
+        image_row: S::Row,
+        cols: Range<usize>,
+        yf: f32,
+        columns: &[S::Col; MAX_WIDTH + 8],
+        sums: [f32; 3],
+    ) -> [f32; 3] {
+        let (contrast, sign) = (self.contrast, self.sign);
+        let [mut sw, mut sx, mut sy] = sums;
+        // The window of the run's first column (padded: columns a .. a + 9), then sliding.
+        let a = cols.start;
+        let mut window = columns
+            .get(a..a + 9)
+            .unwrap_or(&[])
+            .iter()
+            .fold(S::Col::default(), |s, &v| s + v);
+        let mut xf = a as u32 as f32;
+        let (enter, leave) = (
+            columns.get(a + 9..cols.end + 8).unwrap_or(&[]),
+            columns.get(a..cols.end - 1).unwrap_or(&[]),
+        );
+        let mut slide = enter.iter().zip(leave);
+        for c in cols {
+            let d = src.d(image_row, c);
+            // A D of the other sign than the contrast weighs 0.
+            if d * sign > 0.0 {
                 let (sum, count) = S::split(window);
                 let mut local = contrast;
                 if count > 0 {
@@ -746,9 +846,13 @@ impl Weights {
                 let weight = (d / local).clamp(0.0, 1.0);
                 if weight > 0.0 {
                     sw += weight;
-                    sx += weight * c as f32;
+                    sx += weight * xf;
                     sy += weight * yf;
                 }
+            }
+            xf += 1.0;
+            if let Some((&i, &o)) = slide.next() {
+                window = window + i - o;
             }
         }
         [sw, sx, sy]
@@ -757,7 +861,7 @@ impl Weights {
     /// `sums` plus the weights of the inside pixels `cols` of box row `y`: 1, unless the pixel
     /// looks like the platform (a small hole or a narrow gap that the mask's closing filled;
     /// printed labels keep at least a third of the part's contrast, holes keep none).
-    #[inline]
+    #[inline(always)]
     fn inside_run<S: Source>(
         &self,
         src: &S,
@@ -772,6 +876,20 @@ impl Weights {
         if (least * sign) / contrast >= HOLE_RATIO {
             return add_ones(sums, cols, y);
         }
+        self.inside_by_pixel(src, image_row, cols, y, sums)
+    }
+
+    /// [`Self::inside_run`] pixel by pixel (runs of weight 1 between the others at once).
+    #[inline(never)]
+    fn inside_by_pixel<S: Source>(
+        &self,
+        src: &S,
+        image_row: S::Row,
+        cols: Range<usize>,
+        y: usize,
+        sums: [f32; 3],
+    ) -> [f32; 3] {
+        let contrast = self.contrast;
         let mut sums = sums;
         let mut ones = cols.start;
         for c in cols.clone() {
@@ -784,7 +902,7 @@ impl Weights {
             let weight = ratio.clamp(0.0, 1.0);
             if weight > 0.0 {
                 let [sw, sx, sy] = sums;
-                sums = [sw + weight, sx + weight * c as f32, sy + weight * y as f32];
+                sums = [sw + weight, sx + weight * c as u32 as f32, sy + weight * y as f32];
             }
         }
         add_ones(sums, ones..cols.end, y)
@@ -793,26 +911,28 @@ impl Weights {
 
 /// `sums` (Σw, Σw·x, Σw·y) plus weight 1 for each pixel of columns `cols` of box row `y`: the
 /// same bits as adding them one by one in increasing column.
-#[inline]
+#[inline(always)]
 fn add_ones(sums: [f32; 3], cols: Range<usize>, y: usize) -> [f32; 3] {
-    let Ok(count) = u32::try_from(cols.len()) else {
+    let (Ok(count), Ok(first), Ok(y)) = (u32::try_from(cols.len()), u32::try_from(cols.start), u32::try_from(y)) else {
         return sums;
     };
     if count == 0 {
         return sums;
     }
-    let first = u32::try_from(cols.start).unwrap_or(u32::MAX);
-    let y = u32::try_from(y).unwrap_or(u32::MAX);
     let [sw, sx, sy] = sums;
+    // Σ columns (below 2^17 for a box row).
+    let columns = u64::from(first) * u64::from(count) + u64::from(count) * u64::from(count - 1) / 2;
+    let at_once = |s: f32, t: u64| exact_integer(t).and_then(|t| exact_sum(s, t));
     [
-        add_sequence(sw, 1, 0, count),
-        add_sequence(sx, first, 1, count),
-        add_sequence(sy, y, 0, count),
+        at_once(sw, u64::from(count)).unwrap_or_else(|| add_sequence(sw, 1, 0, count)),
+        at_once(sx, columns).unwrap_or_else(|| add_sequence(sx, first, 1, count)),
+        at_once(sy, u64::from(y) * u64::from(count)).unwrap_or_else(|| add_sequence(sy, y, 0, count)),
     ]
 }
 
 /// `s` plus the `count` integers `first + step·k` (`k = 0, 1, …`) one by one in `f32`: at once as
 /// far as none of the additions rounds ([`exact_sum`]), the one that does on its own.
+#[inline(never)]
 fn add_sequence(s: f32, first: u32, step: u32, count: u32) -> f32 {
     // The sum of the first `k` terms (exact: below 2^64).
     let terms = |first: u32, k: u32| {
@@ -855,7 +975,7 @@ fn add_sequence(s: f32, first: u32, step: u32, count: u32) -> f32 {
 const EXACT: f32 = 16_777_216.0;
 
 /// `v` as an `f32` when that is exact (at most 2^24).
-#[inline]
+#[inline(always)]
 fn exact_integer(v: u64) -> Option<f32> {
     (v <= 1 << 24).then_some(v as f32)
 }
@@ -865,7 +985,7 @@ fn exact_integer(v: u64) -> Option<f32> {
 /// either `s` is an integer and the sum stays below 2^24 (every partial sum is an integer an
 /// `f32` holds), or `s` and the sum share their exponent below 2^24 (every partial sum lies in
 /// that binade, on its grid of at most 1). `None` otherwise.
-#[inline]
+#[inline(always)]
 fn exact_sum(s: f32, t: f32) -> Option<f32> {
     let total = s + t;
     // Rounding is monotonic: a computed sum below 2^24 means a true one below it.
@@ -1426,7 +1546,6 @@ mod per_pixel {
     }
 }
 
-
 #[cfg(test)]
 mod tests {
     extern crate std;
@@ -1915,7 +2034,7 @@ mod tests {
         let density = rng.unit();
         for x in 0..width {
             if rng.chance(density) {
-                bits[x / 32] |= 1 << (x % 32);
+                bits[x / BITS] |= 1 << (x % BITS);
             }
         }
         bits
@@ -1928,7 +2047,7 @@ mod tests {
         let mut x = rng.below(6);
         let set = |bits: &mut Bits, from: usize, len: usize| {
             for c in from..(from + len).min(width) {
-                bits[c / 32] |= 1 << (c % 32);
+                bits[c / BITS] |= 1 << (c % BITS);
             }
         };
         while x < width {
@@ -2177,11 +2296,12 @@ mod tests {
 
     #[test]
     fn bit_row_morphology_is_the_per_bit_definition() {
-        // Erosion and dilation by segments, and the shifts they are made of, against the
-        // definition column by column (outside the row is 0).
+        // Erosion and dilation by segments over a row's words, and the shifts they are made of,
+        // against the definition column by column (outside the row is 0).
         let mut rng = Rng(2024);
         for case in 0..3000 {
             let width = 1 + rng.below(MAX_WIDTH);
+            let n = width.div_ceil(BITS);
             let x = random_bits(&mut rng, width);
             let at = |c: isize| c >= 0 && bit(&x, c as usize);
             for c in 0..MAX_WIDTH {
@@ -2194,15 +2314,17 @@ mod tests {
                         v.any(|b| b)
                     }
                 };
-                assert_eq!(bit(&erode::<2>(&x), c), window(2, true), "case {case} erode 2 at {c}");
-                assert_eq!(bit(&erode::<3>(&x), c), window(3, true), "case {case} erode 3 at {c}");
-                assert_eq!(bit(&erode::<5>(&x), c), window(5, true), "case {case} erode 5 at {c}");
-                assert_eq!(bit(&dilate::<1>(&x), c), window(1, false), "case {case} dilate 1 at {c}");
-                assert_eq!(bit(&dilate::<2>(&x), c), window(2, false), "case {case} dilate 2 at {c}");
-                assert_eq!(bit(&shift_down::<7>(&x), c), at(ci + 7));
-                assert_eq!(bit(&shift_up::<5>(&x), c), at(ci - 5));
+                assert_eq!(bit(&erode::<2>(&x, n), c), window(2, true), "case {case} erode 2 at {c}");
+                assert_eq!(bit(&erode::<3>(&x, n), c), window(3, true), "case {case} erode 3 at {c}");
+                assert_eq!(bit(&erode::<5>(&x, n), c), window(5, true), "case {case} erode 5 at {c}");
+                // Dilation reaches past the width, within the words.
+                let inside = c < n * BITS;
+                assert_eq!(bit(&dilate::<1>(&x, n), c), inside && window(1, false), "case {case} dilate 1 at {c}");
+                assert_eq!(bit(&dilate::<2>(&x, n), c), inside && window(2, false), "case {case} dilate 2 at {c}");
+                assert_eq!(bit(&shift_down::<7>(&x, n), c), inside && at(ci + 7));
+                assert_eq!(bit(&shift_up::<5>(&x, n), c), inside && at(ci - 5));
             }
-            // Runs around a set bit, and the words of a column range.
+            // Runs around a set bit, runs of seeds, the next set or clear bit, column ranges.
             let set: Vec<usize> = (0..width).filter(|&c| bit(&x, c)).collect();
             if let Some(&c) = set.get(rng.below(set.len().max(1))) {
                 let (l, r) = run_around(&x, c);
@@ -2210,10 +2332,31 @@ mod tests {
                 assert!(l == 0 || !bit(&x, l - 1));
                 assert!(!bit(&x, r + 1));
             }
+            let mut seeds = random_bits(&mut rng, width);
+            for (s, &v) in seeds.iter_mut().zip(&x) {
+                *s &= v;
+            }
+            let runs = runs_of(&x, &seeds);
+            for c in 0..MAX_WIDTH {
+                let (mut l, mut r) = (c, c);
+                while l > 0 && bit(&x, l - 1) {
+                    l -= 1;
+                }
+                while bit(&x, r + 1) {
+                    r += 1;
+                }
+                let want = bit(&x, c) && (l..=r).any(|k| bit(&seeds, k));
+                assert_eq!(bit(&runs, c), want, "case {case} runs at {c}");
+            }
+            let from = rng.below(MAX_WIDTH + 1);
+            for set in [true, false] {
+                let want = (from..MAX_WIDTH).find(|&c| bit(&x, c) == set).unwrap_or(MAX_WIDTH);
+                assert_eq!(next_bit(&x, from, set), want, "case {case} next {set} from {from}");
+            }
             let lo = rng.below(MAX_WIDTH);
             let hi = lo + rng.below(MAX_WIDTH - lo);
             for c in 0..MAX_WIDTH {
-                assert_eq!(range_word(c / 32, lo, hi) >> (c % 32) & 1 != 0, (lo..=hi).contains(&c));
+                assert_eq!(range_word(c / BITS, lo, hi) >> (c % BITS) & 1 != 0, (lo..=hi).contains(&c));
             }
         }
     }
@@ -2221,13 +2364,15 @@ mod tests {
     #[test]
     fn plane_fields_hold_bit_rows_and_give_the_mask_back() {
         // Rows set up from the mask's bytes, next to each other only; their fields loaded and
-        // stored; the plane as it was after `restore`.
+        // stored (whole words and packed); the plane as it was after `restore`.
         let mut rng = Rng(99);
-        for case in 0..300 {
+        let mut packed = 0;
+        for case in 0..400 {
             let (w, h) = (MIN_WIDTH + rng.below(300), 1 + rng.below(20));
             let mask: Vec<u8> = (0..w * h).map(|_| rng.chance(0.5) as u8).collect();
             let x0 = rng.below(w - MIN_WIDTH + 1);
-            let x1 = (x0 + MIN_WIDTH + rng.below(MAX_WIDTH - MIN_WIDTH + 1)).min(w);
+            let most = if rng.chance(0.3) { 40 } else { MAX_WIDTH };
+            let x1 = (x0 + MIN_WIDTH + rng.below(most - MIN_WIDTH + 1)).min(w);
             let y0 = rng.below(h);
             let r = Rect {
                 x0,
@@ -2237,6 +2382,8 @@ mod tests {
             };
             let mut plane_bytes = mask.clone();
             let mut plane = Plane::new(&mut plane_bytes, w, r);
+            assert!(FIELDS * plane.stride <= plane.width);
+            packed += usize::from(plane.stride < plane.n * WORD_BYTES);
             let first = rng.below(plane.height);
             plane.init(first);
             // Not next to the rows set up: refused.
@@ -2246,7 +2393,7 @@ mod tests {
                 plane.init(q);
             }
             assert_eq!((plane.lo, plane.hi), (0, plane.height));
-            let mut rings = Vec::new();
+            let mut rows = Vec::new();
             for q in 0..plane.height {
                 let m = plane.load(q, MASK_FIELD);
                 for c in 0..MAX_WIDTH {
@@ -2254,37 +2401,45 @@ mod tests {
                     assert_eq!(bit(&m, c), want, "case {case} row {q} column {c}");
                 }
                 assert_eq!(plane.load(q, COMP_FIELD), EMPTY);
-                assert_eq!(plane.load(q, RING_FIELD), EMPTY);
-                let (c, g) = (random_bits(&mut rng, x1 - x0), random_bits(&mut rng, x1 - x0));
+                let width = x1 - x0;
+                let (c, g, b) = (
+                    random_bits(&mut rng, width),
+                    random_bits(&mut rng, width),
+                    random_bits(&mut rng, width),
+                );
                 plane.store(q, COMP_FIELD, &c);
                 plane.store(q, RING_FIELD, &g);
-                rings.push((c, g, m));
+                plane.store(q, BAND_FIELD, &b);
+                rows.push((m, c, g, b));
             }
-            for (q, &(c, g, m)) in rings.iter().enumerate() {
-                assert_eq!(plane.load(q, COMP_FIELD), c);
-                assert_eq!(plane.load(q, RING_FIELD), g);
-                assert_eq!(plane.load(q, MASK_FIELD), m);
+            for (q, &(m, c, g, b)) in rows.iter().enumerate() {
+                assert_eq!(plane.load(q, MASK_FIELD), m, "case {case}");
+                assert_eq!(plane.load(q, COMP_FIELD), c, "case {case}");
+                assert_eq!(plane.load(q, RING_FIELD), g, "case {case}");
+                assert_eq!(plane.load(q, BAND_FIELD), b, "case {case}");
             }
             assert_eq!(plane.load(plane.height, MASK_FIELD), EMPTY);
             plane.restore();
             assert_eq!(plane.load(0, MASK_FIELD), EMPTY);
             assert!(plane_bytes == mask, "case {case}: plane not restored");
         }
+        assert!(packed > 50, "{packed}");
         for byte in 0..256u32 {
             let v = spread(byte);
             assert_eq!(v & !LOW, 0);
-            assert_eq!(pack(v), byte);
+            assert_eq!(pack(v), byte as Word);
         }
     }
 
     #[test]
     fn bit_row_fill_finds_the_component() {
-        // The scanline fill over bit rows, with stacks that overflow and the default: exactly the
-        // 8-connected component within the box, the rows that hold it, and the mask back after
-        // `restore`.
+        // The fill over bit rows (one sweep down, or sweeps both ways when the component turns
+        // upward) and the sweeps alone from the seed's run: exactly the 8-connected component
+        // within the box, the rows that hold it with one more set up above and below, the mask
+        // back after `restore`.
         let mut rng = Rng(12345);
-        let mut overflowed = 0usize;
-        for case in 0..300 {
+        let mut upward = 0usize;
+        for case in 0..400 {
             let (w, h) = (MIN_WIDTH + rng.below(280), 1 + rng.below(60));
             let density = rng.range(0.3, 0.8);
             let mask: Vec<u8> = (0..w * h).map(|_| rng.chance(density) as u8).collect();
@@ -2312,33 +2467,42 @@ mod tests {
                 .unwrap();
             let top = want.iter().map(|p| p.1).min().unwrap();
             let bottom = want.iter().map(|p| p.1).max().unwrap() + 1;
-            for stack in [1, 2, 8, FILL_STACK] {
+            upward += usize::from(top < seed.1 - r.y0);
+            for sweeps_only in [false, true] {
                 let mut bytes = mask.clone();
                 let mut plane = Plane::new(&mut bytes, w, r);
                 let (x, q) = (seed.0 - r.x0, seed.1 - r.y0);
-                let rows = match stack {
-                    1 => mark_with::<1>(&mut plane, x, q),
-                    2 => mark_with::<2>(&mut plane, x, q),
-                    8 => mark_with::<8>(&mut plane, x, q),
-                    _ => mark(&mut plane, x, q),
+                let rows = if sweeps_only {
+                    plane.init(q);
+                    let m = plane.load(q, MASK_FIELD);
+                    let (a, b) = run_around(&m, x);
+                    let mut c = EMPTY;
+                    set_range(&mut c, a, b);
+                    plane.store(q, COMP_FIELD, &c);
+                    for nq in [q.wrapping_sub(1), q + 1] {
+                        plane.init(nq);
+                    }
+                    sweeps(&mut plane)
+                } else {
+                    mark(&mut plane, x, q)
                 };
-                assert_eq!(rows, top..bottom, "case {case} stack {stack}");
-                assert!(plane.lo <= top.saturating_sub(1) && (bottom + 1).min(bh) <= plane.hi);
+                let context = std::format!("case {case} sweeps only {sweeps_only}");
+                assert_eq!(rows, top..bottom, "{context}");
+                assert!(plane.lo <= top.saturating_sub(1) && (bottom + 1).min(bh) <= plane.hi, "{context}");
                 let mut marked = 0;
                 for q in 0..bh {
                     let c = plane.load(q, COMP_FIELD);
                     marked += c.iter().map(|v| v.count_ones() as usize).sum::<usize>();
                     for x in 0..bw {
-                        assert_eq!(bit(&c, x), want.contains(&(x, q)), "case {case} stack {stack} ({x}, {q})");
+                        assert_eq!(bit(&c, x), want.contains(&(x, q)), "{context} ({x}, {q})");
                     }
                 }
-                assert_eq!(marked, want.len());
+                assert_eq!(marked, want.len(), "{context}");
                 plane.restore();
-                assert!(bytes == mask, "case {case}: plane not restored");
+                assert!(bytes == mask, "{context}: plane not restored");
             }
-            overflowed += usize::from(want.len() > 40);
         }
-        assert!(overflowed > 30, "{overflowed}");
+        assert!(upward > 50, "{upward}");
     }
 
     mod reference {
