@@ -27,15 +27,12 @@ const BITS: usize = Word::BITS as usize;
 /// Bytes a word.
 const WORD_BYTES: usize = BITS / 8;
 
-/// Words of one bit row.
+/// Words of the widest bit row.
 const WORDS: usize = MAX_WIDTH / BITS;
 
-/// One row of the box as bits: bit `j` of word `i` is the box's column `BITS·i + j`; the bits past
-/// the box's width are 0.
-type Bits = [Word; WORDS];
-
-/// An empty bit row.
-const EMPTY: Bits = [0; WORDS];
+/// One row of the box as bits, `N` words: bit `j` of word `i` is the box's column `BITS·i + j`;
+/// the bits past the box's width are 0.
+type Bits<const N: usize> = [Word; N];
 
 /// The fields of a box row on the bit-row path (see [`Plane`]): the mask's row,
 const MASK_FIELD: usize = 0;
@@ -50,6 +47,10 @@ const FIELDS: usize = 4;
 
 /// The narrowest box measured with bit rows: the fields need `FIELDS · ⌈width/8⌉` bytes of a row.
 const MIN_WIDTH: usize = FIELDS;
+
+/// Column sums of ring values: box column `c` at `c + 4`, and room for a run's window to slide
+/// one column past the box.
+const COLUMNS: usize = MAX_WIDTH + 9;
 
 /// A rectangle of pixels `[x0, x1) × [y0, y1)`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -92,36 +93,43 @@ pub fn partial_volume_centroid<B: AsRef<[u8]>>(
     if mask.get(seed.1 * w + seed.0).is_none_or(|v| v & 1 == 0) {
         return None;
     }
-    if (MIN_WIDTH..=MAX_WIDTH).contains(&(r.x1 - r.x0)) {
-        let plane = Plane::new(mask, w, r);
-        let (x, q) = (seed.0 - r.x0, seed.1 - r.y0);
-        // Every row of the box has its D from the frame's and background's rows when the last
-        // has (α = 1, and the background plane reaches that far).
-        if diff.rows(r.y1 - 1).is_some() {
-            bit_rows(&Exact { diff, x0: r.x0, x1: r.x1 }, plane, x, q)
-        } else {
-            bit_rows(&Approx { diff, x0: r.x0 }, plane, x, q)
-        }
-    } else {
+    let width = r.x1 - r.x0;
+    if !(MIN_WIDTH..=MAX_WIDTH).contains(&width) {
         mark_component(mask, w, r, seed);
-        per_pixel::centroid(diff, mask, w, r)
+        return per_pixel::centroid(diff, mask, w, r);
+    }
+    let seed = (seed.0 - r.x0, seed.1 - r.y0);
+    // Every row of the box has its D from the frame's and background's rows when the last has
+    // (α = 1, and the background plane reaches that far).
+    if diff.rows(r.y1 - 1).is_none() {
+        return bit_rows::<_, WORDS>(&Approx { diff, x0: r.x0 }, Plane::new(mask, w, r), seed);
+    }
+    let src = Exact { diff, x0: r.x0, x1: r.x1 };
+    let plane = Plane::new(mask, w, r);
+    // Rows of exactly the box's words (beyond 4, the widest).
+    match width.div_ceil(BITS) {
+        1 => bit_rows::<_, 1>(&src, plane, seed),
+        2 => bit_rows::<_, 2>(&src, plane, seed),
+        3 => bit_rows::<_, 3>(&src, plane, seed),
+        4 => bit_rows::<_, 4>(&src, plane, seed),
+        _ => bit_rows::<_, WORDS>(&src, plane, seed),
     }
 }
 
-/// The bit-row path: the component from the seed at box column `x` of box row `q`, its inside,
-/// band and ring and the ring's median `D`, then the weights; the plane holds its mask again
-/// afterwards.
-fn bit_rows<S: Source>(src: &S, mut plane: Plane<'_>, x: usize, q: usize) -> Option<[f32; 2]> {
-    let comp = mark(&mut plane, x, q);
+/// The bit-row path with rows of `N` words: the component from the seed (box column, box row),
+/// its inside, band and ring and the ring's median `D`, then the weights; the plane holds its
+/// mask again afterwards.
+fn bit_rows<S: Source, const N: usize>(src: &S, mut plane: Plane<'_>, (x, q): (usize, usize)) -> Option<[f32; 2]> {
+    let comp = mark::<N>(&mut plane, x, q);
     // Rows with inside or band pixels: the component's, and 2 more above and below.
     let rows = comp.start.saturating_sub(2)..(comp.end + 2).min(plane.height);
-    let contrast = shape_pass(src, &mut plane, comp, rows.clone());
+    let contrast = shape_pass::<S, N>(src, &mut plane, comp, rows.clone());
     let sums = if contrast.abs() >= 1.0 {
-        weigh(src, &plane, rows, contrast)
+        weigh::<S, N>(src, &plane, rows, contrast)
     } else {
         [0.0; 3]
     };
-    plane.restore();
+    plane.restore::<N>();
     let [sw, sx, sy] = sums;
     let r = plane.r;
     (sw > 0.0).then(|| [r.x0 as f32 + sx / sw, r.y0 as f32 + sy / sw])
@@ -138,8 +146,8 @@ struct Plane<'m> {
     r: Rect,
     width: usize,
     height: usize,
-    /// Words per bit row.
-    n: usize,
+    /// Words of a row.
+    words: usize,
     /// The valid bits of the last of them.
     last: Word,
     /// Bytes of a field: whole words where they fit, else `⌈width/8⌉`.
@@ -152,20 +160,20 @@ struct Plane<'m> {
 impl<'m> Plane<'m> {
     fn new(mask: &'m mut [u8], w: usize, r: Rect) -> Self {
         let width = r.x1 - r.x0;
-        let n = width.div_ceil(BITS).min(WORDS);
+        let words = width.div_ceil(BITS).min(WORDS);
         Plane {
             mask,
             w,
             r,
             width,
             height: r.y1 - r.y0,
-            n,
+            words,
             last: match width % BITS {
                 0 => Word::MAX,
                 bits => (1 << bits) - 1,
             },
-            stride: if FIELDS * n * WORD_BYTES <= width {
-                n * WORD_BYTES
+            stride: if FIELDS * words * WORD_BYTES <= width {
+                words * WORD_BYTES
             } else {
                 width.div_ceil(8)
             },
@@ -180,21 +188,22 @@ impl<'m> Plane<'m> {
         (self.r.y0 + q) * self.w + self.r.x0 + self.stride * field
     }
 
-    /// Field `field` of box row `q` (`EMPTY` where the row's fields are not set up).
+    /// Field `field` of box row `q` (empty where the row's fields are not set up).
     #[inline(always)]
-    fn load(&self, q: usize, field: usize) -> Bits {
-        let mut out = EMPTY;
+    fn load<const N: usize>(&self, q: usize, field: usize) -> Bits<N> {
+        let mut out = [0; N];
         if q >= self.lo && q < self.hi {
             let s = self.at(q, field);
-            if let Some(bytes) = self.mask.get(s..s + self.stride) {
-                let mut chunks = bytes.chunks_exact(WORD_BYTES);
-                for (o, c) in out.iter_mut().zip(&mut chunks) {
-                    *o = Word::from_le_bytes(c.try_into().unwrap_or_default());
+            if self.stride == N * WORD_BYTES {
+                if let Some(bytes) = self.mask.get(s..s + N * WORD_BYTES) {
+                    for (o, c) in out.iter_mut().zip(bytes.chunks_exact(WORD_BYTES)) {
+                        *o = Word::from_le_bytes(c.try_into().unwrap_or_default());
+                    }
                 }
-                let rest = chunks.remainder();
-                if let (false, Some(o)) = (rest.is_empty(), out.get_mut(bytes.len() / WORD_BYTES)) {
+            } else if let Some(bytes) = self.mask.get(s..s + self.stride) {
+                for (o, c) in out.iter_mut().zip(bytes.chunks(WORD_BYTES)) {
                     let mut word = [0u8; WORD_BYTES];
-                    for (b, v) in word.iter_mut().zip(rest) {
+                    for (b, v) in word.iter_mut().zip(c) {
                         *b = *v;
                     }
                     *o = Word::from_le_bytes(word);
@@ -206,77 +215,70 @@ impl<'m> Plane<'m> {
 
     /// Sets field `field` of box row `q` (a row whose fields are set up).
     #[inline(always)]
-    fn store(&mut self, q: usize, field: usize, bits: &Bits) {
+    fn store<const N: usize>(&mut self, q: usize, field: usize, bits: &Bits<N>) {
         if q >= self.lo && q < self.hi {
             let s = self.at(q, field);
-            if let Some(bytes) = self.mask.get_mut(s..s + self.stride) {
-                let whole = bytes.len() / WORD_BYTES;
-                let mut chunks = bytes.chunks_exact_mut(WORD_BYTES);
-                for (c, v) in (&mut chunks).zip(bits) {
-                    c.copy_from_slice(&v.to_le_bytes());
+            if self.stride == N * WORD_BYTES {
+                if let Some(bytes) = self.mask.get_mut(s..s + N * WORD_BYTES) {
+                    for (c, v) in bytes.chunks_exact_mut(WORD_BYTES).zip(bits) {
+                        c.copy_from_slice(&v.to_le_bytes());
+                    }
                 }
-                let v = bits.get(whole).copied().unwrap_or(0).to_le_bytes();
-                for (b, v) in chunks.into_remainder().iter_mut().zip(v) {
-                    *b = v;
+            } else if let Some(bytes) = self.mask.get_mut(s..s + self.stride) {
+                for (c, v) in bytes.chunks_mut(WORD_BYTES).zip(bits) {
+                    for (b, v) in c.iter_mut().zip(v.to_le_bytes()) {
+                        *b = v;
+                    }
                 }
             }
         }
     }
 
     /// Sets up the fields of box row `q` when it is next to the rows set up (or the first): the
-    /// mask's bits from the row's bytes, the component empty. (The ring and the band are set by
-    /// the shape pass.)
-    fn init(&mut self, q: usize) {
+    /// mask's bits from the row's bytes, the component empty (the ring and the band are set by
+    /// the shape pass); returns the mask's bits (empty when `q` is not set up).
+    #[inline(always)]
+    fn init<const N: usize>(&mut self, q: usize) -> Bits<N> {
         let first = self.lo == self.hi;
         if q >= self.height || !(first || q + 1 == self.lo || q == self.hi) {
-            return;
+            return self.load(q, MASK_FIELD);
         }
         let s = self.at(q, 0);
-        let stride = self.stride;
-        let Some(row) = self.mask.get_mut(s..s + self.width) else {
-            return;
+        let Some(row) = self.mask.get(s..s + self.width) else {
+            return [0; N];
         };
-        let m = gather(row);
-        let Some(fields) = row.get_mut(..2 * stride) else {
-            return;
-        };
-        fields.fill(0);
+        let m = gather::<N>(row);
         (self.lo, self.hi) = match (first, q + 1 == self.lo) {
             (true, _) => (q, q + 1),
             (false, true) => (q, self.hi),
             (false, false) => (self.lo, q + 1),
         };
         self.store(q, MASK_FIELD, &m);
+        self.store(q, COMP_FIELD, &[0; N]);
+        m
     }
 
     /// Puts the mask's bits back into the bytes of the fields; no row is set up afterwards.
-    fn restore(&mut self) {
+    fn restore<const N: usize>(&mut self) {
         let bytes = FIELDS * self.stride;
         for q in self.lo..self.hi {
-            let m = self.load(q, MASK_FIELD);
+            let m = self.load::<N>(q, MASK_FIELD);
             let s = self.at(q, 0);
             if let Some(row) = self.mask.get_mut(s..s + bytes) {
+                // Bytes 8k .. 8k + 8 from byte k of the mask's bits.
                 let mut chunks = row.chunks_exact_mut(8);
-                let mut k = 0;
-                for c in &mut chunks {
-                    c.copy_from_slice(&spread(byte_of(&m, k)).to_le_bytes());
-                    k += 1;
+                for (c, byte) in (&mut chunks).zip(m.iter().flat_map(|w| w.to_le_bytes())) {
+                    c.copy_from_slice(&spread(byte).to_le_bytes());
                 }
-                let v = spread(byte_of(&m, k)).to_le_bytes();
-                for (b, v) in chunks.into_remainder().iter_mut().zip(v) {
+                let k = bytes / 8;
+                let byte = m.get(k / WORD_BYTES).map_or(0, |&w| (w >> (8 * (k % WORD_BYTES))) as u8);
+                for (b, v) in chunks.into_remainder().iter_mut().zip(spread(byte).to_le_bytes()) {
                     *b = v;
                 }
             }
         }
         (self.lo, self.hi) = (0, 0);
     }
-}
-
-/// Byte `k` of a bit row (columns `8k .. 8k + 8`).
-#[inline(always)]
-fn byte_of(bits: &Bits, k: usize) -> u32 {
-    bits.get(k / WORD_BYTES)
-        .map_or(0, |&v| (v >> (8 * (k % WORD_BYTES))) as u32 & 0xFF)
 }
 
 /// The low bit of each of 8 bytes.
@@ -288,36 +290,37 @@ fn pack(v: u64) -> Word {
     (v.wrapping_mul(0x0102_0408_1020_4080) >> 56) as Word
 }
 
-/// Byte `i` of the result is bit `i` of `byte` (< 256), 0 or 1.
+/// Byte `i` of the result is bit `i` of `byte`, 0 or 1.
 #[inline(always)]
-fn spread(byte: u32) -> u64 {
+fn spread(byte: u8) -> u64 {
     let bits = (u64::from(byte) * LOW) & 0x8040_2010_0804_0201;
     ((bits + 0x7F7F_7F7F_7F7F_7F7F) >> 7) & LOW
 }
 
-/// Bit `x` of the result is bit 0 of `row[x]`, `x` < [`MAX_WIDTH`].
-fn gather(row: &[u8]) -> Bits {
-    let mut out = EMPTY;
-    let mut chunks = row.chunks_exact(8);
-    let mut k = 0usize;
-    for c in &mut chunks {
-        if let Some(o) = out.get_mut(k / WORD_BYTES) {
-            *o |= pack(u64::from_le_bytes(c.try_into().unwrap_or_default()) & LOW) << (8 * (k % WORD_BYTES));
+/// Bit `x` of the result is bit 0 of `row[x]`, `x < BITS·N`.
+#[inline(always)]
+fn gather<const N: usize>(row: &[u8]) -> Bits<N> {
+    let mut out = [0; N];
+    for (o, chunk) in out.iter_mut().zip(row.chunks(BITS)) {
+        if let Ok(bytes) = <&[u8; BITS]>::try_from(chunk) {
+            for (j, c) in bytes.chunks_exact(8).enumerate() {
+                *o |= pack(u64::from_le_bytes(c.try_into().unwrap_or_default()) & LOW) << (8 * j);
+            }
+        } else {
+            for (j, c) in chunk.chunks(8).enumerate() {
+                let mut eight = [0u8; 8];
+                for (b, v) in eight.iter_mut().zip(c) {
+                    *b = *v;
+                }
+                *o |= pack(u64::from_le_bytes(eight) & LOW) << (8 * j);
+            }
         }
-        k += 1;
-    }
-    let mut bytes = [0u8; 8];
-    for (b, v) in bytes.iter_mut().zip(chunks.remainder()) {
-        *b = *v;
-    }
-    if let Some(o) = out.get_mut(k / WORD_BYTES) {
-        *o |= pack(u64::from_le_bytes(bytes) & LOW) << (8 * (k % WORD_BYTES));
     }
     out
 }
 
 /// The bits of word `k` of a bit row within columns `lo..=hi`.
-#[inline]
+#[inline(always)]
 fn range_word(k: usize, lo: usize, hi: usize) -> Word {
     let (a, b) = (BITS * k, BITS * k + BITS - 1);
     if hi < a || lo > b {
@@ -330,18 +333,18 @@ fn range_word(k: usize, lo: usize, hi: usize) -> Word {
 
 /// Whether column `x` of `bits` is set.
 #[inline(always)]
-fn bit(bits: &Bits, x: usize) -> bool {
+fn bit<const N: usize>(bits: &Bits<N>, x: usize) -> bool {
     bits.get(x / BITS).is_some_and(|&v| v >> (x % BITS) & 1 != 0)
 }
 
-/// The first column at or after `x` whose bit is `set` ([`MAX_WIDTH`] when none is).
+/// The first column at or after `x` whose bit is `SET` (`BITS·N` when none is).
 #[inline(always)]
-fn next_bit(bits: &Bits, x: usize, set: bool) -> usize {
+fn next_bit<const SET: bool, const N: usize>(bits: &Bits<N>, x: usize) -> usize {
+    let flip = if SET { 0 } else { Word::MAX };
     let mut k = x / BITS;
-    let flip = if set { 0 } else { Word::MAX };
     let mut word = match bits.get(k) {
         Some(&v) => (v ^ flip) & (Word::MAX << (x % BITS)),
-        None => return MAX_WIDTH,
+        None => return BITS * N,
     };
     loop {
         if word != 0 {
@@ -350,15 +353,15 @@ fn next_bit(bits: &Bits, x: usize, set: bool) -> usize {
         k += 1;
         match bits.get(k) {
             Some(&v) => word = v ^ flip,
-            None => return MAX_WIDTH,
+            None => return BITS * N,
         }
     }
 }
 
 /// The run of set bits of `bits` around column `x` (which is set): its first and last column.
-#[inline]
-fn run_around(bits: &Bits, x: usize) -> (usize, usize) {
-    let right = next_bit(bits, x, false) - 1;
+#[inline(always)]
+fn run_around<const N: usize>(bits: &Bits<N>, x: usize) -> (usize, usize) {
+    let right = next_bit::<false, N>(bits, x) - 1;
     let (i, b) = (x / BITS, x % BITS);
     let word = |k: usize| bits.get(k).copied().unwrap_or(0);
     let mut k = i;
@@ -377,230 +380,242 @@ fn run_around(bits: &Bits, x: usize) -> (usize, usize) {
 }
 
 /// Sets columns `lo..=hi` of `bits`.
-#[inline]
-fn set_range(bits: &mut Bits, lo: usize, hi: usize) {
-    for (k, v) in bits.iter_mut().enumerate().take(hi / BITS + 1).skip(lo / BITS) {
+#[inline(always)]
+fn set_range<const N: usize>(bits: &mut Bits<N>, lo: usize, hi: usize) {
+    for (k, v) in bits.iter_mut().enumerate() {
         *v |= range_word(k, lo, hi);
     }
 }
 
 /// The runs of set bits of `m` that hold a bit of `seeds` (which is within `m`).
-fn runs_of(m: &Bits, seeds: &Bits) -> Bits {
-    let mut out = EMPTY;
-    let mut x = next_bit(seeds, 0, true);
-    while x < MAX_WIDTH {
+#[inline]
+fn runs_of<const N: usize>(m: &Bits<N>, seeds: &Bits<N>) -> Bits<N> {
+    let mut out = [0; N];
+    let mut x = next_bit::<true, N>(seeds, 0);
+    while x < BITS * N {
         let (a, b) = run_around(m, x);
         set_range(&mut out, a, b);
-        x = next_bit(seeds, b + 1, true);
+        x = next_bit::<true, N>(seeds, b + 1);
     }
     out
 }
 
-/// Whether any bit of `a & b` is set.
+/// `a & b`, `a | b`, `a & !b` word by word.
 #[inline(always)]
-fn meet(a: &Bits, b: &Bits) -> bool {
-    a.iter().zip(b).any(|(&a, &b)| a & b != 0)
+fn and<const N: usize>(a: &Bits<N>, b: &Bits<N>) -> Bits<N> {
+    core::array::from_fn(|k| a.get(k).copied().unwrap_or(0) & b.get(k).copied().unwrap_or(0))
 }
 
-/// Marks the 8-connected component of the mask's pixel at box column `x` of box row `q` in the
-/// component field, setting up the rows it reaches and one more above and below; returns the box
-/// rows that hold it. One sweep down from the seed's row marks the runs next to the row above;
-/// when a row's runs also touch a free pixel of the row above (the component turns upward),
-/// sweeps down and up follow until none adds a pixel.
-#[inline(never)]
-fn mark(plane: &mut Plane<'_>, x: usize, q: usize) -> Range<usize> {
-    plane.init(q);
-    let m = plane.load(q, MASK_FIELD);
-    if !bit(&m, x) {
-        return q..q;
-    }
-    let (a, b) = run_around(&m, x);
-    let mut c = EMPTY;
-    set_range(&mut c, a, b);
-    plane.store(q, COMP_FIELD, &c);
-    let mut grown = dilate::<1>(&c, plane.n);
-    // Free pixels of the row above next to the row's, or of the row above that.
-    let mut upward = false;
-    if q > 0 {
-        plane.init(q - 1);
-        upward = meet(&plane.load(q - 1, MASK_FIELD), &grown);
-    }
-    let (mut above_m, mut above_c) = (m, c);
-    let mut end = q + 1;
-    while end < plane.height {
-        plane.init(end);
-        let m = plane.load(end, MASK_FIELD);
-        let mut seeds = grown;
-        for (s, &m) in seeds.iter_mut().zip(&m) {
-            *s &= m;
-        }
-        if seeds == EMPTY {
-            break;
-        }
-        let c = runs_of(&m, &seeds);
-        plane.store(end, COMP_FIELD, &c);
-        grown = dilate::<1>(&c, plane.n);
-        let mut free = above_m;
-        for (f, &c) in free.iter_mut().zip(&above_c) {
-            *f &= !c;
-        }
-        upward |= meet(&free, &grown);
-        (above_m, above_c) = (m, c);
-        end += 1;
-    }
-    if !upward {
-        return q..end;
-    }
-    sweeps(plane)
-}
-
-/// Sweeps down and up over the rows set up, each adding to a row the free runs next to the
-/// component in the rows above and below, until one adds nothing; returns the rows that hold the
-/// component.
-fn sweeps(plane: &mut Plane<'_>) -> Range<usize> {
-    // A sweep that adds a pixel is followed by another, and there are finitely many pixels.
-    loop {
-        let mut changed = false;
-        let mut r = plane.lo;
-        while r < plane.hi {
-            changed |= grow_row(plane, r);
-            r += 1;
-        }
-        while r > plane.lo {
-            r -= 1;
-            changed |= grow_row(plane, r);
-        }
-        if !changed {
-            break;
-        }
-    }
-    let mut rows = 0..0;
-    for r in plane.lo..plane.hi {
-        if plane.load(r, COMP_FIELD) != EMPTY {
-            rows = if rows.start == rows.end { r..r + 1 } else { rows.start..r + 1 };
-        }
-    }
-    rows
-}
-
-/// Adds to row `r` its free runs next to the component in rows `r − 1` and `r + 1`, and sets up
-/// the rows next to it when it holds some; whether it added any.
-fn grow_row(plane: &mut Plane<'_>, r: usize) -> bool {
-    let (m, c) = (plane.load(r, MASK_FIELD), plane.load(r, COMP_FIELD));
-    let (above, below) = (plane.load(r.wrapping_sub(1), COMP_FIELD), plane.load(r + 1, COMP_FIELD));
-    let mut near = above;
-    for (v, &b) in near.iter_mut().zip(&below) {
-        *v |= b;
-    }
-    let near = dilate::<1>(&near, plane.n);
-    let mut free = m;
-    let mut seeds = near;
-    for ((f, s), &c) in free.iter_mut().zip(seeds.iter_mut()).zip(&c) {
-        *f &= !c;
-        *s &= *f;
-    }
-    if seeds == EMPTY {
-        return false;
-    }
-    let mut c = c;
-    for (c, &a) in c.iter_mut().zip(&runs_of(&free, &seeds)) {
-        *c |= a;
-    }
-    plane.store(r, COMP_FIELD, &c);
-    if r + 1 == plane.hi {
-        plane.init(r + 1);
-    }
-    if r == plane.lo && r > 0 {
-        plane.init(r - 1);
-    }
-    true
-}
-
-/// Bit `c` of the result is bit `c + S` of `x` (0 past the row's end), over its first `n`
-/// words; `0 < S < BITS`.
+/// See [`and`].
 #[inline(always)]
-fn shift_down<const S: usize>(x: &Bits, n: usize) -> Bits {
-    let mut out = EMPTY;
-    for (k, o) in out.iter_mut().enumerate().take(n) {
+fn or<const N: usize>(a: &Bits<N>, b: &Bits<N>) -> Bits<N> {
+    core::array::from_fn(|k| a.get(k).copied().unwrap_or(0) | b.get(k).copied().unwrap_or(0))
+}
+
+/// See [`and`].
+#[inline(always)]
+fn and_not<const N: usize>(a: &Bits<N>, b: &Bits<N>) -> Bits<N> {
+    core::array::from_fn(|k| a.get(k).copied().unwrap_or(0) & !b.get(k).copied().unwrap_or(0))
+}
+
+/// Whether `bits` has no bit set.
+#[inline(always)]
+fn none<const N: usize>(bits: &Bits<N>) -> bool {
+    bits.iter().all(|&v| v == 0)
+}
+
+/// Bit `c` of the result is bit `c + S` of `x` (0 past the row's end); `0 < S < BITS`.
+#[inline(always)]
+fn shift_down<const S: usize, const N: usize>(x: &Bits<N>) -> Bits<N> {
+    core::array::from_fn(|k| {
         let cur = x.get(k).copied().unwrap_or(0);
         let next = x.get(k + 1).copied().unwrap_or(0);
-        *o = (cur >> S) | (next << (BITS - S));
-    }
-    out
+        (cur >> S) | (next << (BITS - S))
+    })
 }
 
-/// Bit `c` of the result is bit `c − S` of `x` (0 before the row's start), over its first `n`
-/// words; `0 < S < BITS`.
+/// Bit `c` of the result is bit `c − S` of `x` (0 before the row's start); `0 < S < BITS`.
 #[inline(always)]
-fn shift_up<const S: usize>(x: &Bits, n: usize) -> Bits {
-    let mut out = EMPTY;
-    let mut prev = 0;
-    for (k, o) in out.iter_mut().enumerate().take(n) {
+fn shift_up<const S: usize, const N: usize>(x: &Bits<N>) -> Bits<N> {
+    core::array::from_fn(|k| {
         let cur = x.get(k).copied().unwrap_or(0);
-        *o = (cur << S) | (prev >> (BITS - S));
-        prev = cur;
-    }
-    out
-}
-
-#[inline(always)]
-fn and_n(a: &Bits, b: &Bits, n: usize) -> Bits {
-    let mut out = *a;
-    for (o, &b) in out.iter_mut().zip(b).take(n) {
-        *o &= b;
-    }
-    out
-}
-
-#[inline(always)]
-fn or_n(a: &Bits, b: &Bits, n: usize) -> Bits {
-    let mut out = *a;
-    for (o, &b) in out.iter_mut().zip(b).take(n) {
-        *o |= b;
-    }
-    out
+        let prev = k.checked_sub(1).and_then(|p| x.get(p)).copied().unwrap_or(0);
+        (cur << S) | (prev >> (BITS - S))
+    })
 }
 
 /// Horizontal erosion by the `(2K+1)`-segment (columns outside the row count as 0), `K` 2, 3 or
-/// 5, over the first `n` words (the rest of `x` 0).
+/// 5.
 #[inline(always)]
-fn erode<const K: usize>(x: &Bits, n: usize) -> Bits {
+fn erode<const K: usize, const N: usize>(x: &Bits<N>) -> Bits<N> {
     // AND over windows from the column on: 2 columns, 4, then 5 (K = 2), 7 (K = 3) or 8 and 11
     // (K = 5); then centred.
-    let a2 = and_n(x, &shift_down::<1>(x, n), n);
-    let a4 = and_n(&a2, &shift_down::<2>(&a2, n), n);
+    let a2 = and(x, &shift_down::<1, N>(x));
+    let a4 = and(&a2, &shift_down::<2, N>(&a2));
     match K {
-        2 => shift_up::<2>(&and_n(&a4, &shift_down::<4>(x, n), n), n),
-        3 => shift_up::<3>(&and_n(&a4, &shift_down::<3>(&a4, n), n), n),
+        2 => shift_up::<2, N>(&and(&a4, &shift_down::<4, N>(x))),
+        3 => shift_up::<3, N>(&and(&a4, &shift_down::<3, N>(&a4))),
         _ => {
-            let a8 = and_n(&a4, &shift_down::<4>(&a4, n), n);
-            shift_up::<5>(&and_n(&a8, &shift_down::<7>(&a4, n), n), n)
+            let a8 = and(&a4, &shift_down::<4, N>(&a4));
+            shift_up::<5, N>(&and(&a8, &shift_down::<7, N>(&a4)))
         }
     }
 }
 
-/// Horizontal dilation by the `(2K+1)`-segment, `K` 1 or 2, over the first `n` words (not
-/// clipped to the box: the bits past its width may be set).
+/// Horizontal dilation by the `(2K+1)`-segment, `K` 1 or 2 (not clipped to the box: the bits
+/// past its width may be set).
 #[inline(always)]
-fn dilate<const K: usize>(x: &Bits, n: usize) -> Bits {
-    let one = or_n(&or_n(x, &shift_down::<1>(x, n), n), &shift_up::<1>(x, n), n);
+fn dilate<const K: usize, const N: usize>(x: &Bits<N>) -> Bits<N> {
+    let one = or(&or(x, &shift_down::<1, N>(x)), &shift_up::<1, N>(x));
     if K == 1 {
         one
     } else {
-        or_n(&or_n(&one, &shift_down::<2>(x, n), n), &shift_up::<2>(x, n), n)
+        or(&or(&one, &shift_down::<2, N>(x)), &shift_up::<2, N>(x))
     }
 }
 
 /// Calls `f` with the first and end column of every run of set bits of `bits`, in increasing
 /// order.
 #[inline(always)]
-fn for_each_run(bits: &Bits, mut f: impl FnMut(usize, usize)) {
-    let mut x = next_bit(bits, 0, true);
-    while x < MAX_WIDTH {
-        let end = next_bit(bits, x, false);
+fn for_each_run<const N: usize>(bits: &Bits<N>, mut f: impl FnMut(usize, usize)) {
+    let mut x = next_bit::<true, N>(bits, 0);
+    while x < BITS * N {
+        let end = next_bit::<false, N>(bits, x);
         f(x, end);
-        x = next_bit(bits, end, true);
+        x = next_bit::<true, N>(bits, end);
     }
+}
+
+/// Calls `f` with the column of every set bit of `bits`, in increasing order.
+#[inline(always)]
+fn for_each_bit<const N: usize>(bits: &Bits<N>, mut f: impl FnMut(usize)) {
+    for (k, &word) in bits.iter().enumerate() {
+        let mut word = word;
+        while word != 0 {
+            f(BITS * k + word.trailing_zeros() as usize);
+            word &= word - 1;
+        }
+    }
+}
+
+/// Marks the 8-connected component of the mask's pixel at box column `x` of box row `q` in the
+/// component field, setting up the rows it reaches and one more above and below; returns the box
+/// rows that hold it. One sweep down from the seed's row adds to each row the runs next to the
+/// row above; where a row's runs touch a free pixel of the row above (the component turns
+/// upward), [`settle`] sweeps back and forth over the rows concerned.
+#[inline(never)]
+fn mark<const N: usize>(plane: &mut Plane<'_>, x: usize, q: usize) -> Range<usize> {
+    let m = plane.init::<N>(q);
+    if !bit(&m, x) {
+        return q..q;
+    }
+    let (a, b) = run_around(&m, x);
+    let mut c = [0; N];
+    set_range(&mut c, a, b);
+    plane.store(q, COMP_FIELD, &c);
+    let mut grown = dilate::<1, N>(&c);
+    // The rows whose runs touch a free pixel of the row above.
+    let mut touched: Option<(usize, usize)> = None;
+    let mut touch = |k: usize| {
+        touched = Some(touched.map_or((k, k), |(lo, hi)| (lo.min(k), hi.max(k))));
+    };
+    if q > 0 && !none(&and(&plane.init::<N>(q - 1), &grown)) {
+        touch(q);
+    }
+    let mut above_free = and_not(&m, &c);
+    let mut end = q + 1;
+    while end < plane.height {
+        let m = plane.init::<N>(end);
+        let seeds = and(&m, &grown);
+        if none(&seeds) {
+            break;
+        }
+        let c = runs_of(&m, &seeds);
+        plane.store(end, COMP_FIELD, &c);
+        grown = dilate::<1, N>(&c);
+        if !none(&and(&above_free, &grown)) {
+            touch(end);
+        }
+        above_free = and_not(&m, &c);
+        end += 1;
+    }
+    match touched {
+        None => q..end,
+        Some(rows) => settle::<N>(plane, rows),
+    }
+}
+
+/// Completes the component after [`mark`]'s sweep down, whose runs in the rows `touched` (first
+/// and last) touch free pixels of the row above: sweeps up from the row above the last, through
+/// the rows above those touched and on while rows grow, then down over the rows below those whose
+/// new runs touch free pixels below, and so on until a sweep's new runs touch nothing behind it.
+/// Every row is then settled: no free pixel of it is next to the component in the rows above and
+/// below. Returns the rows that hold the component.
+fn settle<const N: usize>(plane: &mut Plane<'_>, touched: (usize, usize)) -> Range<usize> {
+    // Rows to grow: `pending` (first and last), the row behind each row touched.
+    let mut pending = (touched.0.saturating_sub(1), touched.1.saturating_sub(1));
+    let mut up = true;
+    loop {
+        let mut next: Option<(usize, usize)> = None;
+        let mut k = if up { pending.1 } else { pending.0 };
+        let mut grew = false;
+        loop {
+            let must = (pending.0..=pending.1).contains(&k) || grew;
+            if !must || !(plane.lo..plane.hi).contains(&k) {
+                break;
+            }
+            let (g, touch) = grow_row::<N>(plane, k, up);
+            grew = g;
+            if touch {
+                next = Some(next.map_or((k, k), |(lo, hi)| (lo.min(k), hi.max(k))));
+            }
+            if up {
+                let Some(above) = k.checked_sub(1) else { break };
+                k = above;
+            } else {
+                k += 1;
+            }
+        }
+        let Some((lo, hi)) = next else { break };
+        // The rows behind those touched: below them after a sweep up, above after a sweep down.
+        pending = if up {
+            (lo + 1, hi + 1)
+        } else {
+            (lo.saturating_sub(1), hi.saturating_sub(1))
+        };
+        up = !up;
+    }
+    let mut rows = 0..0;
+    for r in plane.lo..plane.hi {
+        if !none(&plane.load::<N>(r, COMP_FIELD)) {
+            rows = if rows.start == rows.end { r..r + 1 } else { rows.start..r + 1 };
+        }
+    }
+    rows
+}
+
+/// Adds to row `k` its free runs next to the component in rows `k − 1` and `k + 1`, setting up
+/// the rows next to it; returns whether it added any, and whether those touch a free pixel of the
+/// row behind (below for a sweep `up`, above for a sweep down).
+fn grow_row<const N: usize>(plane: &mut Plane<'_>, k: usize, up: bool) -> (bool, bool) {
+    let (m, c) = (plane.load::<N>(k, MASK_FIELD), plane.load::<N>(k, COMP_FIELD));
+    let (above, below) = (plane.load::<N>(k.wrapping_sub(1), COMP_FIELD), plane.load::<N>(k + 1, COMP_FIELD));
+    let free = and_not(&m, &c);
+    let seeds = and(&free, &dilate::<1, N>(&or(&above, &below)));
+    if none(&seeds) {
+        return (false, false);
+    }
+    let new = runs_of(&free, &seeds);
+    plane.store(k, COMP_FIELD, &or(&c, &new));
+    if k + 1 == plane.hi {
+        plane.init::<N>(k + 1);
+    }
+    if k == plane.lo && k > 0 {
+        plane.init::<N>(k - 1);
+    }
+    let behind = if up { k + 1 } else { k.wrapping_sub(1) };
+    let behind_free = and_not(&plane.load::<N>(behind, MASK_FIELD), &plane.load::<N>(behind, COMP_FIELD));
+    (true, !none(&and(&behind_free, &dilate::<1, N>(&new))))
 }
 
 /// Slot of row `q` in a window of 16 rows.
@@ -615,90 +630,73 @@ fn slot(q: usize) -> usize {
 /// 0 without ring pixels). Not inlined: its histogram and [`weigh`]'s column sums need not share
 /// a stack frame.
 #[inline(never)]
-fn shape_pass<S: Source>(src: &S, plane: &mut Plane<'_>, comp: Range<usize>, rows: Range<usize>) -> f32 {
-    let n = plane.n;
+fn shape_pass<S: Source, const N: usize>(src: &S, plane: &mut Plane<'_>, comp: Range<usize>, rows: Range<usize>) -> f32 {
     // Fields for every row weighed.
     while plane.lo > rows.start {
         let lo = plane.lo;
-        plane.init(lo - 1);
+        plane.init::<N>(lo - 1);
         if plane.lo == lo {
             break;
         }
     }
     while plane.hi < rows.end {
         let hi = plane.hi;
-        plane.init(hi);
+        plane.init::<N>(hi);
         if plane.hi == hi {
             break;
         }
     }
     let mut hist = [0u16; 511];
     let mut ring_count = 0usize;
+    let load = |plane: &Plane<'_>, q: usize| {
+        if comp.contains(&q) {
+            plane.load::<N>(q, COMP_FIELD)
+        } else {
+            [0; N]
+        }
+    };
     // The component's rows j − 5 ..= j + 5 around row j (empty outside `comp`).
-    let mut window = [EMPTY; 16];
+    let mut window = [[0; N]; 16];
     for q in rows.start.saturating_sub(5)..rows.start + 5 {
-        if let (Some(w), true) = (window.get_mut(slot(q)), comp.contains(&q)) {
-            *w = plane.load(q, COMP_FIELD);
+        if let Some(w) = window.get_mut(slot(q)) {
+            *w = load(plane, q);
         }
     }
-    let valid = {
-        let mut v = EMPTY;
-        for (k, v) in v.iter_mut().enumerate().take(n) {
-            *v = if k + 1 == n { plane.last } else { Word::MAX };
-        }
-        v
-    };
+    let valid: Bits<N> = core::array::from_fn(|k| match (k + 1).cmp(&plane.words) {
+        core::cmp::Ordering::Less => Word::MAX,
+        core::cmp::Ordering::Equal => plane.last,
+        core::cmp::Ordering::Greater => 0,
+    });
     for j in rows {
-        let q = j + 5;
-        if let Some(w) = window.get_mut(slot(q)) {
-            *w = if comp.contains(&q) {
-                plane.load(q, COMP_FIELD)
-            } else {
-                EMPTY
-            };
+        if let Some(w) = window.get_mut(slot(j + 5)) {
+            *w = load(plane, j + 5);
         }
-        // Rows j + t − 6 for t = 1..=11.
-        let row = |t: usize| window.get(slot(j + t + 10)).unwrap_or(&EMPTY);
+        // Row j + t − 6 for t = 1..=11.
+        let row = |t: usize| window.get(slot(j + t + 10)).copied().unwrap_or([0; N]);
         // Erosion by the (2k+1)-square: AND of the rows within k, then of the columns within k;
         // dilation likewise with OR.
-        let (mut v2, mut grown, mut v3, mut v5) = (EMPTY, EMPTY, EMPTY, EMPTY);
-        for k in 0..n {
-            let w = |t: usize| row(t).get(k).copied().unwrap_or(0);
-            let (a, b, c, d, e) = (w(4), w(5), w(6), w(7), w(8));
-            let inner = a & b & c & d & e;
-            let three = inner & w(3) & w(9);
-            if let (Some(v2), Some(g), Some(v3), Some(v5)) = (v2.get_mut(k), grown.get_mut(k), v3.get_mut(k), v5.get_mut(k)) {
-                *v2 = inner;
-                *g = a | b | c | d | e;
-                *v3 = three;
-                *v5 = three & w(1) & w(2) & w(10) & w(11);
-            }
+        let (a, b, c, d, e) = (row(4), row(5), row(6), row(7), row(8));
+        let grown = or(&or(&or(&a, &b), &or(&c, &d)), &e);
+        if none(&grown) {
+            plane.store(j, COMP_FIELD, &[0; N]);
+            plane.store(j, BAND_FIELD, &[0; N]);
+            plane.store(j, RING_FIELD, &[0; N]);
+            continue;
         }
-        let inside = erode::<2>(&v2, n);
-        let mut band = dilate::<2>(&grown, n);
-        for ((b, &i), &v) in band.iter_mut().zip(&inside).zip(&valid) {
-            *b &= !i & v;
-        }
-        let mut ring = EMPTY;
-        if v3 != EMPTY {
-            let (e3, e5) = (erode::<3>(&v3, n), erode::<5>(&v5, n));
-            for ((o, &a), &b) in ring.iter_mut().zip(&e3).zip(&e5) {
-                *o = a & !b;
-            }
+        let v2 = and(&and(&and(&a, &b), &and(&c, &d)), &e);
+        let inside = erode::<2, N>(&v2);
+        let band = and_not(&and(&dilate::<2, N>(&grown), &valid), &inside);
+        let v3 = and(&and(&v2, &row(3)), &row(9));
+        let mut ring = [0; N];
+        if !none(&v3) {
+            let v5 = and(&and(&and(&v3, &row(1)), &and(&row(2), &row(10))), &row(11));
+            ring = and_not(&erode::<3, N>(&v3), &erode::<5, N>(&v5));
         }
         plane.store(j, COMP_FIELD, &inside);
         plane.store(j, BAND_FIELD, &band);
         plane.store(j, RING_FIELD, &ring);
-        if ring != EMPTY {
-            let image_row = src.row(plane.r.y0 + j);
-            for_each_run(&ring, |a, e| {
-                for c in a..e {
-                    if let Some(hb) = hist.get_mut(src.bin(image_row, c)) {
-                        *hb = hb.saturating_add(1);
-                    }
-                }
-                ring_count += e - a;
-            });
+        if !none(&ring) {
+            ring_count += src.histogram(src.row(plane.r.y0 + j), &ring, &mut hist);
         }
     }
     if ring_count == 0 {
@@ -718,49 +716,44 @@ fn shape_pass<S: Source>(src: &S, plane: &mut Plane<'_>, comp: Range<usize>, row
 /// raster order, from the fields the shape pass left. The ring's values are summed per column
 /// over rows `y − 4 ..= y + 4` while row `y` is weighed. Not inlined (see [`shape_pass`]).
 #[inline(never)]
-fn weigh<S: Source>(src: &S, plane: &Plane<'_>, rows: Range<usize>, contrast: f32) -> [f32; 3] {
+fn weigh<S: Source, const N: usize>(src: &S, plane: &Plane<'_>, rows: Range<usize>, contrast: f32) -> [f32; 3] {
     let mut sums = [0.0f32; 3];
-    // The ring's values summed per column: column c of the box at c + 4.
-    let mut columns = [S::Col::default(); MAX_WIDTH + 8];
+    let mut columns = [S::Col::default(); COLUMNS];
     let weights = Weights {
         contrast,
         sign: contrast.signum(),
     };
-    let weighed = rows.clone();
     let ring = |q: usize| {
-        if weighed.contains(&q) {
-            plane.load(q, RING_FIELD)
+        if rows.contains(&q) {
+            plane.load::<N>(q, RING_FIELD)
         } else {
-            EMPTY
+            [0; N]
         }
     };
-    let move_row = |columns: &mut [S::Col; MAX_WIDTH + 8], q: usize, enter: bool| {
+    let move_ring = |columns: &mut [S::Col; COLUMNS], q: usize, enter: bool| {
         let bits = ring(q);
-        if bits == EMPTY {
+        if none(&bits) {
             return;
         }
         let image_row = src.row(plane.r.y0 + q);
-        for_each_run(&bits, |a, e| {
-            if let Some(cols) = columns.get_mut(a + 4..e + 4) {
-                for (s, c) in cols.iter_mut().zip(a..e) {
-                    let v = src.col(image_row, c);
-                    *s = if enter { *s + v } else { *s - v };
-                }
-            }
-        });
+        if enter {
+            src.move_ring::<true, N>(image_row, &bits, columns, &weights);
+        } else {
+            src.move_ring::<false, N>(image_row, &bits, columns, &weights);
+        }
     };
     for q in rows.start.saturating_sub(4)..rows.start + 4 {
-        move_row(&mut columns, q, true);
+        move_ring(&mut columns, q, true);
     }
-    for y in rows {
-        move_row(&mut columns, y + 4, true);
-        let (inside, band) = (plane.load(y, COMP_FIELD), plane.load(y, BAND_FIELD));
-        if band != EMPTY {
-            let image_row = src.row(plane.r.y0 + y);
-            sums = weights.row(src, image_row, y, &inside, &band, &columns, sums);
+    for y in rows.clone() {
+        move_ring(&mut columns, y + 4, true);
+        let band = plane.load::<N>(y, BAND_FIELD);
+        if !none(&band) {
+            let inside = plane.load::<N>(y, COMP_FIELD);
+            sums = weights.row(src, src.row(plane.r.y0 + y), y, &inside, &band, &columns, sums);
         }
         if let Some(q) = y.checked_sub(4) {
-            move_row(&mut columns, q, false);
+            move_ring(&mut columns, q, false);
         }
     }
     sums
@@ -778,14 +771,15 @@ impl Weights {
     /// Inside pixels come in runs between band pixels (next to an inside pixel is an inside or a
     /// band pixel); a run whose pixels all pass the hole test is added at once.
     #[inline(never)]
-    fn row<S: Source>(
+    #[allow(clippy::too_many_arguments)]
+    fn row<S: Source, const N: usize>(
         &self,
         src: &S,
         image_row: S::Row,
         y: usize,
-        inside: &Bits,
-        band: &Bits,
-        columns: &[S::Col; MAX_WIDTH + 8],
+        inside: &Bits<N>,
+        band: &Bits<N>,
+        columns: &[S::Col; COLUMNS],
         sums: [f32; 3],
     ) -> [f32; 3] {
         let mut sums = sums;
@@ -797,79 +791,16 @@ impl Weights {
                 sums = self.inside_run(src, image_row, after..a, y, sums);
             }
             after = e;
-            sums = self.band_run(src, image_row, a..e, yf, columns, sums);
+            sums = src.band_run(image_row, a..e, yf, columns, self, sums);
         });
         sums
-    }
-
-    /// `sums` plus the weights of the band pixels `cols` of a row: `D` over the local contrast,
-    /// the mean `D` of the ring pixels within 4 px (shading across the part changes it from one
-    /// side to the other), else the part's median, clipped to `[0, 1]`.
-    #[inline(always)]
-    fn band_run<S: Source>(
-        &self,
-        src: &S,
-        image_row: S::Row,
-        cols: Range<usize>,
-        yf: f32,
-        columns: &[S::Col; MAX_WIDTH + 8],
-        sums: [f32; 3],
-    ) -> [f32; 3] {
-        let (contrast, sign) = (self.contrast, self.sign);
-        let [mut sw, mut sx, mut sy] = sums;
-        // The window of the run's first column (padded: columns a .. a + 9), then sliding.
-        let a = cols.start;
-        let mut window = columns
-            .get(a..a + 9)
-            .unwrap_or(&[])
-            .iter()
-            .fold(S::Col::default(), |s, &v| s + v);
-        let mut xf = a as u32 as f32;
-        let (enter, leave) = (
-            columns.get(a + 9..cols.end + 8).unwrap_or(&[]),
-            columns.get(a..cols.end - 1).unwrap_or(&[]),
-        );
-        let mut slide = enter.iter().zip(leave);
-        for c in cols {
-            let d = src.d(image_row, c);
-            // A D of the other sign than the contrast weighs 0.
-            if d * sign > 0.0 {
-                let (sum, count) = S::split(window);
-                let mut local = contrast;
-                if count > 0 {
-                    // At least 1 in size, of the contrast's sign (`sign` is ±1: exact).
-                    let mean = sum / count as f32;
-                    if mean * sign >= 1.0 {
-                        local = mean;
-                    }
-                }
-                let weight = (d / local).clamp(0.0, 1.0);
-                if weight > 0.0 {
-                    sw += weight;
-                    sx += weight * xf;
-                    sy += weight * yf;
-                }
-            }
-            xf += 1.0;
-            if let Some((&i, &o)) = slide.next() {
-                window = window + i - o;
-            }
-        }
-        [sw, sx, sy]
     }
 
     /// `sums` plus the weights of the inside pixels `cols` of box row `y`: 1, unless the pixel
     /// looks like the platform (a small hole or a narrow gap that the mask's closing filled;
     /// printed labels keep at least a third of the part's contrast, holes keep none).
     #[inline(always)]
-    fn inside_run<S: Source>(
-        &self,
-        src: &S,
-        image_row: S::Row,
-        cols: Range<usize>,
-        y: usize,
-        sums: [f32; 3],
-    ) -> [f32; 3] {
+    fn inside_run<S: Source>(&self, src: &S, image_row: S::Row, cols: Range<usize>, y: usize, sums: [f32; 3]) -> [f32; 3] {
         let (contrast, sign) = (self.contrast, self.sign);
         // Division by the contrast is monotonic: when the least `D · sign` passes, all do.
         let least = src.least(image_row, cols.clone(), sign);
@@ -881,14 +812,7 @@ impl Weights {
 
     /// [`Self::inside_run`] pixel by pixel (runs of weight 1 between the others at once).
     #[inline(never)]
-    fn inside_by_pixel<S: Source>(
-        &self,
-        src: &S,
-        image_row: S::Row,
-        cols: Range<usize>,
-        y: usize,
-        sums: [f32; 3],
-    ) -> [f32; 3] {
+    fn inside_by_pixel<S: Source>(&self, src: &S, image_row: S::Row, cols: Range<usize>, y: usize, sums: [f32; 3]) -> [f32; 3] {
         let contrast = self.contrast;
         let mut sums = sums;
         let mut ones = cols.start;
@@ -998,7 +922,8 @@ fn exact_sum(s: f32, t: f32) -> Option<f32> {
 }
 
 /// Where `D` comes from: the frame's and background's image rows ([`Exact`], `α = 1`: integers)
-/// or [`Difference::at`] ([`Approx`]). Columns are the box's.
+/// or [`Difference::at`] ([`Approx`]). Columns are the box's. The pixel loops have a definition
+/// here, pixel by pixel through [`Source::d`]; [`Exact`] has faster ones with the same results.
 trait Source {
     /// What a row's values are read from.
     type Row: Copy;
@@ -1008,31 +933,127 @@ trait Source {
     fn row(&self, y: usize) -> Self::Row;
     /// `D` at column `c`: the value of [`Difference::at`].
     fn d(&self, row: Self::Row, c: usize) -> f32;
-    /// The signed histogram's bin of `D` at column `c`, `D + 255` clamped to 0..=510.
-    fn bin(&self, row: Self::Row, c: usize) -> usize;
     /// The ring value at column `c`.
-    fn col(&self, row: Self::Row, c: usize) -> Self::Col;
+    fn col(&self, row: Self::Row, c: usize, weights: &Weights) -> Self::Col;
     /// The sum of `D` and the count of a sum of ring values.
-    fn split(col: Self::Col) -> (f32, u32);
+    fn split(col: Self::Col, weights: &Weights) -> (f32, u32);
+
+    /// Adds the ring pixels `ring` to the signed histogram of `D` (bin `D + 255`, clamped to
+    /// 0..=510); returns how many there are.
+    #[inline(always)]
+    fn histogram<const N: usize>(&self, row: Self::Row, ring: &Bits<N>, hist: &mut [u16; 511]) -> usize {
+        let mut count = 0;
+        for_each_bit(ring, |c| {
+            let bin = (self.d(row, c) as i32 + 255).clamp(0, 510) as usize;
+            if let Some(h) = hist.get_mut(bin) {
+                *h = h.saturating_add(1);
+            }
+            count += 1;
+        });
+        count
+    }
+
+    /// Adds (`ENTER`) the ring values of the pixels `ring` to their columns' sums, or takes them
+    /// away.
+    #[inline(always)]
+    fn move_ring<const ENTER: bool, const N: usize>(
+        &self,
+        row: Self::Row,
+        ring: &Bits<N>,
+        columns: &mut [Self::Col; COLUMNS],
+        weights: &Weights,
+    ) {
+        for_each_bit(ring, |c| {
+            if let Some(s) = columns.get_mut(c + 4) {
+                let v = self.col(row, c, weights);
+                *s = if ENTER { *s + v } else { *s - v };
+            }
+        });
+    }
+
     /// The least `D · sign` over the columns `cols` (not empty), or a value that is not above 0
-    /// when it is not above 0.
-    fn least(&self, row: Self::Row, cols: Range<usize>, sign: f32) -> f32;
+    /// when that is not above 0.
+    #[inline(always)]
+    fn least(&self, row: Self::Row, cols: Range<usize>, sign: f32) -> f32 {
+        // `sign` is ±1: the products are exact. (A select rather than `f32::min`: D is never
+        // NaN.)
+        cols.map(|c| self.d(row, c) * sign)
+            .fold(f32::INFINITY, |m, v| if v < m { v } else { m })
+    }
+
+    /// `sums` plus the weights of the band pixels `cols` of the row at `yf` (box coordinates):
+    /// `D` over the local contrast, the mean `D` of the ring pixels within 4 px (shading across
+    /// the part changes it from one side to the other), else the part's median, clipped to
+    /// `[0, 1]`; `columns` holds the ring's values summed over the rows within 4.
+    #[inline(always)]
+    fn band_run(
+        &self,
+        row: Self::Row,
+        cols: Range<usize>,
+        yf: f32,
+        columns: &[Self::Col; COLUMNS],
+        weights: &Weights,
+        sums: [f32; 3],
+    ) -> [f32; 3] {
+        let (contrast, sign) = (weights.contrast, weights.sign);
+        let [mut sw, mut sx, mut sy] = sums;
+        let window = |c: usize| {
+            columns
+                .get(c..c + 9)
+                .unwrap_or(&[])
+                .iter()
+                .fold(Self::Col::default(), |s, &v| s + v)
+        };
+        for c in cols {
+            let d = self.d(row, c);
+            let (sum, count) = Self::split(window(c), weights);
+            let mut local = contrast;
+            if count > 0 {
+                // At least 1 in size, of the contrast's sign (`sign` is ±1: exact).
+                let mean = sum / count as f32;
+                if mean * sign >= 1.0 {
+                    local = mean;
+                }
+            }
+            // (A D of the other sign than the contrast weighs 0.)
+            let weight = (d / local).clamp(0.0, 1.0);
+            if weight > 0.0 {
+                sw += weight;
+                sx += weight * c as u32 as f32;
+                sy += weight * yf;
+            }
+        }
+        [sw, sx, sy]
+    }
 }
 
-/// `D` from the frame's and background's rows ([`Difference::rows`]): integers in −255..=255.
+/// `D` from the frame's and background's rows ([`Difference::rows`]): integers in −255..=255,
+/// so that every sum of them is exact and the weights' tests can be integer ones.
 struct Exact<'d, 'a, B> {
     diff: &'d Difference<'a, B>,
     x0: usize,
     x1: usize,
 }
 
+impl<'a, B: AsRef<[u8]>> Exact<'_, 'a, B> {
+    /// The row's bytes whose difference is `D · sign`: the frame's first for a positive contrast.
+    #[inline(always)]
+    fn signed((f, b): (&'a [u8], &'a [u8]), weights: &Weights) -> (&'a [u8], &'a [u8]) {
+        if weights.sign > 0.0 {
+            (f, b)
+        } else {
+            (b, f)
+        }
+    }
+}
+
 impl<'a, B: AsRef<[u8]>> Source for Exact<'_, 'a, B> {
     /// The box's columns of the frame's and the background's row.
     type Row = (&'a [u8], &'a [u8]);
-    /// `128·ΣD + count` (counts are at most 81, |ΣD| at most 81·255).
+    /// `128·Σ(D·sign) + count` (counts are at most 81, |ΣD| at most 81·255).
     type Col = i32;
 
-    #[inline]
+    #[inline(always)]
     fn row(&self, y: usize) -> Self::Row {
         self.diff
             .rows(y)
@@ -1040,7 +1061,7 @@ impl<'a, B: AsRef<[u8]>> Source for Exact<'_, 'a, B> {
             .unwrap_or((&[], &[]))
     }
 
-    #[inline]
+    #[inline(always)]
     fn d(&self, (f, b): Self::Row, c: usize) -> f32 {
         match (f.get(c), b.get(c)) {
             // Both exact integers, so the difference is exact: the same `f32` as `at`'s.
@@ -1049,30 +1070,56 @@ impl<'a, B: AsRef<[u8]>> Source for Exact<'_, 'a, B> {
         }
     }
 
-    #[inline]
-    fn bin(&self, (f, b): Self::Row, c: usize) -> usize {
-        match (f.get(c), b.get(c)) {
-            (Some(&f), Some(&b)) => (i32::from(f) - i32::from(b) + 255) as usize,
-            _ => 255,
-        }
-    }
-
-    #[inline]
-    fn col(&self, (f, b): Self::Row, c: usize) -> i32 {
-        match (f.get(c), b.get(c)) {
-            (Some(&f), Some(&b)) => 128 * (i32::from(f) - i32::from(b)) + 1,
+    #[inline(always)]
+    fn col(&self, row: Self::Row, c: usize, weights: &Weights) -> i32 {
+        let (hi, lo) = Self::signed(row, weights);
+        match (hi.get(c), lo.get(c)) {
+            (Some(&h), Some(&l)) => 128 * (i32::from(h) - i32::from(l)) + 1,
             _ => 0,
         }
     }
 
-    #[inline]
-    fn split(col: i32) -> (f32, u32) {
-        ((col >> 7) as f32, (col & 127) as u32)
+    #[inline(always)]
+    fn split(col: i32, weights: &Weights) -> (f32, u32) {
+        let sign = if weights.sign > 0.0 { 1 } else { -1 };
+        (((col >> 7) * sign) as f32, (col & 127) as u32)
+    }
+
+    #[inline(always)]
+    fn histogram<const N: usize>(&self, (f, b): Self::Row, ring: &Bits<N>, hist: &mut [u16; 511]) -> usize {
+        let mut count = 0;
+        for_each_bit(ring, |c| {
+            if let (Some(&f), Some(&b)) = (f.get(c), b.get(c)) {
+                // An integer in −255..=255: its bin without a conversion.
+                if let Some(h) = hist.get_mut((i32::from(f) - i32::from(b) + 255) as usize) {
+                    *h = h.saturating_add(1);
+                }
+            }
+            count += 1;
+        });
+        count
+    }
+
+    #[inline(always)]
+    fn move_ring<const ENTER: bool, const N: usize>(
+        &self,
+        row: Self::Row,
+        ring: &Bits<N>,
+        columns: &mut [i32; COLUMNS],
+        weights: &Weights,
+    ) {
+        let (hi, lo) = Self::signed(row, weights);
+        for_each_bit(ring, |c| {
+            if let (Some(&h), Some(&l), Some(s)) = (hi.get(c), lo.get(c), columns.get_mut(c + 4)) {
+                let v = 128 * (i32::from(h) - i32::from(l)) + 1;
+                *s = if ENTER { *s + v } else { *s - v };
+            }
+        });
     }
 
     /// The least of `D · sign` where it is positive, else 0: the minimum of the bytes' saturating
     /// difference (which the compiler vectorises).
-    #[inline]
+    #[inline(always)]
     fn least(&self, (f, b): Self::Row, cols: Range<usize>, sign: f32) -> f32 {
         let (Some(f), Some(b)) = (f.get(cols.clone()), b.get(cols)) else {
             return 0.0;
@@ -1081,6 +1128,64 @@ impl<'a, B: AsRef<[u8]>> Source for Exact<'_, 'a, B> {
         hi.iter()
             .zip(lo)
             .fold(u8::MAX, |m, (&h, &l)| m.min(h.saturating_sub(l))) as f32
+    }
+
+    /// The definition's weights with integer tests where they clip: with `u = D·sign > 0`,
+    /// `V = ΣD·sign` and `n` ring pixels in the window, the mean is the local contrast iff
+    /// `V ≥ n` (a quotient `V/n < 1` is at most 80/81), and `u / (V/n)` is at least 1 iff
+    /// `u·n ≥ V` (else `V/n − u ≥ 1/81`, far more than the roundings); against the median `C`,
+    /// iff `u ≥ |C|`. Only the weights between 0 and 1 are divided, as the definition does.
+    #[inline(always)]
+    fn band_run(
+        &self,
+        row: Self::Row,
+        cols: Range<usize>,
+        yf: f32,
+        columns: &[i32; COLUMNS],
+        weights: &Weights,
+        sums: [f32; 3],
+    ) -> [f32; 3] {
+        let (a, e) = (cols.start, cols.end);
+        let (hi, lo) = Self::signed(row, weights);
+        let (Some(hi), Some(lo), Some(enter), Some(leave), Some(first)) = (
+            hi.get(a..e),
+            lo.get(a..e),
+            columns.get(a + 9..e + 9),
+            columns.get(a..e),
+            columns.get(a..a + 9),
+        ) else {
+            return sums;
+        };
+        // |C| (the median of integers is one).
+        let median = weights.contrast.abs() as i32;
+        let median_f = median as f32;
+        let [mut sw, mut sx, mut sy] = sums;
+        let mut window: i32 = first.iter().sum();
+        let mut xf = a as u32 as f32;
+        for (((&h, &l), &i), &o) in hi.iter().zip(lo).zip(enter).zip(leave) {
+            let u = i32::from(h) - i32::from(l);
+            if u > 0 {
+                let (v, n) = (window >> 7, window & 127);
+                let weight = if v >= n.max(1) {
+                    if u * n >= v {
+                        1.0
+                    } else {
+                        // The mean (`V/n`, exact operands) as the definition divides it.
+                        u as f32 / (v as f32 / n as f32)
+                    }
+                } else if u >= median {
+                    1.0
+                } else {
+                    u as f32 / median_f
+                };
+                sw += weight;
+                sx += weight * xf;
+                sy += weight * yf;
+            }
+            xf += 1.0;
+            window += i - o;
+        }
+        [sw, sx, sy]
     }
 }
 
@@ -1099,7 +1204,7 @@ struct FloatSum {
 
 impl Add for FloatSum {
     type Output = Self;
-    #[inline]
+    #[inline(always)]
     fn add(self, o: Self) -> Self {
         FloatSum {
             sum: self.sum + o.sum,
@@ -1111,7 +1216,7 @@ impl Add for FloatSum {
 impl Sub for FloatSum {
     type Output = Self;
     /// An empty sum restarts from an exact 0.
-    #[inline]
+    #[inline(always)]
     fn sub(self, o: Self) -> Self {
         let count = self.count.saturating_sub(o.count);
         FloatSum {
@@ -1126,39 +1231,27 @@ impl<B: AsRef<[u8]>> Source for Approx<'_, '_, B> {
     type Row = usize;
     type Col = FloatSum;
 
-    #[inline]
+    #[inline(always)]
     fn row(&self, y: usize) -> usize {
         y
     }
 
-    #[inline]
+    #[inline(always)]
     fn d(&self, y: usize, c: usize) -> f32 {
         self.diff.at((self.x0 + c) as isize, y as isize)
     }
 
-    #[inline]
-    fn bin(&self, y: usize, c: usize) -> usize {
-        (self.d(y, c) as i32 + 255).clamp(0, 510) as usize
-    }
-
-    #[inline]
-    fn col(&self, y: usize, c: usize) -> FloatSum {
+    #[inline(always)]
+    fn col(&self, y: usize, c: usize, _: &Weights) -> FloatSum {
         FloatSum {
             sum: self.d(y, c),
             count: 1,
         }
     }
 
-    #[inline]
-    fn split(col: FloatSum) -> (f32, u32) {
+    #[inline(always)]
+    fn split(col: FloatSum, _: &Weights) -> (f32, u32) {
         (col.sum, col.count)
-    }
-
-    fn least(&self, y: usize, cols: Range<usize>, sign: f32) -> f32 {
-        // `sign` is ±1: the products are exact. (A select rather than `f32::min`: D is never
-        // NaN.)
-        cols.map(|c| self.d(y, c) * sign)
-            .fold(f32::INFINITY, |m, v| if v < m { v } else { m })
     }
 }
 
@@ -2029,8 +2122,8 @@ mod tests {
     }
 
     /// A random bit row of `width` columns (the bits past it 0).
-    fn random_bits(rng: &mut Rng, width: usize) -> Bits {
-        let mut bits = EMPTY;
+    fn random_bits(rng: &mut Rng, width: usize) -> Bits<WORDS> {
+        let mut bits = [0; WORDS];
         let density = rng.unit();
         for x in 0..width {
             if rng.chance(density) {
@@ -2042,10 +2135,10 @@ mod tests {
 
     /// One row of inside and band pixels as a part's rows have them: runs of inside pixels with
     /// band pixels on both sides, band runs alone, outside pixels between.
-    fn random_row_regions(rng: &mut Rng, width: usize) -> (Bits, Bits) {
-        let (mut inside, mut band) = (EMPTY, EMPTY);
+    fn random_row_regions(rng: &mut Rng, width: usize) -> (Bits<WORDS>, Bits<WORDS>) {
+        let (mut inside, mut band) = ([0; WORDS], [0; WORDS]);
         let mut x = rng.below(6);
-        let set = |bits: &mut Bits, from: usize, len: usize| {
+        let set = |bits: &mut Bits<WORDS>, from: usize, len: usize| {
             for c in from..(from + len).min(width) {
                 bits[c / BITS] |= 1 << (c % BITS);
             }
@@ -2073,16 +2166,38 @@ mod tests {
         (inside, band)
     }
 
+    /// [`Exact`]'s values with the definitions of [`Source`]'s pixel loops.
+    struct Plain<'e, 'd, 'a, B>(&'e Exact<'d, 'a, B>);
+
+    impl<'a, B: AsRef<[u8]>> Source for Plain<'_, '_, 'a, B> {
+        type Row = (&'a [u8], &'a [u8]);
+        type Col = i32;
+        fn row(&self, y: usize) -> Self::Row {
+            self.0.row(y)
+        }
+        fn d(&self, row: Self::Row, c: usize) -> f32 {
+            self.0.d(row, c)
+        }
+        fn col(&self, row: Self::Row, c: usize, weights: &Weights) -> i32 {
+            self.0.col(row, c, weights)
+        }
+        fn split(col: i32, weights: &Weights) -> (f32, u32) {
+            <Exact<'_, '_, B> as Source>::split(col, weights)
+        }
+    }
+
     #[test]
     fn row_weights_are_the_per_pixel_weights() {
-        // `Weights::row` (runs of weight 1 at once, the window sum sliding along the band) against
-        // the per-pixel definition with the pixels added one by one in increasing column: the
-        // same bits for random rows, integer D (α = 1), column sums and running sums.
+        // `Weights::row` (runs of weight 1 at once, integer tests where the weights clip, the
+        // window sliding along the band) against the per-pixel definition with the pixels added
+        // one by one in increasing column, and against `Source`'s own loops: the same bits for
+        // random rows, integer D (α = 1), column sums and running sums.
         let mut rng = Rng(0x5EED_0001);
-        let (mut runs, mut pixels) = (0usize, 0usize);
+        let (mut runs, mut pixels, mut clipped) = (0usize, 0usize, 0usize);
         for case in 0..6000 {
             let width = MIN_WIDTH + rng.below(MAX_WIDTH - MIN_WIDTH + 1);
             let contrast = if rng.chance(0.5) { 1.0 } else { -1.0 } * (1 + rng.below(200)) as f32;
+            let sign = contrast.signum();
             let base = rng.below(256) as f32;
             let frame_row: Vec<u8> = (0..width)
                 .map(|_| {
@@ -2104,16 +2219,16 @@ mod tests {
                 x1: width,
             };
             let image_row = src.row(0);
-            let mut columns = [0i32; MAX_WIDTH + 8];
+            // Column sums of D·sign: windows of means near integers, below 1, of the other sign.
+            let mut columns = [0i32; COLUMNS];
+            let typical = (contrast.abs() * rng.range(0.3, 1.5)).round();
             for c in columns.iter_mut().skip(4).take(width) {
                 let count = rng.below(10) as i32;
                 let sum: i32 = (0..count)
-                    .map(|_| {
-                        if rng.chance(0.8) {
-                            (contrast * rng.range(0.5, 1.5)).round().clamp(-255.0, 255.0) as i32
-                        } else {
-                            rng.below(511) as i32 - 255
-                        }
+                    .map(|_| match rng.below(6) {
+                        0 => rng.below(511) as i32 - 255,
+                        1 => rng.below(3) as i32 - 1,
+                        _ => (typical + rng.range(-2.0, 2.0)).round().clamp(-255.0, 255.0) as i32,
                     })
                     .sum();
                 *c = 128 * sum + count;
@@ -2125,11 +2240,9 @@ mod tests {
             } else {
                 [random_sum(&mut rng), random_sum(&mut rng), random_sum(&mut rng)]
             };
-            let weights = Weights {
-                contrast,
-                sign: contrast.signum(),
-            };
-            let got = weights.row(&src, image_row, y, &inside, &band, &columns, sums);
+            let weights = Weights { contrast, sign };
+            let got = weights.row::<_, WORDS>(&src, image_row, y, &inside, &band, &columns, sums);
+            let plain = weights.row::<_, WORDS>(&Plain(&src), image_row, y, &inside, &band, &columns, sums);
             let [mut sw, mut sx, mut sy] = sums;
             for c in 0..width {
                 let d = diff.at(c as isize, 0);
@@ -2142,11 +2255,13 @@ mod tests {
                     }
                 } else if bit(&band, c) {
                     let window: i32 = columns[c..c + 9].iter().sum();
-                    let (sum, count) = ((window >> 7) as f32, window & 127);
+                    let (sum, count) = ((window >> 7) as f32 * sign, window & 127);
                     let local = (count > 0)
                         .then(|| sum / count as f32)
                         .filter(|m| m.abs() >= 1.0 && m.signum() == contrast.signum());
-                    (d / local.unwrap_or(contrast)).clamp(0.0, 1.0)
+                    let w = (d / local.unwrap_or(contrast)).clamp(0.0, 1.0);
+                    clipped += usize::from(w == 1.0);
+                    w
                 } else {
                     0.0
                 };
@@ -2156,11 +2271,13 @@ mod tests {
                     sy += weight * y as f32;
                 }
             }
-            assert_eq!(got.map(f32::to_bits), [sw, sx, sy].map(f32::to_bits), "case {case}");
+            let want = [sw, sx, sy].map(f32::to_bits);
+            assert_eq!(got.map(f32::to_bits), want, "case {case}");
+            assert_eq!(plain.map(f32::to_bits), want, "case {case} (definition's loops)");
             runs += inside.iter().map(|w| (w & !(w << 1)).count_ones() as usize).sum::<usize>();
             pixels += band.iter().map(|w| w.count_ones() as usize).sum::<usize>();
         }
-        assert!(runs > 5000 && pixels > 50_000, "{runs} {pixels}");
+        assert!(runs > 5000 && pixels > 50_000 && clipped > 10_000, "{runs} {pixels} {clipped}");
     }
 
     #[test]
@@ -2199,8 +2316,8 @@ mod tests {
     #[test]
     fn sources_give_the_values_of_at() {
         // D from the frame's and background's rows (α = 1) and through `at` (α < 1, or a short
-        // background plane): values, bins, ring values and the hole test's least value, against
-        // `Difference::at` and the pixel-by-pixel test.
+        // background plane): values, histogram bins, ring values into column sums and out again,
+        // and the hole test's least value, against `Difference::at` and the pixel-by-pixel test.
         let mut rng = Rng(4242);
         let mut shortcut = 0usize;
         for case in 0..400 {
@@ -2220,19 +2337,44 @@ mod tests {
                 for y in 0..h {
                     let rows = diff.rows(y).is_some();
                     let (er, ar) = (exact.row(y), approx.row(y));
+                    let ring = random_bits(&mut rng, x1 - x0);
+                    let (mut want_hist, mut want_cols) = ([0u16; 511], Vec::new());
+                    let contrast = if rng.chance(0.5) { 9.0 } else { -9.0 };
+                    let weights = Weights {
+                        contrast,
+                        sign: contrast.signum(),
+                    };
                     for c in 0..x1 - x0 {
                         let want = diff.at((x0 + c) as isize, y as isize);
-                        let bin = (want as i32 + 255).clamp(0, 510) as usize;
                         assert_eq!(approx.d(ar, c).to_bits(), want.to_bits());
-                        assert_eq!(approx.bin(ar, c), bin);
-                        let (s, n) = <Approx<'_, '_, &[u8]> as Source>::split(approx.col(ar, c));
+                        let (s, n) = <Approx<'_, '_, &[u8]> as Source>::split(approx.col(ar, c, &weights), &weights);
                         assert_eq!((s.to_bits(), n), (want.to_bits(), 1));
                         if rows {
                             assert_eq!(exact.d(er, c).to_bits(), want.to_bits(), "case {case} ({c}, {y})");
-                            assert_eq!(exact.bin(er, c), bin);
-                            let (s, n) = <Exact<'_, '_, &[u8]> as Source>::split(exact.col(er, c));
+                            let (s, n) = <Exact<'_, '_, &[u8]> as Source>::split(exact.col(er, c, &weights), &weights);
                             assert_eq!((s.to_bits(), n), (want.to_bits(), 1));
                         }
+                        if bit(&ring, c) {
+                            want_hist[(want as i32 + 255).clamp(0, 510) as usize] += 1;
+                            want_cols.push(c);
+                        }
+                    }
+                    // The ring's histogram, and its values into the column sums and out again.
+                    let mut hist = [0u16; 511];
+                    assert_eq!(approx.histogram(ar, &ring, &mut hist), want_cols.len());
+                    assert_eq!(hist, want_hist);
+                    if rows {
+                        let mut hist = [0u16; 511];
+                        assert_eq!(exact.histogram(er, &ring, &mut hist), want_cols.len());
+                        assert_eq!(hist, want_hist, "case {case}");
+                        let mut columns = [0i32; COLUMNS];
+                        exact.move_ring::<true, WORDS>(er, &ring, &mut columns, &weights);
+                        for c in 0..x1 - x0 {
+                            let want = if bit(&ring, c) { exact.col(er, c, &weights) } else { 0 };
+                            assert_eq!(columns[c + 4], want);
+                        }
+                        exact.move_ring::<false, WORDS>(er, &ring, &mut columns, &weights);
+                        assert!(columns.iter().all(|&v| v == 0));
                     }
                     // The hole test of a run by its least value, both signs of contrast, at the
                     // threshold too.
@@ -2301,7 +2443,6 @@ mod tests {
         let mut rng = Rng(2024);
         for case in 0..3000 {
             let width = 1 + rng.below(MAX_WIDTH);
-            let n = width.div_ceil(BITS);
             let x = random_bits(&mut rng, width);
             let at = |c: isize| c >= 0 && bit(&x, c as usize);
             for c in 0..MAX_WIDTH {
@@ -2314,15 +2455,13 @@ mod tests {
                         v.any(|b| b)
                     }
                 };
-                assert_eq!(bit(&erode::<2>(&x, n), c), window(2, true), "case {case} erode 2 at {c}");
-                assert_eq!(bit(&erode::<3>(&x, n), c), window(3, true), "case {case} erode 3 at {c}");
-                assert_eq!(bit(&erode::<5>(&x, n), c), window(5, true), "case {case} erode 5 at {c}");
-                // Dilation reaches past the width, within the words.
-                let inside = c < n * BITS;
-                assert_eq!(bit(&dilate::<1>(&x, n), c), inside && window(1, false), "case {case} dilate 1 at {c}");
-                assert_eq!(bit(&dilate::<2>(&x, n), c), inside && window(2, false), "case {case} dilate 2 at {c}");
-                assert_eq!(bit(&shift_down::<7>(&x, n), c), inside && at(ci + 7));
-                assert_eq!(bit(&shift_up::<5>(&x, n), c), inside && at(ci - 5));
+                assert_eq!(bit(&erode::<2, WORDS>(&x), c), window(2, true), "case {case} erode 2 at {c}");
+                assert_eq!(bit(&erode::<3, WORDS>(&x), c), window(3, true), "case {case} erode 3 at {c}");
+                assert_eq!(bit(&erode::<5, WORDS>(&x), c), window(5, true), "case {case} erode 5 at {c}");
+                assert_eq!(bit(&dilate::<1, WORDS>(&x), c), window(1, false), "case {case} dilate 1 at {c}");
+                assert_eq!(bit(&dilate::<2, WORDS>(&x), c), window(2, false), "case {case} dilate 2 at {c}");
+                assert_eq!(bit(&shift_down::<7, WORDS>(&x), c), at(ci + 7));
+                assert_eq!(bit(&shift_up::<5, WORDS>(&x), c), at(ci - 5));
             }
             // Runs around a set bit, runs of seeds, the next set or clear bit, column ranges.
             let set: Vec<usize> = (0..width).filter(|&c| bit(&x, c)).collect();
@@ -2332,10 +2471,7 @@ mod tests {
                 assert!(l == 0 || !bit(&x, l - 1));
                 assert!(!bit(&x, r + 1));
             }
-            let mut seeds = random_bits(&mut rng, width);
-            for (s, &v) in seeds.iter_mut().zip(&x) {
-                *s &= v;
-            }
+            let seeds = and(&random_bits(&mut rng, width), &x);
             let runs = runs_of(&x, &seeds);
             for c in 0..MAX_WIDTH {
                 let (mut l, mut r) = (c, c);
@@ -2351,7 +2487,12 @@ mod tests {
             let from = rng.below(MAX_WIDTH + 1);
             for set in [true, false] {
                 let want = (from..MAX_WIDTH).find(|&c| bit(&x, c) == set).unwrap_or(MAX_WIDTH);
-                assert_eq!(next_bit(&x, from, set), want, "case {case} next {set} from {from}");
+                let got = if set {
+                    next_bit::<true, WORDS>(&x, from)
+                } else {
+                    next_bit::<false, WORDS>(&x, from)
+                };
+                assert_eq!(got, want, "case {case} next {set} from {from}");
             }
             let lo = rng.below(MAX_WIDTH);
             let hi = lo + rng.below(MAX_WIDTH - lo);
@@ -2361,6 +2502,84 @@ mod tests {
         }
     }
 
+    /// A random box (at least [`MIN_WIDTH`] wide, at most [`MAX_WIDTH`]; narrow ones often) in a
+    /// random 0/1 plane.
+    fn random_box(rng: &mut Rng, density: f32) -> (usize, usize, Vec<u8>, Rect) {
+        let (w, h) = (MIN_WIDTH + rng.below(300), 1 + rng.below(60));
+        let mask: Vec<u8> = (0..w * h).map(|_| rng.chance(density) as u8).collect();
+        let x0 = rng.below(w - MIN_WIDTH + 1);
+        let most = if rng.chance(0.3) { 40 } else { MAX_WIDTH };
+        let x1 = (x0 + MIN_WIDTH + rng.below(most - MIN_WIDTH + 1)).min(w);
+        let y0 = rng.below(h);
+        let r = Rect {
+            x0,
+            y0,
+            x1,
+            y1: y0 + 1 + rng.below(h - y0),
+        };
+        (w, h, mask, r)
+    }
+
+    /// Calls `f::<N>` with the box's words.
+    macro_rules! with_words {
+        ($width:expr, $f:ident ( $($arg:expr),* )) => {
+            match ($width).div_ceil(BITS) {
+                1 => $f::<1>($($arg),*),
+                2 => $f::<2>($($arg),*),
+                3 => $f::<3>($($arg),*),
+                4 => $f::<4>($($arg),*),
+                _ => $f::<WORDS>($($arg),*),
+            }
+        };
+    }
+
+    fn plane_case<const N: usize>(rng: &mut Rng, case: usize, w: usize, mask: &[u8], r: Rect) -> bool {
+        let mut plane_bytes = mask.to_vec();
+        let mut plane = Plane::new(&mut plane_bytes, w, r);
+        assert!(FIELDS * plane.stride <= plane.width);
+        let packed = plane.stride < N * WORD_BYTES;
+        let first = rng.below(plane.height);
+        plane.init::<N>(first);
+        // Not next to the rows set up: refused.
+        plane.init::<N>(first + 2);
+        assert_eq!((plane.lo, plane.hi), (first, first + 1));
+        for q in (0..first).rev().chain(first + 1..plane.height) {
+            plane.init::<N>(q);
+        }
+        assert_eq!((plane.lo, plane.hi), (0, plane.height));
+        let width = r.x1 - r.x0;
+        let narrow = |bits: Bits<WORDS>| -> Bits<N> { core::array::from_fn(|k| bits[k]) };
+        let mut rows = Vec::new();
+        for q in 0..plane.height {
+            let m = plane.load::<N>(q, MASK_FIELD);
+            for c in 0..BITS * N {
+                let want = c < width && mask[(r.y0 + q) * w + r.x0 + c] == 1;
+                assert_eq!(bit(&m, c), want, "case {case} row {q} column {c}");
+            }
+            assert_eq!(plane.load::<N>(q, COMP_FIELD), [0; N]);
+            let (c, g, b) = (
+                narrow(random_bits(rng, width)),
+                narrow(random_bits(rng, width)),
+                narrow(random_bits(rng, width)),
+            );
+            plane.store(q, COMP_FIELD, &c);
+            plane.store(q, RING_FIELD, &g);
+            plane.store(q, BAND_FIELD, &b);
+            rows.push((m, c, g, b));
+        }
+        for (q, &(m, c, g, b)) in rows.iter().enumerate() {
+            assert_eq!(plane.load::<N>(q, MASK_FIELD), m, "case {case}");
+            assert_eq!(plane.load::<N>(q, COMP_FIELD), c, "case {case}");
+            assert_eq!(plane.load::<N>(q, RING_FIELD), g, "case {case}");
+            assert_eq!(plane.load::<N>(q, BAND_FIELD), b, "case {case}");
+        }
+        assert_eq!(plane.load::<N>(plane.height, MASK_FIELD), [0; N]);
+        plane.restore::<N>();
+        assert_eq!(plane.load::<N>(0, MASK_FIELD), [0; N]);
+        assert!(plane_bytes == mask, "case {case}: plane not restored");
+        packed
+    }
+
     #[test]
     fn plane_fields_hold_bit_rows_and_give_the_mask_back() {
         // Rows set up from the mask's bytes, next to each other only; their fields loaded and
@@ -2368,90 +2587,67 @@ mod tests {
         let mut rng = Rng(99);
         let mut packed = 0;
         for case in 0..400 {
-            let (w, h) = (MIN_WIDTH + rng.below(300), 1 + rng.below(20));
-            let mask: Vec<u8> = (0..w * h).map(|_| rng.chance(0.5) as u8).collect();
-            let x0 = rng.below(w - MIN_WIDTH + 1);
-            let most = if rng.chance(0.3) { 40 } else { MAX_WIDTH };
-            let x1 = (x0 + MIN_WIDTH + rng.below(most - MIN_WIDTH + 1)).min(w);
-            let y0 = rng.below(h);
-            let r = Rect {
-                x0,
-                y0,
-                x1,
-                y1: y0 + 1 + rng.below(h - y0),
-            };
-            let mut plane_bytes = mask.clone();
-            let mut plane = Plane::new(&mut plane_bytes, w, r);
-            assert!(FIELDS * plane.stride <= plane.width);
-            packed += usize::from(plane.stride < plane.n * WORD_BYTES);
-            let first = rng.below(plane.height);
-            plane.init(first);
-            // Not next to the rows set up: refused.
-            plane.init(first + 2);
-            assert_eq!((plane.lo, plane.hi), (first, first + 1));
-            for q in (0..first).rev().chain(first + 1..plane.height) {
-                plane.init(q);
-            }
-            assert_eq!((plane.lo, plane.hi), (0, plane.height));
-            let mut rows = Vec::new();
-            for q in 0..plane.height {
-                let m = plane.load(q, MASK_FIELD);
-                for c in 0..MAX_WIDTH {
-                    let want = c < x1 - x0 && mask[(y0 + q) * w + x0 + c] == 1;
-                    assert_eq!(bit(&m, c), want, "case {case} row {q} column {c}");
-                }
-                assert_eq!(plane.load(q, COMP_FIELD), EMPTY);
-                let width = x1 - x0;
-                let (c, g, b) = (
-                    random_bits(&mut rng, width),
-                    random_bits(&mut rng, width),
-                    random_bits(&mut rng, width),
-                );
-                plane.store(q, COMP_FIELD, &c);
-                plane.store(q, RING_FIELD, &g);
-                plane.store(q, BAND_FIELD, &b);
-                rows.push((m, c, g, b));
-            }
-            for (q, &(m, c, g, b)) in rows.iter().enumerate() {
-                assert_eq!(plane.load(q, MASK_FIELD), m, "case {case}");
-                assert_eq!(plane.load(q, COMP_FIELD), c, "case {case}");
-                assert_eq!(plane.load(q, RING_FIELD), g, "case {case}");
-                assert_eq!(plane.load(q, BAND_FIELD), b, "case {case}");
-            }
-            assert_eq!(plane.load(plane.height, MASK_FIELD), EMPTY);
-            plane.restore();
-            assert_eq!(plane.load(0, MASK_FIELD), EMPTY);
-            assert!(plane_bytes == mask, "case {case}: plane not restored");
+            let (w, _, mask, r) = random_box(&mut rng, 0.5);
+            packed += usize::from(with_words!(r.x1 - r.x0, plane_case(&mut rng, case, w, &mask, r)));
         }
         assert!(packed > 50, "{packed}");
-        for byte in 0..256u32 {
+        for byte in 0..=255u8 {
             let v = spread(byte);
             assert_eq!(v & !LOW, 0);
             assert_eq!(pack(v), byte as Word);
         }
     }
 
+    fn fill_case<const N: usize>(w: usize, mask: &[u8], r: Rect, seed: (usize, usize), want: &[(usize, usize)], case: usize) {
+        let (bw, bh) = (r.x1 - r.x0, r.y1 - r.y0);
+        let top = want.iter().map(|p| p.1).min().unwrap();
+        let bottom = want.iter().map(|p| p.1).max().unwrap() + 1;
+        let mut bytes = mask.to_vec();
+        let mut plane = Plane::new(&mut bytes, w, r);
+        let rows = mark::<N>(&mut plane, seed.0 - r.x0, seed.1 - r.y0);
+        assert_eq!(rows, top..bottom, "case {case}");
+        assert!(plane.lo <= top.saturating_sub(1) && (bottom + 1).min(bh) <= plane.hi, "case {case}");
+        let mut marked = 0;
+        for q in 0..bh {
+            let c = plane.load::<N>(q, COMP_FIELD);
+            marked += c.iter().map(|v| v.count_ones() as usize).sum::<usize>();
+            for x in 0..bw {
+                assert_eq!(bit(&c, x), want.contains(&(x, q)), "case {case} ({x}, {q})");
+            }
+        }
+        assert_eq!(marked, want.len(), "case {case}");
+        plane.restore::<N>();
+        assert!(bytes == mask, "case {case}: plane not restored");
+    }
+
     #[test]
     fn bit_row_fill_finds_the_component() {
-        // The fill over bit rows (one sweep down, or sweeps both ways when the component turns
-        // upward) and the sweeps alone from the seed's run: exactly the 8-connected component
-        // within the box, the rows that hold it with one more set up above and below, the mask
-        // back after `restore`.
+        // The fill over bit rows (one sweep down, and sweeps back and forth where the component
+        // turns upward): exactly the 8-connected component within the box, the rows that hold it
+        // with one more set up above and below, the mask back after `restore`. Ragged random
+        // masks, and spirals and combs that turn many times.
         let mut rng = Rng(12345);
         let mut upward = 0usize;
-        for case in 0..400 {
-            let (w, h) = (MIN_WIDTH + rng.below(280), 1 + rng.below(60));
+        for case in 0..600 {
             let density = rng.range(0.3, 0.8);
-            let mask: Vec<u8> = (0..w * h).map(|_| rng.chance(density) as u8).collect();
-            let x0 = rng.below(w - MIN_WIDTH + 1);
-            let x1 = (x0 + MIN_WIDTH + rng.below(MAX_WIDTH - MIN_WIDTH + 1)).min(w);
-            let y0 = rng.below(h);
-            let r = Rect {
-                x0,
-                y0,
-                x1,
-                y1: y0 + 1 + rng.below(h - y0),
-            };
+            let (w, h, mut mask, r) = random_box(&mut rng, density);
+            if case % 3 == 0 {
+                // Vertical and horizontal bars joined alternately at the top and the bottom, or
+                // a square spiral.
+                let spiral = rng.chance(0.5);
+                for y in 0..h {
+                    for x in 0..w {
+                        let (bx, by) = (x / 2, y / 2);
+                        mask[y * w + x] = if spiral {
+                            let ring = bx.min(by).min((w / 2).saturating_sub(bx + 1)).min((h / 2).saturating_sub(by + 1));
+                            u8::from(ring % 2 == 0 && !(bx == ring + 1 && by == ring) || (ring % 2 == 1 && bx == ring && by == ring - 1))
+                        } else {
+                            let joint = if (bx / 2) % 2 == 0 { y + 2 >= h } else { y < 2 };
+                            u8::from(bx % 2 == 0 || joint)
+                        };
+                    }
+                }
+            }
             let seed = (r.x0 + rng.below(r.x1 - r.x0), r.y0 + rng.below(r.y1 - r.y0));
             if mask[seed.1 * w + seed.0] == 0 {
                 continue;
@@ -2465,44 +2661,10 @@ mod tests {
                 .iter()
                 .find(|c| c.contains(&(seed.0 - r.x0, seed.1 - r.y0)))
                 .unwrap();
-            let top = want.iter().map(|p| p.1).min().unwrap();
-            let bottom = want.iter().map(|p| p.1).max().unwrap() + 1;
-            upward += usize::from(top < seed.1 - r.y0);
-            for sweeps_only in [false, true] {
-                let mut bytes = mask.clone();
-                let mut plane = Plane::new(&mut bytes, w, r);
-                let (x, q) = (seed.0 - r.x0, seed.1 - r.y0);
-                let rows = if sweeps_only {
-                    plane.init(q);
-                    let m = plane.load(q, MASK_FIELD);
-                    let (a, b) = run_around(&m, x);
-                    let mut c = EMPTY;
-                    set_range(&mut c, a, b);
-                    plane.store(q, COMP_FIELD, &c);
-                    for nq in [q.wrapping_sub(1), q + 1] {
-                        plane.init(nq);
-                    }
-                    sweeps(&mut plane)
-                } else {
-                    mark(&mut plane, x, q)
-                };
-                let context = std::format!("case {case} sweeps only {sweeps_only}");
-                assert_eq!(rows, top..bottom, "{context}");
-                assert!(plane.lo <= top.saturating_sub(1) && (bottom + 1).min(bh) <= plane.hi, "{context}");
-                let mut marked = 0;
-                for q in 0..bh {
-                    let c = plane.load(q, COMP_FIELD);
-                    marked += c.iter().map(|v| v.count_ones() as usize).sum::<usize>();
-                    for x in 0..bw {
-                        assert_eq!(bit(&c, x), want.contains(&(x, q)), "{context} ({x}, {q})");
-                    }
-                }
-                assert_eq!(marked, want.len(), "{context}");
-                plane.restore();
-                assert!(bytes == mask, "{context}: plane not restored");
-            }
+            upward += usize::from(want.iter().any(|p| p.1 < seed.1 - r.y0));
+            with_words!(bw, fill_case(w, &mask, r, seed, want, case));
         }
-        assert!(upward > 50, "{upward}");
+        assert!(upward > 100, "{upward}");
     }
 
     mod reference {
