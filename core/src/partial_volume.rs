@@ -182,55 +182,46 @@ impl<'m> Plane<'m> {
         }
     }
 
-    /// The plane's index of field `field` of box row `q`.
+    /// The plane's index of box row `q`'s first byte.
     #[inline(always)]
-    fn at(&self, q: usize, field: usize) -> usize {
-        (self.r.y0 + q) * self.w + self.r.x0 + self.stride * field
+    fn at(&self, q: usize) -> usize {
+        (self.r.y0 + q) * self.w + self.r.x0
+    }
+
+    /// The fields' bytes of box row `q` (`None` where they are not set up).
+    #[inline(always)]
+    fn fields(&self, q: usize) -> Option<&[u8]> {
+        let s = self.at(q);
+        if q >= self.lo && q < self.hi {
+            self.mask.get(s..s + FIELDS * self.stride)
+        } else {
+            None
+        }
+    }
+
+    /// [`Self::fields`], mutable.
+    #[inline(always)]
+    fn fields_mut(&mut self, q: usize) -> Option<&mut [u8]> {
+        let s = self.at(q);
+        if q >= self.lo && q < self.hi {
+            self.mask.get_mut(s..s + FIELDS * self.stride)
+        } else {
+            None
+        }
     }
 
     /// Field `field` of box row `q` (empty where the row's fields are not set up).
     #[inline(always)]
     fn load<const N: usize>(&self, q: usize, field: usize) -> Bits<N> {
-        let mut out = [0; N];
-        if q >= self.lo && q < self.hi {
-            let s = self.at(q, field);
-            if self.stride == N * WORD_BYTES {
-                if let Some(bytes) = self.mask.get(s..s + N * WORD_BYTES) {
-                    for (o, c) in out.iter_mut().zip(bytes.chunks_exact(WORD_BYTES)) {
-                        *o = Word::from_le_bytes(c.try_into().unwrap_or_default());
-                    }
-                }
-            } else if let Some(bytes) = self.mask.get(s..s + self.stride) {
-                for (o, c) in out.iter_mut().zip(bytes.chunks(WORD_BYTES)) {
-                    let mut word = [0u8; WORD_BYTES];
-                    for (b, v) in word.iter_mut().zip(c) {
-                        *b = *v;
-                    }
-                    *o = Word::from_le_bytes(word);
-                }
-            }
-        }
-        out
+        self.fields(q).map_or([0; N], |f| get(f, self.stride, field))
     }
 
     /// Sets field `field` of box row `q` (a row whose fields are set up).
     #[inline(always)]
     fn store<const N: usize>(&mut self, q: usize, field: usize, bits: &Bits<N>) {
-        if q >= self.lo && q < self.hi {
-            let s = self.at(q, field);
-            if self.stride == N * WORD_BYTES {
-                if let Some(bytes) = self.mask.get_mut(s..s + N * WORD_BYTES) {
-                    for (c, v) in bytes.chunks_exact_mut(WORD_BYTES).zip(bits) {
-                        c.copy_from_slice(&v.to_le_bytes());
-                    }
-                }
-            } else if let Some(bytes) = self.mask.get_mut(s..s + self.stride) {
-                for (c, v) in bytes.chunks_mut(WORD_BYTES).zip(bits) {
-                    for (b, v) in c.iter_mut().zip(v.to_le_bytes()) {
-                        *b = v;
-                    }
-                }
-            }
+        let stride = self.stride;
+        if let Some(f) = self.fields_mut(q) {
+            put(f, stride, field, bits);
         }
     }
 
@@ -243,41 +234,86 @@ impl<'m> Plane<'m> {
         if q >= self.height || !(first || q + 1 == self.lo || q == self.hi) {
             return self.load(q, MASK_FIELD);
         }
-        let s = self.at(q, 0);
-        let Some(row) = self.mask.get(s..s + self.width) else {
+        let (s, stride) = (self.at(q), self.stride);
+        let Some(row) = self.mask.get_mut(s..s + self.width) else {
             return [0; N];
         };
         let m = gather::<N>(row);
+        put(row, stride, MASK_FIELD, &m);
+        put(row, stride, COMP_FIELD, &[0; N]);
         (self.lo, self.hi) = match (first, q + 1 == self.lo) {
             (true, _) => (q, q + 1),
             (false, true) => (q, self.hi),
             (false, false) => (self.lo, q + 1),
         };
-        self.store(q, MASK_FIELD, &m);
-        self.store(q, COMP_FIELD, &[0; N]);
         m
     }
 
     /// Puts the mask's bits back into the bytes of the fields; no row is set up afterwards.
     fn restore<const N: usize>(&mut self) {
-        let bytes = FIELDS * self.stride;
+        let stride = self.stride;
         for q in self.lo..self.hi {
-            let m = self.load::<N>(q, MASK_FIELD);
-            let s = self.at(q, 0);
-            if let Some(row) = self.mask.get_mut(s..s + bytes) {
-                // Bytes 8k .. 8k + 8 from byte k of the mask's bits.
-                let mut chunks = row.chunks_exact_mut(8);
-                for (c, byte) in (&mut chunks).zip(m.iter().flat_map(|w| w.to_le_bytes())) {
-                    c.copy_from_slice(&spread(byte).to_le_bytes());
-                }
-                let k = bytes / 8;
-                let byte = m.get(k / WORD_BYTES).map_or(0, |&w| (w >> (8 * (k % WORD_BYTES))) as u8);
-                for (b, v) in chunks.into_remainder().iter_mut().zip(spread(byte).to_le_bytes()) {
-                    *b = v;
-                }
+            let s = self.at(q);
+            let Some(row) = self.mask.get_mut(s..s + FIELDS * stride) else {
+                continue;
+            };
+            let m: Bits<N> = get(row, stride, MASK_FIELD);
+            // Bytes 8i .. 8i + 8 from byte i of the mask's bits (the fields take at most half of
+            // the row's bytes, so the first half of the words).
+            let mut chunks = row.chunks_exact_mut(8);
+            for (i, c) in (&mut chunks).enumerate() {
+                let byte = m.get(i / WORD_BYTES).map_or(0, |&w| (w >> (8 * (i % WORD_BYTES))) as u8);
+                c.copy_from_slice(&spread(byte).to_le_bytes());
+            }
+            let i = FIELDS * stride / 8;
+            let byte = m.get(i / WORD_BYTES).map_or(0, |&w| (w >> (8 * (i % WORD_BYTES))) as u8);
+            for (b, v) in chunks.into_remainder().iter_mut().zip(spread(byte).to_le_bytes()) {
+                *b = v;
             }
         }
         (self.lo, self.hi) = (0, 0);
+    }
+}
+
+/// Field `field` of a row's bytes (its words little-endian from byte `stride · field`).
+#[inline(always)]
+fn get<const N: usize>(row: &[u8], stride: usize, field: usize) -> Bits<N> {
+    let mut out = [0; N];
+    let s = stride * field;
+    if stride == N * WORD_BYTES {
+        if let Some(bytes) = row.get(s..s + N * WORD_BYTES) {
+            for (o, c) in out.iter_mut().zip(bytes.chunks_exact(WORD_BYTES)) {
+                *o = Word::from_le_bytes(c.try_into().unwrap_or_default());
+            }
+        }
+    } else if let Some(bytes) = row.get(s..s + stride) {
+        for (o, c) in out.iter_mut().zip(bytes.chunks(WORD_BYTES)) {
+            let mut word = [0u8; WORD_BYTES];
+            for (b, v) in word.iter_mut().zip(c) {
+                *b = *v;
+            }
+            *o = Word::from_le_bytes(word);
+        }
+    }
+    out
+}
+
+/// Sets field `field` of a row's bytes (see [`get`]).
+#[inline(always)]
+fn put<const N: usize>(row: &mut [u8], stride: usize, field: usize, bits: &Bits<N>) {
+    let s = stride * field;
+    if stride == N * WORD_BYTES {
+        if let Some(bytes) = row.get_mut(s..s + N * WORD_BYTES) {
+            for (c, v) in bytes.chunks_exact_mut(WORD_BYTES).zip(bits) {
+                c.copy_from_slice(&v.to_le_bytes());
+            }
+        }
+    } else if let Some(bytes) = row.get_mut(s..s + stride) {
+        for (c, v) in bytes.chunks_mut(WORD_BYTES).zip(bits) {
+            for (b, v) in c.iter_mut().zip(v.to_le_bytes()) {
+                *b = v;
+            }
+        }
     }
 }
 
@@ -302,21 +338,41 @@ fn spread(byte: u8) -> u64 {
 fn gather<const N: usize>(row: &[u8]) -> Bits<N> {
     let mut out = [0; N];
     for (o, chunk) in out.iter_mut().zip(row.chunks(BITS)) {
-        if let Ok(bytes) = <&[u8; BITS]>::try_from(chunk) {
-            for (j, c) in bytes.chunks_exact(8).enumerate() {
-                *o |= pack(u64::from_le_bytes(c.try_into().unwrap_or_default()) & LOW) << (8 * j);
-            }
-        } else {
-            for (j, c) in chunk.chunks(8).enumerate() {
-                let mut eight = [0u8; 8];
-                for (b, v) in eight.iter_mut().zip(c) {
-                    *b = *v;
+        *o = match <&[u8; BITS]>::try_from(chunk) {
+            // A whole word's bytes: 8 at a time, unrolled.
+            Ok(bytes) => {
+                let mut word = 0;
+                for j in 0..WORD_BYTES {
+                    let eight = bytes.get(8 * j..8 * j + 8).and_then(|c| <[u8; 8]>::try_from(c).ok());
+                    word |= pack(u64::from_le_bytes(eight.unwrap_or_default()) & LOW) << (8 * j);
                 }
-                *o |= pack(u64::from_le_bytes(eight) & LOW) << (8 * j);
+                word
             }
-        }
+            Err(_) => gather_partial(chunk),
+        };
     }
     out
+}
+
+/// [`gather`]'s word of fewer than `BITS` bytes.
+#[inline(never)]
+fn gather_partial(chunk: &[u8]) -> Word {
+    let mut word = 0;
+    for j in 0..WORD_BYTES {
+        let v = match chunk.get(8 * j..8 * j + 8) {
+            Some(c) => u64::from_le_bytes(c.try_into().unwrap_or_default()),
+            None => {
+                let mut eight = [0u8; 8];
+                for (b, v) in eight.iter_mut().zip(chunk.get(8 * j..).unwrap_or(&[])) {
+                    *b = *v;
+                }
+                word |= pack(u64::from_le_bytes(eight) & LOW) << (8 * j);
+                break;
+            }
+        };
+        word |= pack(v & LOW) << (8 * j);
+    }
+    word
 }
 
 /// The bits of word `k` of a bit row within columns `lo..=hi`.
@@ -361,22 +417,7 @@ fn next_bit<const SET: bool, const N: usize>(bits: &Bits<N>, x: usize) -> usize 
 /// The run of set bits of `bits` around column `x` (which is set): its first and last column.
 #[inline(always)]
 fn run_around<const N: usize>(bits: &Bits<N>, x: usize) -> (usize, usize) {
-    let right = next_bit::<false, N>(bits, x) - 1;
-    let (i, b) = (x / BITS, x % BITS);
-    let word = |k: usize| bits.get(k).copied().unwrap_or(0);
-    let mut k = i;
-    let mut z = !word(k) & ((1 << b) - 1);
-    let left = loop {
-        if z != 0 {
-            break BITS * k + BITS - z.leading_zeros() as usize;
-        }
-        if k == 0 {
-            break 0;
-        }
-        k -= 1;
-        z = !word(k);
-    };
-    (left, right)
+    (run_start(bits, x), next_bit::<false, N>(bits, x) - 1)
 }
 
 /// Sets columns `lo..=hi` of `bits`.
@@ -387,17 +428,46 @@ fn set_range<const N: usize>(bits: &mut Bits<N>, lo: usize, hi: usize) {
     }
 }
 
-/// The runs of set bits of `m` that hold a bit of `seeds` (which is within `m`).
-#[inline]
+/// The runs of set bits of `m` that hold a bit of `seeds` (which is within `m`): from each
+/// run's lowest seed to its end by a carry through the run (`m + seeds` clears those bits), then
+/// down to its start.
+#[inline(always)]
 fn runs_of<const N: usize>(m: &Bits<N>, seeds: &Bits<N>) -> Bits<N> {
-    let mut out = [0; N];
-    let mut x = next_bit::<true, N>(seeds, 0);
-    while x < BITS * N {
-        let (a, b) = run_around(m, x);
-        set_range(&mut out, a, b);
-        x = next_bit::<true, N>(seeds, b + 1);
+    let mut up = [0; N];
+    let mut carry = false;
+    for ((u, &m), &s) in up.iter_mut().zip(m).zip(seeds) {
+        let (t, c1) = m.overflowing_add(s);
+        let (t, c2) = t.overflowing_add(Word::from(carry));
+        carry = c1 | c2;
+        *u = (m & !t) | s;
     }
-    out
+    // The lowest bit of each run of `up`: where the run reaches below, the rest down to its start.
+    let starts = and_not(&up, &shift_up::<1, N>(&up));
+    for_each_bit(&starts, |p| {
+        let a = run_start(m, p);
+        if a < p {
+            set_range(&mut up, a, p - 1);
+        }
+    });
+    up
+}
+
+/// The first column of the run of set bits of `bits` that holds column `x`.
+#[inline(always)]
+fn run_start<const N: usize>(bits: &Bits<N>, x: usize) -> usize {
+    let (mut k, b) = (x / BITS, x % BITS);
+    let word = |k: usize| bits.get(k).copied().unwrap_or(0);
+    let mut z = !word(k) & ((1 << b) - 1);
+    loop {
+        if z != 0 {
+            return BITS * k + BITS - z.leading_zeros() as usize;
+        }
+        if k == 0 {
+            return 0;
+        }
+        k -= 1;
+        z = !word(k);
+    }
 }
 
 /// `a & b`, `a | b`, `a & !b` word by word.
@@ -524,14 +594,22 @@ fn mark<const N: usize>(plane: &mut Plane<'_>, x: usize, q: usize) -> Range<usiz
     }
     let mut above_free = and_not(&m, &c);
     let mut end = q + 1;
-    while end < plane.height {
-        let m = plane.init::<N>(end);
+    let stride = plane.stride;
+    // Rows q..end are set up (and q − 1): each next one is set up here, from the row's bytes.
+    while end < plane.height && plane.hi == end {
+        let s = plane.at(end);
+        let Some(row) = plane.mask.get_mut(s..s + plane.width) else {
+            break;
+        };
+        let m = gather::<N>(row);
+        put(row, stride, MASK_FIELD, &m);
         let seeds = and(&m, &grown);
+        let c = if none(&seeds) { [0; N] } else { runs_of(&m, &seeds) };
+        put(row, stride, COMP_FIELD, &c);
+        plane.hi = end + 1;
         if none(&seeds) {
             break;
         }
-        let c = runs_of(&m, &seeds);
-        plane.store(end, COMP_FIELD, &c);
         grown = dilate::<1, N>(&c);
         if !none(&and(&above_free, &grown)) {
             touch(end);
@@ -646,7 +724,7 @@ fn shape_pass<S: Source, const N: usize>(src: &S, plane: &mut Plane<'_>, comp: R
             break;
         }
     }
-    let mut hist = [0u16; 511];
+    let mut hist = [0u32; 511];
     let mut ring_count = 0usize;
     let load = |plane: &Plane<'_>, q: usize| {
         if comp.contains(&q) {
@@ -941,12 +1019,12 @@ trait Source {
     /// Adds the ring pixels `ring` to the signed histogram of `D` (bin `D + 255`, clamped to
     /// 0..=510); returns how many there are.
     #[inline(always)]
-    fn histogram<const N: usize>(&self, row: Self::Row, ring: &Bits<N>, hist: &mut [u16; 511]) -> usize {
+    fn histogram<const N: usize>(&self, row: Self::Row, ring: &Bits<N>, hist: &mut [u32; 511]) -> usize {
         let mut count = 0;
         for_each_bit(ring, |c| {
             let bin = (self.d(row, c) as i32 + 255).clamp(0, 510) as usize;
             if let Some(h) = hist.get_mut(bin) {
-                *h = h.saturating_add(1);
+                *h += 1;
             }
             count += 1;
         });
@@ -1086,13 +1164,13 @@ impl<'a, B: AsRef<[u8]>> Source for Exact<'_, 'a, B> {
     }
 
     #[inline(always)]
-    fn histogram<const N: usize>(&self, (f, b): Self::Row, ring: &Bits<N>, hist: &mut [u16; 511]) -> usize {
+    fn histogram<const N: usize>(&self, (f, b): Self::Row, ring: &Bits<N>, hist: &mut [u32; 511]) -> usize {
         let mut count = 0;
         for_each_bit(ring, |c| {
             if let (Some(&f), Some(&b)) = (f.get(c), b.get(c)) {
                 // An integer in −255..=255: its bin without a conversion.
                 if let Some(h) = hist.get_mut((i32::from(f) - i32::from(b) + 255) as usize) {
-                    *h = h.saturating_add(1);
+                    *h += 1;
                 }
             }
             count += 1;
@@ -2338,7 +2416,7 @@ mod tests {
                     let rows = diff.rows(y).is_some();
                     let (er, ar) = (exact.row(y), approx.row(y));
                     let ring = random_bits(&mut rng, x1 - x0);
-                    let (mut want_hist, mut want_cols) = ([0u16; 511], Vec::new());
+                    let (mut want_hist, mut want_cols) = ([0u32; 511], Vec::new());
                     let contrast = if rng.chance(0.5) { 9.0 } else { -9.0 };
                     let weights = Weights {
                         contrast,
@@ -2360,11 +2438,11 @@ mod tests {
                         }
                     }
                     // The ring's histogram, and its values into the column sums and out again.
-                    let mut hist = [0u16; 511];
+                    let mut hist = [0u32; 511];
                     assert_eq!(approx.histogram(ar, &ring, &mut hist), want_cols.len());
                     assert_eq!(hist, want_hist);
                     if rows {
-                        let mut hist = [0u16; 511];
+                        let mut hist = [0u32; 511];
                         assert_eq!(exact.histogram(er, &ring, &mut hist), want_cols.len());
                         assert_eq!(hist, want_hist, "case {case}");
                         let mut columns = [0i32; COLUMNS];
