@@ -125,7 +125,7 @@ fn bit_rows<S: Source, const N: usize>(src: &S, mut plane: Plane<'_>, (x, q): (u
     let rows = comp.start.saturating_sub(2)..(comp.end + 2).min(plane.height);
     let contrast = shape_pass::<S, N>(src, &mut plane, comp, rows.clone());
     let sums = if contrast.abs() >= 1.0 {
-        weigh::<S, N>(src, &plane, rows, contrast)
+        src.weigh::<N>(&plane, rows, contrast)
     } else {
         [0.0; 3]
     };
@@ -258,17 +258,21 @@ impl<'m> Plane<'m> {
                 continue;
             };
             let m: Bits<N> = get(row, stride, MASK_FIELD);
-            // Bytes 8i .. 8i + 8 from byte i of the mask's bits (the fields take at most half of
-            // the row's bytes, so the first half of the words).
-            let mut chunks = row.chunks_exact_mut(8);
-            for (i, c) in (&mut chunks).enumerate() {
-                let byte = m.get(i / WORD_BYTES).map_or(0, |&w| (w >> (8 * (i % WORD_BYTES))) as u8);
-                c.copy_from_slice(&spread(byte).to_le_bytes());
-            }
-            let i = FIELDS * stride / 8;
-            let byte = m.get(i / WORD_BYTES).map_or(0, |&w| (w >> (8 * (i % WORD_BYTES))) as u8);
-            for (b, v) in chunks.into_remainder().iter_mut().zip(spread(byte).to_le_bytes()) {
-                *b = v;
+            // Byte i from bit i of the mask's bits (the fields take at most half of the row's
+            // bytes, so the first half of the words).
+            if stride == N * WORD_BYTES {
+                // A whole number of 8-byte chunks: unrolled.
+                for (i, c) in row.chunks_exact_mut(8).enumerate().take(FIELDS * N * WORD_BYTES / 8) {
+                    let byte = m.get(i / WORD_BYTES).map_or(0, |&w| (w >> (8 * (i % WORD_BYTES))) as u8);
+                    c.copy_from_slice(&spread(byte).to_le_bytes());
+                }
+            } else {
+                for (i, c) in row.chunks_mut(8).enumerate() {
+                    let byte = m.get(i / WORD_BYTES).map_or(0, |&w| (w >> (8 * (i % WORD_BYTES))) as u8);
+                    for (b, v) in c.iter_mut().zip(spread(byte).to_le_bytes()) {
+                        *b = v;
+                    }
+                }
             }
         }
         (self.lo, self.hi) = (0, 0);
@@ -801,37 +805,43 @@ fn weigh<S: Source, const N: usize>(src: &S, plane: &Plane<'_>, rows: Range<usiz
         contrast,
         sign: contrast.signum(),
     };
-    let ring = |q: usize| {
-        if rows.contains(&q) {
+    // The image rows and ring rows of rows y − 4 ..= y + 4 (row q in slot q mod 16), each read
+    // once: when it enters the column sums.
+    let mut images = [S::Row::default(); 16];
+    let mut rings = [[0; N]; 16];
+    let enter = |columns: &mut [S::Col; COLUMNS], images: &mut [S::Row; 16], rings: &mut [Bits<N>; 16], q: usize| {
+        let image_row = src.row(plane.r.y0 + q);
+        let bits = if rows.contains(&q) {
             plane.load::<N>(q, RING_FIELD)
         } else {
             [0; N]
-        }
-    };
-    let move_ring = |columns: &mut [S::Col; COLUMNS], q: usize, enter: bool| {
-        let bits = ring(q);
-        if none(&bits) {
-            return;
-        }
-        let image_row = src.row(plane.r.y0 + q);
-        if enter {
+        };
+        if !none(&bits) {
             src.move_ring::<true, N>(image_row, &bits, columns, &weights);
-        } else {
-            src.move_ring::<false, N>(image_row, &bits, columns, &weights);
+        }
+        if let (Some(i), Some(r)) = (images.get_mut(q % 16), rings.get_mut(q % 16)) {
+            (*i, *r) = (image_row, bits);
         }
     };
     for q in rows.start.saturating_sub(4)..rows.start + 4 {
-        move_ring(&mut columns, q, true);
+        enter(&mut columns, &mut images, &mut rings, q);
     }
     for y in rows.clone() {
-        move_ring(&mut columns, y + 4, true);
-        let band = plane.load::<N>(y, BAND_FIELD);
-        if !none(&band) {
-            let inside = plane.load::<N>(y, COMP_FIELD);
-            sums = weights.row(src, src.row(plane.r.y0 + y), y, &inside, &band, &columns, sums);
+        enter(&mut columns, &mut images, &mut rings, y + 4);
+        if let Some(fields) = plane.fields(y) {
+            let band: Bits<N> = get(fields, plane.stride, BAND_FIELD);
+            if !none(&band) {
+                let inside: Bits<N> = get(fields, plane.stride, COMP_FIELD);
+                let image_row = images.get(y % 16).copied().unwrap_or_default();
+                sums = src.weigh_row(image_row, y, &inside, &band, &columns, &weights, sums);
+            }
         }
         if let Some(q) = y.checked_sub(4) {
-            move_ring(&mut columns, q, false);
+            if let (Some(&image_row), Some(bits)) = (images.get(q % 16), rings.get(q % 16)) {
+                if !none(bits) {
+                    src.move_ring::<false, N>(image_row, bits, &mut columns, &weights);
+                }
+            }
         }
     }
     sums
@@ -845,35 +855,6 @@ struct Weights {
 }
 
 impl Weights {
-    /// `sums` plus the weights of box row `y`'s inside and band pixels, in increasing column.
-    /// Inside pixels come in runs between band pixels (next to an inside pixel is an inside or a
-    /// band pixel); a run whose pixels all pass the hole test is added at once.
-    #[inline(never)]
-    #[allow(clippy::too_many_arguments)]
-    fn row<S: Source, const N: usize>(
-        &self,
-        src: &S,
-        image_row: S::Row,
-        y: usize,
-        inside: &Bits<N>,
-        band: &Bits<N>,
-        columns: &[S::Col; COLUMNS],
-        sums: [f32; 3],
-    ) -> [f32; 3] {
-        let mut sums = sums;
-        let yf = y as f32;
-        // The column after the last band pixel.
-        let mut after = 0usize;
-        for_each_run(band, |a, e| {
-            if a > after && bit(inside, after) {
-                sums = self.inside_run(src, image_row, after..a, y, sums);
-            }
-            after = e;
-            sums = src.band_run(image_row, a..e, yf, columns, self, sums);
-        });
-        sums
-    }
-
     /// `sums` plus the weights of the inside pixels `cols` of box row `y`: 1, unless the pixel
     /// looks like the platform (a small hole or a narrow gap that the mask's closing filled;
     /// printed labels keep at least a third of the part's contrast, holes keep none).
@@ -1002,9 +983,9 @@ fn exact_sum(s: f32, t: f32) -> Option<f32> {
 /// Where `D` comes from: the frame's and background's image rows ([`Exact`], `α = 1`: integers)
 /// or [`Difference::at`] ([`Approx`]). Columns are the box's. The pixel loops have a definition
 /// here, pixel by pixel through [`Source::d`]; [`Exact`] has faster ones with the same results.
-trait Source {
+trait Source: Sized {
     /// What a row's values are read from.
-    type Row: Copy;
+    type Row: Copy + Default;
     /// A sum of ring values: their `D` and how many.
     type Col: Copy + Default + Add<Output = Self::Col> + Sub<Output = Self::Col>;
     /// Image row `y`.
@@ -1102,6 +1083,41 @@ trait Source {
             }
         }
         [sw, sx, sy]
+    }
+
+    /// The second pass ([`weigh`]).
+    #[inline(always)]
+    fn weigh<const N: usize>(&self, plane: &Plane<'_>, rows: Range<usize>, contrast: f32) -> [f32; 3] {
+        weigh::<Self, N>(self, plane, rows, contrast)
+    }
+
+    /// `sums` plus the weights of box row `y`'s inside and band pixels, in increasing column.
+    /// Inside pixels come in runs between band pixels (next to an inside pixel is an inside or a
+    /// band pixel); a run whose pixels all pass the hole test is added at once.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn weigh_row<const N: usize>(
+        &self,
+        row: Self::Row,
+        y: usize,
+        inside: &Bits<N>,
+        band: &Bits<N>,
+        columns: &[Self::Col; COLUMNS],
+        weights: &Weights,
+        sums: [f32; 3],
+    ) -> [f32; 3] {
+        let mut sums = sums;
+        let yf = y as f32;
+        // The column after the last band pixel.
+        let mut after = 0usize;
+        for_each_run(band, |a, e| {
+            if a > after && bit(inside, after) {
+                sums = weights.inside_run(self, row, after..a, y, sums);
+            }
+            after = e;
+            sums = self.band_run(row, a..e, yf, columns, weights, sums);
+        });
+        sums
     }
 }
 
@@ -1208,62 +1224,130 @@ impl<'a, B: AsRef<[u8]>> Source for Exact<'_, 'a, B> {
             .fold(u8::MAX, |m, (&h, &l)| m.min(h.saturating_sub(l))) as f32
     }
 
+    /// [`weigh`] with the constants of the part out of the loop, each image row read once.
+    #[inline(always)]
+    fn weigh<const N: usize>(&self, plane: &Plane<'_>, rows: Range<usize>, contrast: f32) -> [f32; 3] {
+        let weights = Weights {
+            contrast,
+            sign: contrast.signum(),
+        };
+        let positive = contrast > 0.0;
+        let stride = plane.stride;
+        let mut columns = [0i32; COLUMNS];
+        // The image rows and ring rows of rows y − 4 ..= y + 4 (row q in slot q mod 16).
+        let mut images: [Self::Row; 16] = [(&[], &[]); 16];
+        let mut rings = [[0; N]; 16];
+        let mut sums = [0.0f32; 3];
+        let ring_bits = |hi: &[u8], lo: &[u8], bits: &Bits<N>, columns: &mut [i32; COLUMNS], sign: i32| {
+            for_each_bit(bits, |c| {
+                if let (Some(&h), Some(&l), Some(s)) = (hi.get(c), lo.get(c), columns.get_mut(c + 4)) {
+                    *s += sign * (128 * (i32::from(h) - i32::from(l)) + 1);
+                }
+            });
+        };
+        for q in rows.start.saturating_sub(4)..rows.end + 4 {
+            // Row q enters the column sums.
+            let image_row = self.row(plane.r.y0 + q);
+            let (hi, lo) = if positive { image_row } else { (image_row.1, image_row.0) };
+            let ring: Bits<N> = match plane.fields(q) {
+                Some(f) if rows.contains(&q) => get(f, stride, RING_FIELD),
+                _ => [0; N],
+            };
+            ring_bits(hi, lo, &ring, &mut columns, 1);
+            if let (Some(i), Some(r)) = (images.get_mut(q % 16), rings.get_mut(q % 16)) {
+                (*i, *r) = (image_row, ring);
+            }
+            // Row q − 4 is weighed.
+            if let Some(y) = q.checked_sub(4).filter(|y| rows.contains(y)) {
+                if let (Some(fields), Some(&image_row)) = (plane.fields(y), images.get(y % 16)) {
+                    let band: Bits<N> = get(fields, stride, BAND_FIELD);
+                    if !none(&band) {
+                        let inside: Bits<N> = get(fields, stride, COMP_FIELD);
+                        sums = self.weigh_row(image_row, y, &inside, &band, &columns, &weights, sums);
+                    }
+                }
+            }
+            // Row q − 8 leaves.
+            if let Some(r) = q.checked_sub(8) {
+                if let (Some(&(f, b)), Some(bits)) = (images.get(r % 16), rings.get(r % 16)) {
+                    let (hi, lo) = if positive { (f, b) } else { (b, f) };
+                    ring_bits(hi, lo, bits, &mut columns, -1);
+                }
+            }
+        }
+        sums
+    }
+
     /// The definition's weights with integer tests where they clip: with `u = D·sign > 0`,
     /// `V = ΣD·sign` and `n` ring pixels in the window, the mean is the local contrast iff
     /// `V ≥ n` (a quotient `V/n < 1` is at most 80/81), and `u / (V/n)` is at least 1 iff
     /// `u·n ≥ V` (else `V/n − u ≥ 1/81`, far more than the roundings); against the median `C`,
     /// iff `u ≥ |C|`. Only the weights between 0 and 1 are divided, as the definition does.
     #[inline(always)]
-    fn band_run(
+    fn weigh_row<const N: usize>(
         &self,
         row: Self::Row,
-        cols: Range<usize>,
-        yf: f32,
+        y: usize,
+        inside: &Bits<N>,
+        band: &Bits<N>,
         columns: &[i32; COLUMNS],
         weights: &Weights,
         sums: [f32; 3],
     ) -> [f32; 3] {
-        let (a, e) = (cols.start, cols.end);
         let (hi, lo) = Self::signed(row, weights);
-        let (Some(hi), Some(lo), Some(enter), Some(leave), Some(first)) = (
-            hi.get(a..e),
-            lo.get(a..e),
-            columns.get(a + 9..e + 9),
-            columns.get(a..e),
-            columns.get(a..a + 9),
-        ) else {
-            return sums;
-        };
         // |C| (the median of integers is one).
         let median = weights.contrast.abs() as i32;
         let median_f = median as f32;
-        let [mut sw, mut sx, mut sy] = sums;
-        let mut window: i32 = first.iter().sum();
-        let mut xf = a as u32 as f32;
-        for (((&h, &l), &i), &o) in hi.iter().zip(lo).zip(enter).zip(leave) {
-            let u = i32::from(h) - i32::from(l);
-            if u > 0 {
-                let (v, n) = (window >> 7, window & 127);
-                let weight = if v >= n.max(1) {
-                    if u * n >= v {
-                        1.0
-                    } else {
-                        // The mean (`V/n`, exact operands) as the definition divides it.
-                        u as f32 / (v as f32 / n as f32)
-                    }
-                } else if u >= median {
-                    1.0
-                } else {
-                    u as f32 / median_f
-                };
-                sw += weight;
-                sx += weight * xf;
-                sy += weight * yf;
+        let yf = y as f32;
+        let mut sums = sums;
+        // The column after the last band pixel.
+        let mut after = 0usize;
+        let mut a = next_bit::<true, N>(band, 0);
+        while a < BITS * N {
+            let e = next_bit::<false, N>(band, a);
+            if a > after && bit(inside, after) {
+                sums = weights.inside_run(self, row, after..a, y, sums);
             }
-            xf += 1.0;
-            window += i - o;
+            after = e;
+            // The run's pixels, and the column sums of their windows: columns a − 4 ..= e + 3,
+            // padded a .. e + 8, the first window the first 9, then one in and one out a pixel.
+            if let (Some(hi), Some(lo), Some((first, rest))) = (
+                hi.get(a..e),
+                lo.get(a..e),
+                columns.get(a..e + 9).and_then(|c| c.split_at_checked(9)),
+            ) {
+                let [mut sw, mut sx, mut sy] = sums;
+                let mut window: i32 = first.iter().sum();
+                let mut xf = a as u32 as f32;
+                let leave = columns.get(a..).unwrap_or(&[]);
+                for (((&h, &l), &i), &o) in hi.iter().zip(lo).zip(rest).zip(leave) {
+                    let u = i32::from(h) - i32::from(l);
+                    if u > 0 {
+                        let (v, n) = (window >> 7, window & 127);
+                        let weight = if v >= n.max(1) {
+                            if u * n >= v {
+                                1.0
+                            } else {
+                                // The mean (`V/n`, exact operands) as the definition divides it.
+                                u as f32 / (v as f32 / n as f32)
+                            }
+                        } else if u >= median {
+                            1.0
+                        } else {
+                            u as f32 / median_f
+                        };
+                        sw += weight;
+                        sx += weight * xf;
+                        sy += weight * yf;
+                    }
+                    xf += 1.0;
+                    window += i - o;
+                }
+                sums = [sw, sx, sy];
+            }
+            a = next_bit::<true, N>(band, e);
         }
-        [sw, sx, sy]
+        sums
     }
 }
 
@@ -2319,8 +2403,8 @@ mod tests {
                 [random_sum(&mut rng), random_sum(&mut rng), random_sum(&mut rng)]
             };
             let weights = Weights { contrast, sign };
-            let got = weights.row::<_, WORDS>(&src, image_row, y, &inside, &band, &columns, sums);
-            let plain = weights.row::<_, WORDS>(&Plain(&src), image_row, y, &inside, &band, &columns, sums);
+            let got = src.weigh_row::<WORDS>(image_row, y, &inside, &band, &columns, &weights, sums);
+            let plain = Plain(&src).weigh_row::<WORDS>(image_row, y, &inside, &band, &columns, &weights, sums);
             let [mut sw, mut sx, mut sy] = sums;
             for c in 0..width {
                 let d = diff.at(c as isize, 0);
