@@ -597,29 +597,37 @@ fn mark<const N: usize>(plane: &mut Plane<'_>, x: usize, q: usize) -> Range<usiz
         touch(q);
     }
     let mut above_free = and_not(&m, &c);
+    // Rows q..end hold the component; each next row is set up here, from the row's bytes (rows
+    // q − 1 ..= q are).
+    let (stride, width, height, w) = (plane.stride, plane.width, plane.height, plane.w);
     let mut end = q + 1;
-    let stride = plane.stride;
-    // Rows q..end are set up (and q − 1): each next one is set up here, from the row's bytes.
-    while end < plane.height && plane.hi == end {
-        let s = plane.at(end);
-        let Some(row) = plane.mask.get_mut(s..s + plane.width) else {
-            break;
-        };
-        let m = gather::<N>(row);
-        put(row, stride, MASK_FIELD, &m);
-        let seeds = and(&m, &grown);
-        let c = if none(&seeds) { [0; N] } else { runs_of(&m, &seeds) };
-        put(row, stride, COMP_FIELD, &c);
-        plane.hi = end + 1;
-        if none(&seeds) {
-            break;
+    if plane.hi == end {
+        let mut next = end;
+        let mut s = plane.at(next);
+        let mask = &mut *plane.mask;
+        while next < height {
+            let Some(row) = mask.get_mut(s..s + width) else {
+                break;
+            };
+            let m = gather::<N>(row);
+            put(row, stride, MASK_FIELD, &m);
+            next += 1;
+            let seeds = and(&m, &grown);
+            if none(&seeds) {
+                put(row, stride, COMP_FIELD, &[0; N]);
+                break;
+            }
+            let c = runs_of(&m, &seeds);
+            put(row, stride, COMP_FIELD, &c);
+            end = next;
+            grown = dilate::<1, N>(&c);
+            if !none(&and(&above_free, &grown)) {
+                touch(end - 1);
+            }
+            above_free = and_not(&m, &c);
+            s += w;
         }
-        grown = dilate::<1, N>(&c);
-        if !none(&and(&above_free, &grown)) {
-            touch(end);
-        }
-        above_free = and_not(&m, &c);
-        end += 1;
+        plane.hi = next;
     }
     match touched {
         None => q..end,
@@ -1182,33 +1190,14 @@ impl<'a, B: AsRef<[u8]>> Source for Exact<'_, 'a, B> {
     #[inline(always)]
     fn histogram<const N: usize>(&self, (f, b): Self::Row, ring: &Bits<N>, hist: &mut [u32; 511]) -> usize {
         let mut count = 0;
-        for_each_bit(ring, |c| {
-            if let (Some(&f), Some(&b)) = (f.get(c), b.get(c)) {
-                // An integer in −255..=255: its bin without a conversion.
-                if let Some(h) = hist.get_mut((i32::from(f) - i32::from(b) + 255) as usize) {
-                    *h += 1;
-                }
+        for_each_bit_with(ring, f, b, |_, f, b| {
+            // An integer in −255..=255: its bin without a conversion.
+            if let Some(h) = hist.get_mut((i32::from(f) - i32::from(b) + 255) as usize) {
+                *h += 1;
             }
             count += 1;
         });
         count
-    }
-
-    #[inline(always)]
-    fn move_ring<const ENTER: bool, const N: usize>(
-        &self,
-        row: Self::Row,
-        ring: &Bits<N>,
-        columns: &mut [i32; COLUMNS],
-        weights: &Weights,
-    ) {
-        let (hi, lo) = Self::signed(row, weights);
-        for_each_bit(ring, |c| {
-            if let (Some(&h), Some(&l), Some(s)) = (hi.get(c), lo.get(c), columns.get_mut(c + 4)) {
-                let v = 128 * (i32::from(h) - i32::from(l)) + 1;
-                *s = if ENTER { *s + v } else { *s - v };
-            }
-        });
     }
 
     /// The least of `D · sign` where it is positive, else 0: the minimum of the bytes' saturating
@@ -1227,100 +1216,174 @@ impl<'a, B: AsRef<[u8]>> Source for Exact<'_, 'a, B> {
     /// [`weigh`] with the constants of the part out of the loop, each image row read once.
     #[inline(always)]
     fn weigh<const N: usize>(&self, plane: &Plane<'_>, rows: Range<usize>, contrast: f32) -> [f32; 3] {
-        let weights = Weights {
-            contrast,
-            sign: contrast.signum(),
-        };
-        let positive = contrast > 0.0;
+        let part = ExactPart::new(contrast);
         let stride = plane.stride;
         let mut columns = [0i32; COLUMNS];
-        // The image rows and ring rows of rows y − 4 ..= y + 4 (row q in slot q mod 16).
+        // The image rows (signed: `hi − lo = D·sign`) and ring rows of rows y − 4 ..= y + 4 (row q
+        // in slot q mod 16).
         let mut images: [Self::Row; 16] = [(&[], &[]); 16];
         let mut rings = [[0; N]; 16];
         let mut sums = [0.0f32; 3];
-        let ring_bits = |hi: &[u8], lo: &[u8], bits: &Bits<N>, columns: &mut [i32; COLUMNS], sign: i32| {
-            for_each_bit(bits, |c| {
-                if let (Some(&h), Some(&l), Some(s)) = (hi.get(c), lo.get(c), columns.get_mut(c + 4)) {
-                    *s += sign * (128 * (i32::from(h) - i32::from(l)) + 1);
-                }
-            });
-        };
         for q in rows.start.saturating_sub(4)..rows.end + 4 {
             // Row q enters the column sums.
-            let image_row = self.row(plane.r.y0 + q);
-            let (hi, lo) = if positive { image_row } else { (image_row.1, image_row.0) };
+            let (f, b) = self.row(plane.r.y0 + q);
+            let (hi, lo) = if part.positive { (f, b) } else { (b, f) };
             let ring: Bits<N> = match plane.fields(q) {
                 Some(f) if rows.contains(&q) => get(f, stride, RING_FIELD),
                 _ => [0; N],
             };
-            ring_bits(hi, lo, &ring, &mut columns, 1);
+            move_ring::<true, N>(hi, lo, &ring, &mut columns);
             if let (Some(i), Some(r)) = (images.get_mut(q % 16), rings.get_mut(q % 16)) {
-                (*i, *r) = (image_row, ring);
+                (*i, *r) = ((hi, lo), ring);
             }
             // Row q − 4 is weighed.
             if let Some(y) = q.checked_sub(4).filter(|y| rows.contains(y)) {
-                if let (Some(fields), Some(&image_row)) = (plane.fields(y), images.get(y % 16)) {
+                if let (Some(fields), Some(&(hi, lo))) = (plane.fields(y), images.get(y % 16)) {
                     let band: Bits<N> = get(fields, stride, BAND_FIELD);
                     if !none(&band) {
                         let inside: Bits<N> = get(fields, stride, COMP_FIELD);
-                        sums = self.weigh_row(image_row, y, &inside, &band, &columns, &weights, sums);
+                        sums = part.row(self, hi, lo, y, &inside, &band, &columns, sums);
                     }
                 }
             }
             // Row q − 8 leaves.
             if let Some(r) = q.checked_sub(8) {
-                if let (Some(&(f, b)), Some(bits)) = (images.get(r % 16), rings.get(r % 16)) {
-                    let (hi, lo) = if positive { (f, b) } else { (b, f) };
-                    ring_bits(hi, lo, bits, &mut columns, -1);
+                if let (Some(&(hi, lo)), Some(bits)) = (images.get(r % 16), rings.get(r % 16)) {
+                    move_ring::<false, N>(hi, lo, bits, &mut columns);
                 }
             }
         }
         sums
     }
+}
 
-    /// The definition's weights with integer tests where they clip: with `u = D·sign > 0`,
-    /// `V = ΣD·sign` and `n` ring pixels in the window, the mean is the local contrast iff
-    /// `V ≥ n` (a quotient `V/n < 1` is at most 80/81), and `u / (V/n)` is at least 1 iff
-    /// `u·n ≥ V` (else `V/n − u ≥ 1/81`, far more than the roundings); against the median `C`,
-    /// iff `u ≥ |C|`. Only the weights between 0 and 1 are divided, as the definition does.
+/// Adds (`ENTER`) the ring values `128·(hi − lo) + 1` of the pixels `ring` to their columns'
+/// sums, or takes them away ([`Exact`]'s column sums).
+#[inline(always)]
+fn move_ring<const ENTER: bool, const N: usize>(hi: &[u8], lo: &[u8], ring: &Bits<N>, columns: &mut [i32; COLUMNS]) {
+    for_each_bit_with(ring, hi, lo, |c, h, l| {
+        if let Some(s) = columns.get_mut(c + 4) {
+            let v = 128 * (i32::from(h) - i32::from(l)) + 1;
+            *s = if ENTER { *s + v } else { *s - v };
+        }
+    });
+}
+
+/// Calls `f(c, a[c], b[c])` for the column `c` of every set bit of `bits` within the slices, in
+/// increasing order: with a whole word's bytes of both at once where they hold them (a bit's
+/// index into them needs no test then).
+#[inline(always)]
+fn for_each_bit_with<const N: usize>(bits: &Bits<N>, a: &[u8], b: &[u8], mut f: impl FnMut(usize, u8, u8)) {
+    for (k, &word) in bits.iter().enumerate() {
+        let mut word = word;
+        if word == 0 {
+            continue;
+        }
+        let base = BITS * k;
+        let whole = (
+            a.get(base..base + BITS).and_then(|s| <&[u8; BITS]>::try_from(s).ok()),
+            b.get(base..base + BITS).and_then(|s| <&[u8; BITS]>::try_from(s).ok()),
+        );
+        if let (Some(wa), Some(wb)) = whole {
+            while word != 0 {
+                let t = word.trailing_zeros() as usize % BITS;
+                word &= word - 1;
+                if let (Some(&x), Some(&y)) = (wa.get(t), wb.get(t)) {
+                    f(base + t, x, y);
+                }
+            }
+        } else {
+            while word != 0 {
+                let c = base + word.trailing_zeros() as usize;
+                word &= word - 1;
+                if let (Some(&x), Some(&y)) = (a.get(c), b.get(c)) {
+                    f(c, x, y);
+                }
+            }
+        }
+    }
+}
+
+/// The constants of [`Exact`]'s second pass.
+struct ExactPart {
+    weights: Weights,
+    positive: bool,
+    /// `|C|` (the median of integers is one), and as `f32`.
+    median: i32,
+    median_f: f32,
+    /// The least `D·sign` of an inside pixel of weight 1: `u / |C| ≥ HOLE_RATIO` (monotonic
+    /// in `u`) from here on.
+    hole: u8,
+}
+
+impl ExactPart {
+    fn new(contrast: f32) -> Self {
+        let median = contrast.abs() as i32;
+        let median_f = median as f32;
+        // The division as the definition does it, integer by integer (at most 255 of them).
+        let hole = (1..=255u8).find(|&u| f32::from(u) / median_f >= HOLE_RATIO).unwrap_or(u8::MAX);
+        ExactPart {
+            weights: Weights {
+                contrast,
+                sign: contrast.signum(),
+            },
+            positive: contrast > 0.0,
+            median,
+            median_f,
+            hole,
+        }
+    }
+
+    /// `sums` plus the weights of box row `y`'s inside and band pixels (`hi − lo = D·sign`), in
+    /// increasing column: [`Source::weigh_row`] with integer tests where the weights clip. With
+    /// `u = D·sign > 0`, `V = ΣD·sign` and `n` ring pixels in the window, the mean is the local
+    /// contrast iff `V ≥ n` (a quotient `V/n < 1` is at most 80/81), and `u / (V/n)` is at least
+    /// 1 iff `u·n ≥ V` (else `V/n − u ≥ 1/81`, far more than the roundings); against the median
+    /// `C`, iff `u ≥ |C|`. Only the weights between 0 and 1 are divided, as the definition does.
     #[inline(always)]
-    fn weigh_row<const N: usize>(
+    #[allow(clippy::too_many_arguments)]
+    fn row<B: AsRef<[u8]>, const N: usize>(
         &self,
-        row: Self::Row,
+        src: &Exact<'_, '_, B>,
+        hi: &[u8],
+        lo: &[u8],
         y: usize,
         inside: &Bits<N>,
         band: &Bits<N>,
         columns: &[i32; COLUMNS],
-        weights: &Weights,
         sums: [f32; 3],
     ) -> [f32; 3] {
-        let (hi, lo) = Self::signed(row, weights);
-        // |C| (the median of integers is one).
-        let median = weights.contrast.abs() as i32;
-        let median_f = median as f32;
+        let (median, median_f) = (self.median, self.median_f);
         let yf = y as f32;
-        let mut sums = sums;
+        let [mut sw, mut sx, mut sy] = sums;
         // The column after the last band pixel.
         let mut after = 0usize;
         let mut a = next_bit::<true, N>(band, 0);
         while a < BITS * N {
             let e = next_bit::<false, N>(band, a);
             if a > after && bit(inside, after) {
-                sums = weights.inside_run(self, row, after..a, y, sums);
+                // An inside run: weight 1 unless a pixel fails the hole test.
+                let least = match (hi.get(after..a), lo.get(after..a)) {
+                    (Some(h), Some(l)) => h.iter().zip(l).fold(u8::MAX, |m, (&h, &l)| m.min(h.saturating_sub(l))),
+                    _ => 0,
+                };
+                [sw, sx, sy] = if least >= self.hole {
+                    add_ones([sw, sx, sy], after..a, y)
+                } else {
+                    let row = if self.positive { (hi, lo) } else { (lo, hi) };
+                    self.weights.inside_by_pixel(src, row, after..a, y, [sw, sx, sy])
+                };
             }
             after = e;
             // The run's pixels, and the column sums of their windows: columns a − 4 ..= e + 3,
             // padded a .. e + 8, the first window the first 9, then one in and one out a pixel.
-            if let (Some(hi), Some(lo), Some((first, rest))) = (
-                hi.get(a..e),
-                lo.get(a..e),
-                columns.get(a..e + 9).and_then(|c| c.split_at_checked(9)),
-            ) {
-                let [mut sw, mut sx, mut sy] = sums;
-                let mut window: i32 = first.iter().sum();
+            if e <= hi.len() && e <= lo.len() && e + 9 <= columns.len() {
+                let mut window: i32 = columns.get(a..a + 9).map_or(0, |w| w.iter().sum());
                 let mut xf = a as u32 as f32;
-                let leave = columns.get(a..).unwrap_or(&[]);
-                for (((&h, &l), &i), &o) in hi.iter().zip(lo).zip(rest).zip(leave) {
+                for c in a..e {
+                    let (Some(&h), Some(&l), Some(&i), Some(&o)) = (hi.get(c), lo.get(c), columns.get(c + 9), columns.get(c)) else {
+                        break;
+                    };
                     let u = i32::from(h) - i32::from(l);
                     if u > 0 {
                         let (v, n) = (window >> 7, window & 127);
@@ -1343,11 +1406,10 @@ impl<'a, B: AsRef<[u8]>> Source for Exact<'_, 'a, B> {
                     xf += 1.0;
                     window += i - o;
                 }
-                sums = [sw, sx, sy];
             }
             a = next_bit::<true, N>(band, e);
         }
-        sums
+        [sw, sx, sy]
     }
 }
 
@@ -2328,29 +2390,9 @@ mod tests {
         (inside, band)
     }
 
-    /// [`Exact`]'s values with the definitions of [`Source`]'s pixel loops.
-    struct Plain<'e, 'd, 'a, B>(&'e Exact<'d, 'a, B>);
-
-    impl<'a, B: AsRef<[u8]>> Source for Plain<'_, '_, 'a, B> {
-        type Row = (&'a [u8], &'a [u8]);
-        type Col = i32;
-        fn row(&self, y: usize) -> Self::Row {
-            self.0.row(y)
-        }
-        fn d(&self, row: Self::Row, c: usize) -> f32 {
-            self.0.d(row, c)
-        }
-        fn col(&self, row: Self::Row, c: usize, weights: &Weights) -> i32 {
-            self.0.col(row, c, weights)
-        }
-        fn split(col: i32, weights: &Weights) -> (f32, u32) {
-            <Exact<'_, '_, B> as Source>::split(col, weights)
-        }
-    }
-
     #[test]
     fn row_weights_are_the_per_pixel_weights() {
-        // `Weights::row` (runs of weight 1 at once, integer tests where the weights clip, the
+        // `ExactPart::row` (runs of weight 1 at once, integer tests where the weights clip, the
         // window sliding along the band) against the per-pixel definition with the pixels added
         // one by one in increasing column, and against `Source`'s own loops: the same bits for
         // random rows, integer D (α = 1), column sums and running sums.
@@ -2403,8 +2445,10 @@ mod tests {
                 [random_sum(&mut rng), random_sum(&mut rng), random_sum(&mut rng)]
             };
             let weights = Weights { contrast, sign };
-            let got = src.weigh_row::<WORDS>(image_row, y, &inside, &band, &columns, &weights, sums);
-            let plain = Plain(&src).weigh_row::<WORDS>(image_row, y, &inside, &band, &columns, &weights, sums);
+            let (f, b) = image_row;
+            let (hi, lo) = if contrast > 0.0 { (f, b) } else { (b, f) };
+            let got = ExactPart::new(contrast).row::<_, WORDS>(&src, hi, lo, y, &inside, &band, &columns, sums);
+            let plain = src.weigh_row::<WORDS>(image_row, y, &inside, &band, &columns, &weights, sums);
             let [mut sw, mut sx, mut sy] = sums;
             for c in 0..width {
                 let d = diff.at(c as isize, 0);
