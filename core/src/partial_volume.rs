@@ -736,8 +736,10 @@ fn shape_pass<S: Source, const N: usize>(src: &S, plane: &mut Plane<'_>, comp: R
             break;
         }
     }
-    let mut hist = [0u32; 511];
+    let mut hist = [0u16; 511];
     let mut ring_count = 0usize;
+    // No bin of a box of fewer than 2^16 pixels gets to u16::MAX.
+    let small = plane.width * plane.height < 1 << 16;
     let load = |plane: &Plane<'_>, q: usize| {
         if comp.contains(&q) {
             plane.load::<N>(q, COMP_FIELD)
@@ -786,7 +788,13 @@ fn shape_pass<S: Source, const N: usize>(src: &S, plane: &mut Plane<'_>, comp: R
         plane.store(j, BAND_FIELD, &band);
         plane.store(j, RING_FIELD, &ring);
         if !none(&ring) {
-            ring_count += src.histogram(src.row(plane.r.y0 + j), &ring, &mut hist);
+            let image_row = src.row(plane.r.y0 + j);
+            if small {
+                src.histogram::<true, N>(image_row, &ring, &mut hist);
+            } else {
+                src.histogram::<false, N>(image_row, &ring, &mut hist);
+            }
+            ring_count += ring.iter().map(|w| w.count_ones() as usize).sum::<usize>();
         }
     }
     if ring_count == 0 {
@@ -1006,18 +1014,16 @@ trait Source: Sized {
     fn split(col: Self::Col, weights: &Weights) -> (f32, u32);
 
     /// Adds the ring pixels `ring` to the signed histogram of `D` (bin `D + 255`, clamped to
-    /// 0..=510); returns how many there are.
+    /// 0..=510), counts saturating at `u16::MAX` (`WRAP`: adding 1 plainly, for a box of fewer
+    /// pixels, where they cannot get there).
     #[inline(always)]
-    fn histogram<const N: usize>(&self, row: Self::Row, ring: &Bits<N>, hist: &mut [u32; 511]) -> usize {
-        let mut count = 0;
+    fn histogram<const WRAP: bool, const N: usize>(&self, row: Self::Row, ring: &Bits<N>, hist: &mut [u16; 511]) {
         for_each_bit(ring, |c| {
             let bin = (self.d(row, c) as i32 + 255).clamp(0, 510) as usize;
             if let Some(h) = hist.get_mut(bin) {
-                *h += 1;
+                *h = if WRAP { h.wrapping_add(1) } else { h.saturating_add(1) };
             }
-            count += 1;
         });
-        count
     }
 
     /// Adds (`ENTER`) the ring values of the pixels `ring` to their columns' sums, or takes them
@@ -1188,16 +1194,13 @@ impl<'a, B: AsRef<[u8]>> Source for Exact<'_, 'a, B> {
     }
 
     #[inline(always)]
-    fn histogram<const N: usize>(&self, (f, b): Self::Row, ring: &Bits<N>, hist: &mut [u32; 511]) -> usize {
-        let mut count = 0;
+    fn histogram<const WRAP: bool, const N: usize>(&self, (f, b): Self::Row, ring: &Bits<N>, hist: &mut [u16; 511]) {
         for_each_bit_with(ring, f, b, |_, f, b| {
             // An integer in −255..=255: its bin without a conversion.
             if let Some(h) = hist.get_mut((i32::from(f) - i32::from(b) + 255) as usize) {
-                *h += 1;
+                *h = if WRAP { h.wrapping_add(1) } else { h.saturating_add(1) };
             }
-            count += 1;
         });
-        count
     }
 
     /// The least of `D · sign` where it is positive, else 0: the minimum of the bytes' saturating
@@ -2544,7 +2547,7 @@ mod tests {
                     let rows = diff.rows(y).is_some();
                     let (er, ar) = (exact.row(y), approx.row(y));
                     let ring = random_bits(&mut rng, x1 - x0);
-                    let (mut want_hist, mut want_cols) = ([0u32; 511], Vec::new());
+                    let (mut want_hist, mut want_cols) = ([0u16; 511], Vec::new());
                     let contrast = if rng.chance(0.5) { 9.0 } else { -9.0 };
                     let weights = Weights {
                         contrast,
@@ -2566,13 +2569,19 @@ mod tests {
                         }
                     }
                     // The ring's histogram, and its values into the column sums and out again.
-                    let mut hist = [0u32; 511];
-                    assert_eq!(approx.histogram(ar, &ring, &mut hist), want_cols.len());
+                    let mut hist = [0u16; 511];
+                    approx.histogram::<false, WORDS>(ar, &ring, &mut hist);
                     assert_eq!(hist, want_hist);
                     if rows {
-                        let mut hist = [0u32; 511];
-                        assert_eq!(exact.histogram(er, &ring, &mut hist), want_cols.len());
-                        assert_eq!(hist, want_hist, "case {case}");
+                        for wrap in [false, true] {
+                            let mut hist = [0u16; 511];
+                            if wrap {
+                                exact.histogram::<true, WORDS>(er, &ring, &mut hist);
+                            } else {
+                                exact.histogram::<false, WORDS>(er, &ring, &mut hist);
+                            }
+                            assert_eq!(hist, want_hist, "case {case}");
+                        }
                         let mut columns = [0i32; COLUMNS];
                         exact.move_ring::<true, WORDS>(er, &ring, &mut columns, &weights);
                         for c in 0..x1 - x0 {
