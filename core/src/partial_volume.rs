@@ -125,7 +125,7 @@ fn bit_rows<S: Source, const N: usize>(src: &S, mut plane: Plane<'_>, (x, q): (u
     let rows = comp.start.saturating_sub(2)..(comp.end + 2).min(plane.height);
     let contrast = shape_pass::<S, N>(src, &mut plane, comp, rows.clone());
     let sums = if contrast.abs() >= 1.0 {
-        src.weigh::<N>(&plane, rows, contrast)
+        src.weigh::<N>(&mut plane, rows, contrast)
     } else {
         [0.0; 3]
     };
@@ -152,9 +152,10 @@ struct Plane<'m> {
     last: Word,
     /// Bytes of a field: whole words where they fit, else `⌈width/8⌉`.
     stride: usize,
-    /// The box rows whose fields are set up: `lo..hi`.
+    /// The box rows whose fields are set up: `lo..hi`; of them, `restored` hold the mask again.
     lo: usize,
     hi: usize,
+    restored: Range<usize>,
 }
 
 impl<'m> Plane<'m> {
@@ -172,6 +173,8 @@ impl<'m> Plane<'m> {
                 0 => Word::MAX,
                 bits => (1 << bits) - 1,
             },
+            // (Whole words from two on: `FIELDS · 2 · WORD_BYTES` bytes fit a row of more than
+            // one word.)
             stride: if FIELDS * words * WORD_BYTES <= width {
                 words * WORD_BYTES
             } else {
@@ -179,6 +182,7 @@ impl<'m> Plane<'m> {
             },
             lo: 0,
             hi: 0,
+            restored: 0..0,
         }
     }
 
@@ -249,48 +253,65 @@ impl<'m> Plane<'m> {
         m
     }
 
-    /// Puts the mask's bits back into the bytes of the fields; no row is set up afterwards.
+    /// Puts the mask's bits back into the bytes of the fields (of the rows not `restored`); no
+    /// row is set up afterwards.
     fn restore<const N: usize>(&mut self) {
         let stride = self.stride;
         for q in self.lo..self.hi {
-            let s = self.at(q);
-            let Some(row) = self.mask.get_mut(s..s + FIELDS * stride) else {
+            if self.restored.contains(&q) {
                 continue;
-            };
-            let m: Bits<N> = get(row, stride, MASK_FIELD);
-            // Byte i from bit i of the mask's bits (the fields take at most half of the row's
-            // bytes, so the first half of the words).
-            if stride == N * WORD_BYTES {
-                // A whole number of 8-byte chunks: unrolled.
-                for (i, c) in row.chunks_exact_mut(8).enumerate().take(FIELDS * N * WORD_BYTES / 8) {
-                    let byte = m.get(i / WORD_BYTES).map_or(0, |&w| (w >> (8 * (i % WORD_BYTES))) as u8);
-                    c.copy_from_slice(&spread(byte).to_le_bytes());
-                }
-            } else {
-                for (i, c) in row.chunks_mut(8).enumerate() {
-                    let byte = m.get(i / WORD_BYTES).map_or(0, |&w| (w >> (8 * (i % WORD_BYTES))) as u8);
-                    for (b, v) in c.iter_mut().zip(spread(byte).to_le_bytes()) {
-                        *b = v;
-                    }
-                }
+            }
+            let s = self.at(q);
+            if let Some(row) = self.mask.get_mut(s..s + FIELDS * stride) {
+                restore_row::<N>(row, stride);
             }
         }
-        (self.lo, self.hi) = (0, 0);
+        (self.lo, self.hi, self.restored) = (0, 0, 0..0);
     }
+}
+
+/// Puts the mask's bits back into a row's field bytes (`FIELDS · stride` of them): byte i from
+/// bit i of the mask's field (the fields take at most half of the row's bytes, so the first half
+/// of its words).
+#[inline(always)]
+fn restore_row<const N: usize>(row: &mut [u8], stride: usize) {
+    let m: Bits<N> = get(row, stride, MASK_FIELD);
+    if whole_words::<N>(stride) {
+        // A whole number of 8-byte chunks: unrolled.
+        for (i, c) in row.chunks_exact_mut(8).enumerate().take(FIELDS * N * WORD_BYTES / 8) {
+            let byte = m.get(i / WORD_BYTES).map_or(0, |&w| (w >> (8 * (i % WORD_BYTES))) as u8);
+            c.copy_from_slice(&SPREAD.get(usize::from(byte)).copied().unwrap_or(0).to_le_bytes());
+        }
+    } else {
+        for (i, c) in row.chunks_mut(8).enumerate() {
+            let byte = m.get(i / WORD_BYTES).map_or(0, |&w| (w >> (8 * (i % WORD_BYTES))) as u8);
+            for (b, v) in c.iter_mut().zip(spread(byte).to_le_bytes()) {
+                *b = v;
+            }
+        }
+    }
+}
+
+/// Whether fields of `stride` bytes are `N` whole words: known for rows of 2 to `WORDS − 1`
+/// words, which are always that wide (see [`Plane::new`]); the widest rows are also those of
+/// [`Approx`]'s, which may be narrower.
+#[inline(always)]
+fn whole_words<const N: usize>(stride: usize) -> bool {
+    (N > 1 && N < WORDS) || stride == N * WORD_BYTES
 }
 
 /// Field `field` of a row's bytes (its words little-endian from byte `stride · field`).
 #[inline(always)]
 fn get<const N: usize>(row: &[u8], stride: usize, field: usize) -> Bits<N> {
     let mut out = [0; N];
-    let s = stride * field;
-    if stride == N * WORD_BYTES {
+    if whole_words::<N>(stride) {
+        let s = N * WORD_BYTES * field;
         if let Some(bytes) = row.get(s..s + N * WORD_BYTES) {
             for (o, c) in out.iter_mut().zip(bytes.chunks_exact(WORD_BYTES)) {
                 *o = Word::from_le_bytes(c.try_into().unwrap_or_default());
             }
         }
-    } else if let Some(bytes) = row.get(s..s + stride) {
+    } else if let Some(bytes) = row.get(stride * field..stride * (field + 1)) {
         for (o, c) in out.iter_mut().zip(bytes.chunks(WORD_BYTES)) {
             let mut word = [0u8; WORD_BYTES];
             for (b, v) in word.iter_mut().zip(c) {
@@ -305,14 +326,14 @@ fn get<const N: usize>(row: &[u8], stride: usize, field: usize) -> Bits<N> {
 /// Sets field `field` of a row's bytes (see [`get`]).
 #[inline(always)]
 fn put<const N: usize>(row: &mut [u8], stride: usize, field: usize, bits: &Bits<N>) {
-    let s = stride * field;
-    if stride == N * WORD_BYTES {
+    if whole_words::<N>(stride) {
+        let s = N * WORD_BYTES * field;
         if let Some(bytes) = row.get_mut(s..s + N * WORD_BYTES) {
             for (c, v) in bytes.chunks_exact_mut(WORD_BYTES).zip(bits) {
                 c.copy_from_slice(&v.to_le_bytes());
             }
         }
-    } else if let Some(bytes) = row.get_mut(s..s + stride) {
+    } else if let Some(bytes) = row.get_mut(stride * field..stride * (field + 1)) {
         for (c, v) in bytes.chunks_mut(WORD_BYTES).zip(bits) {
             for (b, v) in c.iter_mut().zip(v.to_le_bytes()) {
                 *b = v;
@@ -332,10 +353,21 @@ fn pack(v: u64) -> Word {
 
 /// Byte `i` of the result is bit `i` of `byte`, 0 or 1.
 #[inline(always)]
-fn spread(byte: u8) -> u64 {
-    let bits = (u64::from(byte) * LOW) & 0x8040_2010_0804_0201;
+const fn spread(byte: u8) -> u64 {
+    let bits = (byte as u64 * LOW) & 0x8040_2010_0804_0201;
     ((bits + 0x7F7F_7F7F_7F7F_7F7F) >> 7) & LOW
 }
+
+/// [`spread`] of every byte.
+static SPREAD: [u64; 256] = {
+    let mut table = [0; 256];
+    let mut i = 0;
+    while i < 256 {
+        table[i] = spread(i as u8);
+        i += 1;
+    }
+    table
+};
 
 /// Bit `x` of the result is bit 0 of `row[x]`, `x < BITS·N`.
 #[inline(always)]
@@ -1101,7 +1133,7 @@ trait Source: Sized {
 
     /// The second pass ([`weigh`]).
     #[inline(always)]
-    fn weigh<const N: usize>(&self, plane: &Plane<'_>, rows: Range<usize>, contrast: f32) -> [f32; 3] {
+    fn weigh<const N: usize>(&self, plane: &mut Plane<'_>, rows: Range<usize>, contrast: f32) -> [f32; 3] {
         weigh::<Self, N>(self, plane, rows, contrast)
     }
 
@@ -1216,46 +1248,54 @@ impl<'a, B: AsRef<[u8]>> Source for Exact<'_, 'a, B> {
             .fold(u8::MAX, |m, (&h, &l)| m.min(h.saturating_sub(l))) as f32
     }
 
-    /// [`weigh`] with the constants of the part out of the loop, each image row read once.
+    /// [`weigh`] with the constants of the part out of the loop, each image row read once, and
+    /// each row's mask put back once it is weighed ([`Plane::restore`] does the others).
     #[inline(always)]
-    fn weigh<const N: usize>(&self, plane: &Plane<'_>, rows: Range<usize>, contrast: f32) -> [f32; 3] {
+    fn weigh<const N: usize>(&self, plane: &mut Plane<'_>, rows: Range<usize>, contrast: f32) -> [f32; 3] {
         let part = ExactPart::new(contrast);
-        let stride = plane.stride;
+        let (stride, w, y0) = (plane.stride, plane.w, plane.r.y0);
+        let fields_len = FIELDS * stride;
         let mut columns = [0i32; COLUMNS];
         // The image rows (signed: `hi − lo = D·sign`) and ring rows of rows y − 4 ..= y + 4 (row q
-        // in slot q mod 16).
+        // in slot q mod 16); rows outside `rows` hold no ring.
         let mut images: [Self::Row; 16] = [(&[], &[]); 16];
         let mut rings = [[0; N]; 16];
         let mut sums = [0.0f32; 3];
-        for q in rows.start.saturating_sub(4)..rows.end + 4 {
-            // Row q enters the column sums.
-            let (f, b) = self.row(plane.r.y0 + q);
-            let (hi, lo) = if part.positive { (f, b) } else { (b, f) };
-            let ring: Bits<N> = match plane.fields(q) {
-                Some(f) if rows.contains(&q) => get(f, stride, RING_FIELD),
-                _ => [0; N],
-            };
-            move_ring::<true, N>(hi, lo, &ring, &mut columns);
-            if let (Some(i), Some(r)) = (images.get_mut(q % 16), rings.get_mut(q % 16)) {
-                (*i, *r) = ((hi, lo), ring);
+        // The plane's index of row q's first byte, and of row q − 4's.
+        let (mut s, mut s_weighed) = (plane.at(rows.start), plane.at(rows.start));
+        let mask = &mut *plane.mask;
+        for q in rows.start..rows.end + 4 {
+            if q < rows.end {
+                // Row q enters the column sums.
+                let (f, b) = self.row(y0 + q);
+                let (hi, lo) = if part.positive { (f, b) } else { (b, f) };
+                let ring: Bits<N> = mask.get(s..s + fields_len).map_or([0; N], |f| get(f, stride, RING_FIELD));
+                move_ring::<true, N>(hi, lo, &ring, &mut columns);
+                if let (Some(i), Some(r)) = (images.get_mut(q % 16), rings.get_mut(q % 16)) {
+                    (*i, *r) = ((hi, lo), ring);
+                }
+                s += w;
             }
-            // Row q − 4 is weighed.
-            if let Some(y) = q.checked_sub(4).filter(|y| rows.contains(y)) {
-                if let (Some(fields), Some(&(hi, lo))) = (plane.fields(y), images.get(y % 16)) {
+            // Row q − 4 is weighed, and its mask put back.
+            if let Some(y) = q.checked_sub(4).filter(|&y| y >= rows.start) {
+                if let (Some(fields), Some(&(hi, lo))) = (mask.get_mut(s_weighed..s_weighed + fields_len), images.get(y % 16)) {
                     let band: Bits<N> = get(fields, stride, BAND_FIELD);
                     if !none(&band) {
                         let inside: Bits<N> = get(fields, stride, COMP_FIELD);
                         sums = part.row(self, hi, lo, y, &inside, &band, &columns, sums);
                     }
+                    restore_row::<N>(fields, stride);
                 }
-            }
-            // Row q − 8 leaves.
-            if let Some(r) = q.checked_sub(8) {
-                if let (Some(&(hi, lo)), Some(bits)) = (images.get(r % 16), rings.get(r % 16)) {
-                    move_ring::<false, N>(hi, lo, bits, &mut columns);
+                s_weighed += w;
+                // Row q − 8 leaves.
+                if let Some(r) = q.checked_sub(8).filter(|&r| r >= rows.start) {
+                    if let (Some(&(hi, lo)), Some(bits)) = (images.get(r % 16), rings.get(r % 16)) {
+                        move_ring::<false, N>(hi, lo, bits, &mut columns);
+                    }
                 }
             }
         }
+        plane.restored = rows;
         sums
     }
 }
