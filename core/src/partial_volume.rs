@@ -101,10 +101,9 @@ pub fn partial_volume_centroid<B: AsRef<[u8]>>(
     let seed = (seed.0 - r.x0, seed.1 - r.y0);
     // Every row of the box has its D from the frame's and background's rows when the last has
     // (α = 1, and the background plane reaches that far).
-    if diff.rows(r.y1 - 1).is_none() {
+    let Some(src) = Exact::new(diff, r) else {
         return bit_rows::<_, WORDS>(&Approx { diff, x0: r.x0 }, Plane::new(mask, w, r), seed);
-    }
-    let src = Exact { diff, x0: r.x0, x1: r.x1 };
+    };
     let plane = Plane::new(mask, w, r);
     // Rows of exactly the box's words (beyond 4, the widest).
     match width.div_ceil(BITS) {
@@ -801,24 +800,23 @@ fn shape_pass<S: Source, const N: usize>(src: &S, plane: &mut Plane<'_>, comp: R
         // dilation likewise with OR.
         let (a, b, c, d, e) = (row(4), row(5), row(6), row(7), row(8));
         let grown = or(&or(&or(&a, &b), &or(&c, &d)), &e);
-        if none(&grown) {
-            plane.store(j, COMP_FIELD, &[0; N]);
-            plane.store(j, BAND_FIELD, &[0; N]);
-            plane.store(j, RING_FIELD, &[0; N]);
-            continue;
+        let (mut inside, mut band, mut ring) = ([0; N], [0; N], [0; N]);
+        if !none(&grown) {
+            let v2 = and(&and(&and(&a, &b), &and(&c, &d)), &e);
+            inside = erode::<2, N>(&v2);
+            band = and_not(&and(&dilate::<2, N>(&grown), &valid), &inside);
+            let v3 = and(&and(&v2, &row(3)), &row(9));
+            if !none(&v3) {
+                let v5 = and(&and(&and(&v3, &row(1)), &and(&row(2), &row(10))), &row(11));
+                ring = and_not(&erode::<3, N>(&v3), &erode::<5, N>(&v5));
+            }
         }
-        let v2 = and(&and(&and(&a, &b), &and(&c, &d)), &e);
-        let inside = erode::<2, N>(&v2);
-        let band = and_not(&and(&dilate::<2, N>(&grown), &valid), &inside);
-        let v3 = and(&and(&v2, &row(3)), &row(9));
-        let mut ring = [0; N];
-        if !none(&v3) {
-            let v5 = and(&and(&and(&v3, &row(1)), &and(&row(2), &row(10))), &row(11));
-            ring = and_not(&erode::<3, N>(&v3), &erode::<5, N>(&v5));
+        let stride = plane.stride;
+        if let Some(fields) = plane.fields_mut(j) {
+            put(fields, stride, COMP_FIELD, &inside);
+            put(fields, stride, BAND_FIELD, &band);
+            put(fields, stride, RING_FIELD, &ring);
         }
-        plane.store(j, COMP_FIELD, &inside);
-        plane.store(j, BAND_FIELD, &band);
-        plane.store(j, RING_FIELD, &ring);
         if !none(&ring) {
             let image_row = src.row(plane.r.y0 + j);
             if small {
@@ -1168,14 +1166,41 @@ trait Source: Sized {
 }
 
 /// `D` from the frame's and background's rows ([`Difference::rows`]): integers in −255..=255,
-/// so that every sum of them is exact and the weights' tests can be integer ones.
-struct Exact<'d, 'a, B> {
-    diff: &'d Difference<'a, B>,
+/// so that every sum of them is exact and the weights' tests can be integer ones. The rows of the
+/// box come from the bytes of both from its first row on (no call a row).
+struct Exact<'a> {
+    /// The frame's bytes from the box's first row, and the step from a row to the next.
+    frame: &'a [u8],
+    stride: usize,
+    /// The background plane's bytes from the box's first row (a row is `w` bytes).
+    background: &'a [u8],
+    w: usize,
+    /// The box's first image row and column, its width and its image rows.
+    y0: usize,
     x0: usize,
-    x1: usize,
+    width: usize,
+    rows: usize,
 }
 
-impl<'a, B: AsRef<[u8]>> Exact<'_, 'a, B> {
+impl<'a> Exact<'a> {
+    /// The rows of box `r` when every row has its `D` from the frame's and background's rows:
+    /// when the last has ([`Difference::rows`]: `α = 1`, and the background plane reaches that
+    /// far).
+    fn new<B: AsRef<[u8]>>(diff: &Difference<'a, B>, r: Rect) -> Option<Self> {
+        diff.rows(r.y1.checked_sub(1)?)?;
+        let (frame, stride, background) = diff.rows_from(r.y0)?;
+        Some(Exact {
+            frame,
+            stride,
+            background,
+            w: diff.width(),
+            y0: r.y0,
+            x0: r.x0,
+            width: r.x1 - r.x0,
+            rows: r.y1 - r.y0,
+        })
+    }
+
     /// The row's bytes whose difference is `D · sign`: the frame's first for a positive contrast.
     #[inline(always)]
     fn signed((f, b): (&'a [u8], &'a [u8]), weights: &Weights) -> (&'a [u8], &'a [u8]) {
@@ -1187,7 +1212,7 @@ impl<'a, B: AsRef<[u8]>> Exact<'_, 'a, B> {
     }
 }
 
-impl<'a, B: AsRef<[u8]>> Source for Exact<'_, 'a, B> {
+impl<'a> Source for Exact<'a> {
     /// The box's columns of the frame's and the background's row.
     type Row = (&'a [u8], &'a [u8]);
     /// `128·Σ(D·sign) + count` (counts are at most 81, |ΣD| at most 81·255).
@@ -1195,10 +1220,16 @@ impl<'a, B: AsRef<[u8]>> Source for Exact<'_, 'a, B> {
 
     #[inline(always)]
     fn row(&self, y: usize) -> Self::Row {
-        self.diff
-            .rows(y)
-            .and_then(|(f, b)| Some((f.get(self.x0..self.x1)?, b.get(self.x0..self.x1)?)))
-            .unwrap_or((&[], &[]))
+        match y.checked_sub(self.y0) {
+            Some(k) if k < self.rows => {
+                let (f, b) = (k * self.stride + self.x0, k * self.w + self.x0);
+                match (self.frame.get(f..f + self.width), self.background.get(b..b + self.width)) {
+                    (Some(f), Some(b)) => (f, b),
+                    _ => (&[], &[]),
+                }
+            }
+            _ => (&[], &[]),
+        }
     }
 
     #[inline(always)]
@@ -1385,9 +1416,9 @@ impl ExactPart {
     /// `C`, iff `u ≥ |C|`. Only the weights between 0 and 1 are divided, as the definition does.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    fn row<B: AsRef<[u8]>, const N: usize>(
+    fn row<const N: usize>(
         &self,
-        src: &Exact<'_, '_, B>,
+        src: &Exact<'_>,
         hi: &[u8],
         lo: &[u8],
         y: usize,
@@ -2460,11 +2491,16 @@ mod tests {
             let background = vec![base as u8; width];
             let frame = Frame::new_checked(&frame_row[..], width, 1).unwrap();
             let diff = Difference::new(&frame, &background, Alpha::ONE);
-            let src = Exact {
-                diff: &diff,
-                x0: 0,
-                x1: width,
-            };
+            let src = Exact::new(
+                &diff,
+                Rect {
+                    x0: 0,
+                    y0: 0,
+                    x1: width,
+                    y1: 1,
+                },
+            )
+            .unwrap();
             let image_row = src.row(0);
             // Column sums of D·sign: windows of means near integers, below 1, of the other sign.
             let mut columns = [0i32; COLUMNS];
@@ -2490,7 +2526,7 @@ mod tests {
             let weights = Weights { contrast, sign };
             let (f, b) = image_row;
             let (hi, lo) = if contrast > 0.0 { (f, b) } else { (b, f) };
-            let got = ExactPart::new(contrast).row::<_, WORDS>(&src, hi, lo, y, &inside, &band, &columns, sums);
+            let got = ExactPart::new(contrast).row::<WORDS>(&src, hi, lo, y, &inside, &band, &columns, sums);
             let plain = src.weigh_row::<WORDS>(image_row, y, &inside, &band, &columns, &weights, sums);
             let [mut sw, mut sx, mut sy] = sums;
             for c in 0..width {
@@ -2581,10 +2617,29 @@ mod tests {
                 assert_eq!(diff.rows(h - 1).is_some(), alpha >= 1.0 && bg_len == w * h, "case {case}");
                 let x0 = rng.below(w);
                 let x1 = x0 + 1 + rng.below(w - x0);
-                let exact = Exact { diff: &diff, x0, x1 };
+                // (Exact reads the rows of a box whose rows all have them: those up to the first
+                // without.)
+                let avail = (0..h).take_while(|&y| diff.rows(y).is_some()).count();
+                let full = Rect {
+                    x0,
+                    y0: 0,
+                    x1,
+                    y1: avail,
+                };
+                let exact = Exact::new(&diff, full).unwrap_or(Exact {
+                    frame: &[],
+                    stride: w,
+                    background: &[],
+                    w,
+                    y0: 0,
+                    x0,
+                    width: x1 - x0,
+                    rows: h,
+                });
                 let approx = Approx { diff: &diff, x0 };
                 for y in 0..h {
                     let rows = diff.rows(y).is_some();
+                    assert_eq!(rows, y < avail, "case {case}");
                     let (er, ar) = (exact.row(y), approx.row(y));
                     let ring = random_bits(&mut rng, x1 - x0);
                     let (mut want_hist, mut want_cols) = ([0u16; 511], Vec::new());
@@ -2600,7 +2655,7 @@ mod tests {
                         assert_eq!((s.to_bits(), n), (want.to_bits(), 1));
                         if rows {
                             assert_eq!(exact.d(er, c).to_bits(), want.to_bits(), "case {case} ({c}, {y})");
-                            let (s, n) = <Exact<'_, '_, &[u8]> as Source>::split(exact.col(er, c, &weights), &weights);
+                            let (s, n) = <Exact<'_> as Source>::split(exact.col(er, c, &weights), &weights);
                             assert_eq!((s.to_bits(), n), (want.to_bits(), 1));
                         }
                         if bit(&ring, c) {
