@@ -383,25 +383,34 @@ fn gather<const N: usize>(row: &[u8]) -> Bits<N> {
                 }
                 word
             }
-            Err(_) => gather_partial(chunk),
+            Err(_) => gather_partial(row, row.len() - chunk.len()),
         };
     }
     out
 }
 
-/// [`gather`]'s word of fewer than `BITS` bytes.
+/// [`gather`]'s last word, of fewer than `BITS` bytes from `start`: 8 at a time, and the last
+/// few as the top of the row's last 8 (when it has 8).
 #[inline(never)]
-fn gather_partial(chunk: &[u8]) -> Word {
+fn gather_partial(row: &[u8], start: usize) -> Word {
     let mut word = 0;
     for j in 0..WORD_BYTES {
-        let v = match chunk.get(8 * j..8 * j + 8) {
+        let s = start + 8 * j;
+        let v = match row.get(s..s + 8) {
             Some(c) => u64::from_le_bytes(c.try_into().unwrap_or_default()),
             None => {
-                let mut eight = [0u8; 8];
-                for (b, v) in eight.iter_mut().zip(chunk.get(8 * j..).unwrap_or(&[])) {
-                    *b = *v;
-                }
-                word |= pack(u64::from_le_bytes(eight) & LOW) << (8 * j);
+                let rest = row.len().saturating_sub(s);
+                let v = match row.len().checked_sub(8).and_then(|t| row.get(t..)) {
+                    Some(last) if rest > 0 => u64::from_le_bytes(last.try_into().unwrap_or_default()) >> (8 * (8 - rest)),
+                    _ => {
+                        let mut eight = [0u8; 8];
+                        for (b, v) in eight.iter_mut().zip(row.get(s..).unwrap_or(&[])) {
+                            *b = *v;
+                        }
+                        u64::from_le_bytes(eight)
+                    }
+                };
+                word |= pack(v & LOW) << (8 * j);
                 break;
             }
         };
