@@ -984,10 +984,38 @@ fn add_sequence(s: f32, first: u32, step: u32, count: u32) -> f32 {
             return total;
         }
         // The most terms that go at once (none at least, when `s` is a sum that rounds on its
-        // own): a bisection, the test is monotonic in the number of terms.
+        // own): a bisection, the test is monotonic in the number of terms; first around where
+        // the terms reach the next binade of `s` (or 2^24 from an integer `s`).
         let (mut lo, mut hi) = (0u32, count);
         if at_once(s, 0).is_none() {
             hi = 1;
+        } else if s > 0.0 {
+            let top = if s as u32 as f32 == s {
+                EXACT
+            } else {
+                f32::from_bits(((s.to_bits() >> 23) + 1) << 23)
+            };
+            // (A guess in f32: the bisection settles it.)
+            let room = top - s;
+            let (a, b) = (first as f32, step as f32);
+            // b·k²/2 + (a − b/2)·k = room.
+            let k = if b > 0.0 {
+                let c = a - b / 2.0;
+                (crate::math::sqrt(c * c + 2.0 * b * room) - c) / b
+            } else if a > 0.0 {
+                room / a
+            } else {
+                count as f32
+            };
+            let k = (k.max(0.0) as u32).min(count - 1);
+            if at_once(s, terms(first, k)).is_some() {
+                lo = k;
+                if at_once(s, terms(first, k + 1)).is_none() {
+                    hi = k + 1;
+                }
+            } else {
+                hi = k;
+            }
         }
         while hi - lo > 1 {
             let mid = lo + (hi - lo) / 2;
