@@ -485,6 +485,10 @@ fn runs_of<const N: usize>(m: &Bits<N>, seeds: &Bits<N>) -> Bits<N> {
         carry = c1 | c2;
         *u = (m & !t) | s;
     }
+    // Every run touched (the common case: its last bit is in `up`): all of `m`.
+    if none(&and_not(&and_not(m, &shift_down::<1, N>(m)), &up)) {
+        return *m;
+    }
     // The lowest bit of each run of `up`: where the run reaches below, the rest down to its start.
     let starts = and_not(&up, &shift_up::<1, N>(&up));
     for_each_bit(&starts, |p| {
