@@ -865,28 +865,33 @@ fn weigh<S: Source, const N: usize>(src: &S, plane: &Plane<'_>, rows: Range<usiz
         sign: contrast.signum(),
     };
     // The image rows and ring rows of rows y − 4 ..= y + 4 (row q in slot q mod 16), each read
-    // once: when it enters the column sums.
+    // once: when it enters the column sums; the ring values too, as many as the FIFO holds.
     let mut images = [S::Row::default(); 16];
     let mut rings = [[0; N]; 16];
-    let enter = |columns: &mut [S::Col; COLUMNS], images: &mut [S::Row; 16], rings: &mut [Bits<N>; 16], q: usize| {
+    let mut fifo = RingFifo::new(S::Col::default());
+    let enter = |columns: &mut [S::Col; COLUMNS], images: &mut [S::Row; 16], rings: &mut [Bits<N>; 16], fifo: &mut RingFifo<S::Col>, q: usize| {
         let image_row = src.row(plane.r.y0 + q);
         let bits = if rows.contains(&q) {
             plane.load::<N>(q, RING_FIELD)
         } else {
             [0; N]
         };
-        if !none(&bits) {
-            src.move_ring::<true, N>(image_row, &bits, columns, &weights);
-        }
+        for_each_bit(&bits, |c| {
+            if let Some(s) = columns.get_mut(c + 4) {
+                let v = src.col(image_row, c, &weights);
+                *s = *s + v;
+                fifo.enter(v);
+            }
+        });
         if let (Some(i), Some(r)) = (images.get_mut(q % 16), rings.get_mut(q % 16)) {
             (*i, *r) = (image_row, bits);
         }
     };
     for q in rows.start.saturating_sub(4)..rows.start + 4 {
-        enter(&mut columns, &mut images, &mut rings, q);
+        enter(&mut columns, &mut images, &mut rings, &mut fifo, q);
     }
     for y in rows.clone() {
-        enter(&mut columns, &mut images, &mut rings, y + 4);
+        enter(&mut columns, &mut images, &mut rings, &mut fifo, y + 4);
         if let Some(fields) = plane.fields(y) {
             let band: Bits<N> = get(fields, plane.stride, BAND_FIELD);
             if !none(&band) {
@@ -897,13 +902,72 @@ fn weigh<S: Source, const N: usize>(src: &S, plane: &Plane<'_>, rows: Range<usiz
         }
         if let Some(q) = y.checked_sub(4) {
             if let (Some(&image_row), Some(bits)) = (images.get(q % 16), rings.get(q % 16)) {
-                if !none(bits) {
-                    src.move_ring::<false, N>(image_row, bits, &mut columns, &weights);
-                }
+                for_each_bit(bits, |c| {
+                    if let Some(s) = columns.get_mut(c + 4) {
+                        *s = *s - fifo.leave(|| src.col(image_row, c, &weights));
+                    }
+                });
             }
         }
     }
     sums
+}
+
+/// Capacity of [`RingFifo`].
+const RING_FIFO: usize = 128;
+
+/// The ring values between entering the column sums and leaving them, in the order they enter
+/// (which is the order they leave), so that each is computed once ([`Approx`]'s are dear): the
+/// values numbered `kept` (at most [`RING_FIFO`] of them); the others are computed again.
+struct RingFifo<C> {
+    values: [C; RING_FIFO],
+    kept: Range<usize>,
+    /// The number of values entered, and left.
+    entered: usize,
+    left: usize,
+}
+
+impl<C: Copy> RingFifo<C> {
+    fn new(zero: C) -> Self {
+        RingFifo {
+            values: [zero; RING_FIFO],
+            kept: 0..0,
+            entered: 0,
+            left: 0,
+        }
+    }
+
+    /// The next value entered: kept while the kept values stay consecutive and fit, or afresh
+    /// once none is.
+    #[inline(always)]
+    fn enter(&mut self, v: C) {
+        let k = self.entered;
+        self.entered += 1;
+        if self.kept.start == self.kept.end {
+            self.kept = k..k;
+        }
+        if k == self.kept.end && k - self.kept.start < RING_FIFO {
+            if let Some(slot) = self.values.get_mut(k % RING_FIFO) {
+                *slot = v;
+                self.kept.end = k + 1;
+            }
+        }
+    }
+
+    /// The next value to leave (`read` when it is not kept).
+    #[inline(always)]
+    fn leave(&mut self, read: impl FnOnce() -> C) -> C {
+        let k = self.left;
+        self.left += 1;
+        // Values leave in the order they enter: a kept one is the first kept.
+        if k == self.kept.start && k < self.kept.end {
+            self.kept.start += 1;
+            if let Some(&v) = self.values.get(k % RING_FIFO) {
+                return v;
+            }
+        }
+        read()
+    }
 }
 
 /// What the weights depend on besides `D` and the ring's column sums.
@@ -1093,24 +1157,6 @@ trait Source: Sized {
             let bin = (self.d(row, c) as i32 + 255).clamp(0, 510) as usize;
             if let Some(h) = hist.get_mut(bin) {
                 *h = if WRAP { h.wrapping_add(1) } else { h.saturating_add(1) };
-            }
-        });
-    }
-
-    /// Adds (`ENTER`) the ring values of the pixels `ring` to their columns' sums, or takes them
-    /// away.
-    #[inline(always)]
-    fn move_ring<const ENTER: bool, const N: usize>(
-        &self,
-        row: Self::Row,
-        ring: &Bits<N>,
-        columns: &mut [Self::Col; COLUMNS],
-        weights: &Weights,
-    ) {
-        for_each_bit(ring, |c| {
-            if let Some(s) = columns.get_mut(c + 4) {
-                let v = self.col(row, c, weights);
-                *s = if ENTER { *s + v } else { *s - v };
             }
         });
     }
@@ -2736,12 +2782,13 @@ mod tests {
                             assert_eq!(hist, want_hist, "case {case}");
                         }
                         let mut columns = [0i32; COLUMNS];
-                        exact.move_ring::<true, WORDS>(er, &ring, &mut columns, &weights);
+                        let (hi, lo) = Exact::signed(er, &weights);
+                        move_ring::<true, WORDS>(hi, lo, &ring, &mut columns);
                         for c in 0..x1 - x0 {
                             let want = if bit(&ring, c) { exact.col(er, c, &weights) } else { 0 };
                             assert_eq!(columns[c + 4], want);
                         }
-                        exact.move_ring::<false, WORDS>(er, &ring, &mut columns, &weights);
+                        move_ring::<false, WORDS>(hi, lo, &ring, &mut columns);
                         assert!(columns.iter().all(|&v| v == 0));
                     }
                     // The hole test of a run by its least value, both signs of contrast, at the
@@ -2775,6 +2822,48 @@ mod tests {
             }
         }
         assert!(shortcut > 1000, "{shortcut}");
+    }
+
+    #[test]
+    fn ring_fifo_gives_each_value_back() {
+        // Rows of ring values enter the column sums and leave them 9 rows later, as in `weigh`;
+        // kept or computed again, each value must come back as it entered, and a window that
+        // fits the FIFO computes none again.
+        let mut rng = Rng(4242);
+        for case in 0..300 {
+            let rows: Vec<usize> = (0..1 + rng.below(60))
+                .map(|_| match case % 4 {
+                    0 => rng.below(8),
+                    1 => rng.below(40),
+                    2 => rng.below(3) * 60,
+                    _ => rng.below(200),
+                })
+                .collect();
+            let value = |k: usize| k as f32 * 0.75 - 100.0;
+            let mut fifo = RingFifo::new(0.0f32);
+            let (mut entered, mut left, mut reads, mut most) = (0usize, 0usize, 0usize, 0usize);
+            for p in 0..rows.len() + 9 {
+                for _ in 0..rows.get(p).copied().unwrap_or(0) {
+                    fifo.enter(value(entered));
+                    entered += 1;
+                }
+                most = most.max(entered - left);
+                if let Some(q) = p.checked_sub(8) {
+                    for _ in 0..rows.get(q).copied().unwrap_or(0) {
+                        let v = fifo.leave(|| {
+                            reads += 1;
+                            value(left)
+                        });
+                        assert_eq!(v, value(left), "case {case} value {left}");
+                        left += 1;
+                    }
+                }
+            }
+            assert_eq!(entered, left);
+            if most <= RING_FIFO {
+                assert_eq!(reads, 0, "case {case}");
+            }
+        }
     }
 
     #[test]
