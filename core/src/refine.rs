@@ -217,7 +217,11 @@ impl<'a, B: AsRef<[u8]>> Difference<'a, B> {
             return None;
         }
         let start = y.checked_mul(self.frame.width())?;
-        Some((self.frame.bytes_from(y), self.frame.stride(), self.background.get(start..)?))
+        Some((
+            self.frame.bytes_from(y),
+            self.frame.stride(),
+            self.background.get(start..)?,
+        ))
     }
 
     /// `I' = α·I + (1 − α)·|∇I|` at an in-image pixel (α < 1), kept out of line so that
