@@ -117,6 +117,16 @@ impl<B: AsRef<[u8]>> Frame<B> {
         self.data.as_ref().get(start..start + self.width).unwrap_or(&[])
     }
 
+    /// The bytes from row `y` on (row `y + k` starts at `k · stride`), or an empty slice outside
+    /// the image.
+    #[inline]
+    pub(crate) fn bytes_from(&self, y: usize) -> &[u8] {
+        if y >= self.height {
+            return &[];
+        }
+        self.data.as_ref().get(y * self.stride..).unwrap_or(&[])
+    }
+
     /// Checks that `other` has the same width and height.
     ///
     /// # Errors

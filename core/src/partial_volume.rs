@@ -13,75 +13,106 @@
 //! the band is `P` dilated twice minus "inside", the ring is `P` eroded three times minus `P`
 //! eroded five times. Iterated 3×3 erosion (dilation) `k` times is one erosion by the
 //! `(2k+1)`-square, and a square is separable, so each region row is a few word operations on
-//! bit rows (32 px a word): the AND (OR) of the component's rows within `k` of the row, then of
-//! that row shifted by `−k..=k`.
+//! bit rows: the AND (OR) of the component's rows within `k` of the row, then of that row shifted
+//! by `−k..=k`.
 //!
-//! Method: mark `P` in the mask plane (bit 7) with a scanline fill that scans 8 pixels a step,
-//! noting the rows it covers; then two passes over those rows:
-//! 1. the ring, from the component's rows `y − 5 ..= y + 5` as bit rows; it is marked in the
-//!    plane (bit 6) and its `D` goes into a histogram, whose median is the part's contrast
-//!    (where `D` is not read from the image's rows, `α < 1`, the first 256 values are also kept
-//!    for pass 2);
-//! 2. the weights, in raster order, 4 rows behind the rows read from the plane (and cleared to
-//!    the mask bit): inside and band from the component's rows `y − 2 ..= y + 2`; the ring's `D`
-//!    is kept summed per column over rows `y − 4 ..= y + 4` (a row added when it enters,
-//!    subtracted when it leaves), so a band pixel's local mean is 9 column sums, kept as a sum
-//!    that slides along the row. `D` of a word's inside and band pixels is read in one loop
-//!    over the frame's and background's rows ([`Difference::rows`], `α = 1`: from its first
-//!    such pixel to its last, which the compiler vectorises), and the hole test of its inside
-//!    pixels is one reduction (their least `D`, in the contrast's sense) unless one fails. The
-//!    inside pixels of weight 1 between two
-//!    pixels weighed alone (band, holes) are added as one run: one addition per sum when that
-//!    is sure not to round (every partial sum exact), else one by one, so the sums are the same
-//!    bits as pixel by pixel in raster order.
+//! Method (boxes 4 to 256 px wide): bit rows are machine words (64 columns a word on 64-bit
+//! targets, 32 on the Cortex-M4), the code made for the box's number of words. They live in the
+//! mask plane itself: a box row in use holds, from its first byte, four fields of one bit row
+//! each (the mask's row, the component's and later its inside, the ring's, the band's; a word
+//! each for every 32 or 64 columns, or `⌈width/8⌉` bytes in a narrow box), and its mask bits go
+//! back into those bytes when it is done. Three passes over the rows:
+//! 1. the fill: one sweep down from the seed's row, gathering each row's mask bits from its bytes
+//!    (8 with a multiplication) and taking the runs of them that touch the row above, dilated by
+//!    one (all of them when every run does; else from each run's seed up by an addition with
+//!    carry, down by a bit scan); where a row's runs also touch a free pixel of the row above,
+//!    sweeps up and down over the rows concerned follow until one adds nothing;
+//! 2. the shape pass: from a window of the 11 component rows around a row, its inside, band and
+//!    ring into its fields, and each ring pixel's `D` into a signed histogram, whose median is the
+//!    part's contrast;
+//! 3. the weights, in raster order: the ring's values summed per column over rows `y − 4 ..= y +
+//!    4` (where `D` is an integer, as `128·D·sign + 1`: the count rides in the low bits), sliding
+//!    along each run of band pixels; with `α = 1` integer tests decide where a weight clips to 0
+//!    or 1 and only the others are divided, as the definition does. A run of inside pixels
+//!    passes the hole test when its least `D·sign` does (the least saturating difference of the
+//!    rows' bytes, which the compiler vectorises) and is added at once: one addition per sum
+//!    where no partial sum rounds, the terms that round on their own, so that the sums are the
+//!    same bits as pixel by pixel in raster order.
+//!
+//! `D` comes from the frame's and background's rows where `α = 1` (integers, so every sum of them
+//! is exact); else through [`Difference::at`], with the same passes and the definition's pixel
+//! loops (the ring's values kept from entering the column sums to leaving them, as far as 128 of
+//! them at a time).
 //!
 //! The result is the per-pixel definition's (3×3 passes over flag bits, a 9×9 window per band
 //! pixel), which the tests keep as the reference: the same bits where `D` is an integer
 //! (`α = 1`), and within 1e-4 px otherwise (the local sums are added in another order).
 //!
-//! Time: a few word operations per 32 px of a row and pass, one `D` per weighted (inside or
-//! band) pixel, three per ring pixel (histogram, entering and leaving the sums); for `α = 1`
-//! `D` comes from the image's rows, a few instructions a pixel (x86 vectorises the weighted
-//! pixels' loop); through [`Difference::at`] it was about 50. On the bench set (parts of
-//! 100–170 px, 640×480; `vorl detect`, callgrind) a part takes 0.73 M x86 instructions (1.12 M
-//! with `D` through `at`, kept ring values and a hole test per pixel; 1.31 M before the runs of
-//! weight 1). Of it, the weights of the band pixels (`RowWeights::add`, an order-bound chain of
-//! f32 sums) are 0.19 M, the fill 0.08 M. On the Cortex-M4 (QEMU, the firmware's QVGA frames
-//! of 4 parts) the rows save 80–100 K instructions per part. Before all this, the fixture
-//! set's parts (boxes of about 66×66 px) took 0.38 M x86 instructions each, 0.43 M on the
-//! Cortex-M4, where the per-pixel definition took 4.0 M and 4.6 M. Memory: on the Cortex-M4, 2.2 KB of stack for the
-//! fill, then at most 3.6 KB (the 256 ring values; then 264 column sums and counts and about 20
-//! bit rows of 256 px); bits 6 and 7 of the plane inside the box as scratch. Boxes wider than 256 px
-//! take the per-pixel path (bits 2–7 of the plane as scratch), same result, about 10× slower.
+//! Time: on the bench set (parts of 100–170 px in boxes of 112–182, 640×480; `vorl detect`,
+//! callgrind) a part takes 0.27 M x86 instructions: the weights 0.18 M (their band pixels about
+//! 0.075 M, about 30 instructions each; the ring pixels entering and leaving the column sums
+//! 0.035 M), the shape pass 0.055 M (its ring histogram 0.02 M), the fill 0.034 M (reading the
+//! mask's bytes half of it). Before, with 32-bit words, a span fill over the plane's bytes, flag
+//! bits gathered and scattered and two morphology passes, a part took 0.73 M (1.12 M with `D`
+//! through `at` and a hole test per pixel; 1.31 M before the runs of weight 1). With `α < 1` the
+//! calls to `at` dominate (2.6 M a part, as before). On the Cortex-M4 (QEMU, the firmware's QVGA
+//! frames of 4 parts) a part takes 0.15–0.18 M instructions fewer than before. Memory: on the
+//! Cortex-M4 about 3.3 KB of stack for the firmware's parts (boxes of at most 96 px), at most
+//! 4.4 KB for boxes of more than 128 px: the weights' column sums and row caches (up to 2.4 KB)
+//! stay allocated while the shape pass's histogram and window (up to 2 KB) are; the fill needs a
+//! few hundred bytes (with `α < 1`, 4.3 KB). The box's rows in the plane are scratch. Boxes wider
+//! than 256 px (or narrower than 4) take the per-pixel path (bits 2–7 of the plane as scratch),
+//! same result, about 10× slower.
 
 use crate::refine::Difference;
-use core::ops::Range;
+use core::ops::{Add, Range, Sub};
 
 /// Below this fraction of the part's contrast an interior pixel is taken for platform (a filled
 /// hole).
 const HOLE_RATIO: f32 = 0.2;
 
-/// Bit of the mask plane marking the seed's component while one part is measured (bit 0 is the
-/// mask).
+/// Bit of the mask plane marking the seed's component on the per-pixel path (bit 0 is the mask).
 const COMPONENT: u8 = 1 << 7;
-
-/// Bit of the mask plane marking the component's ring between the two passes.
-const RING: u8 = 1 << 6;
 
 /// The margin added around the border's bounding box, px.
 const MARGIN: usize = 6;
 
-/// Words of one bit row.
-const WORDS: usize = 8;
-
 /// The widest box (px) measured with bit rows.
-const MAX_WIDTH: usize = 32 * WORDS;
+const MAX_WIDTH: usize = 256;
 
-/// One row of the box as bits: bit `j` of word `i` is the box's column `32·i + j`.
-type Bits = [u32; WORDS];
+/// A word of a bit row: the machine's (64 columns on 64-bit targets, 32 on the Cortex-M4).
+type Word = usize;
 
-/// An empty bit row.
-const EMPTY: Bits = [0; WORDS];
+/// Columns a word.
+const BITS: usize = Word::BITS as usize;
+
+/// Bytes a word.
+const WORD_BYTES: usize = BITS / 8;
+
+/// Words of the widest bit row.
+const WORDS: usize = MAX_WIDTH / BITS;
+
+/// One row of the box as bits, `N` words: bit `j` of word `i` is the box's column `BITS·i + j`;
+/// the bits past the box's width are 0.
+type Bits<const N: usize> = [Word; N];
+
+/// The fields of a box row on the bit-row path (see [`Plane`]): the mask's row,
+const MASK_FIELD: usize = 0;
+/// the component's row (after the shape pass: its inside, the component eroded twice),
+const COMP_FIELD: usize = 1;
+/// the ring's row (the component eroded three times minus eroded five times),
+const RING_FIELD: usize = 2;
+/// and the band's row (the component dilated twice minus its inside).
+const BAND_FIELD: usize = 3;
+/// The number of fields.
+const FIELDS: usize = 4;
+
+/// The narrowest box measured with bit rows: the fields need `FIELDS · ⌈width/8⌉` bytes of a row.
+const MIN_WIDTH: usize = FIELDS;
+
+/// Column sums of ring values: box column `c` at `c + 4`, and room for a run's window to slide
+/// one column past the box.
+const COLUMNS: usize = MAX_WIDTH + 9;
 
 /// A rectangle of pixels `[x0, x1) × [y0, y1)`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -98,9 +129,10 @@ pub struct Rect {
 
 /// The partial-volume area centroid of the part whose border passes through `seed` (a foreground
 /// pixel), within `bbox` (the border's bounding box; a 6 px margin is added, clipped to the
-/// image). `mask` is the 0/1 plane: bits 1–7 inside the box are scratch (they must be 0 on entry,
-/// and are 0 again on return). `None` when the part has no weight, or when `seed` is outside the
-/// image, the box or the mask, or `mask` is shorter than the image (then `mask` is not touched).
+/// image). `mask` is the 0/1 plane: inside the box it is scratch while the call runs (bits 1–7
+/// must be 0 on entry), and it holds its 0/1 values again on return. `None` when the part has no
+/// weight, or when `seed` is outside the image, the box or the mask, or `mask` is shorter than the
+/// image (then `mask` is not touched).
 pub fn partial_volume_centroid<B: AsRef<[u8]>>(
     diff: &Difference<'_, B>,
     mask: &mut [u8],
@@ -123,140 +155,774 @@ pub fn partial_volume_centroid<B: AsRef<[u8]>>(
     if mask.get(seed.1 * w + seed.0).is_none_or(|v| v & 1 == 0) {
         return None;
     }
-    let rows = mark_component(mask, w, r, seed);
-    if r.x1 - r.x0 <= MAX_WIDTH {
-        bit_row_centroid(diff, mask, w, r, rows)
-    } else {
-        per_pixel::centroid(diff, mask, w, r)
+    let width = r.x1 - r.x0;
+    if !(MIN_WIDTH..=MAX_WIDTH).contains(&width) {
+        mark_component(mask, w, r, seed);
+        return per_pixel::centroid(diff, mask, w, r);
+    }
+    let seed = (seed.0 - r.x0, seed.1 - r.y0);
+    // Every row of the box has its D from the frame's and background's rows when the last has
+    // (α = 1, and the background plane reaches that far).
+    let Some(src) = Exact::new(diff, r) else {
+        return bit_rows::<_, WORDS>(&Approx { diff, x0: r.x0 }, Plane::new(mask, w, r), seed);
+    };
+    let plane = Plane::new(mask, w, r);
+    // Rows of exactly the box's words (beyond 4, the widest).
+    match width.div_ceil(BITS) {
+        1 => bit_rows::<_, 1>(&src, plane, seed),
+        2 => bit_rows::<_, 2>(&src, plane, seed),
+        3 => bit_rows::<_, 3>(&src, plane, seed),
+        4 => bit_rows::<_, 4>(&src, plane, seed),
+        _ => bit_rows::<_, WORDS>(&src, plane, seed),
     }
 }
 
-/// The box's geometry as the bit-row passes see it.
-#[derive(Clone, Copy)]
-struct Shape {
-    /// Words per bit row that hold columns of the box.
+/// The bit-row path with rows of `N` words: the component from the seed (box column, box row),
+/// its inside, band and ring and the ring's median `D`, then the weights; the plane holds its
+/// mask again afterwards.
+fn bit_rows<S: Source, const N: usize>(src: &S, mut plane: Plane<'_>, (x, q): (usize, usize)) -> Option<[f32; 2]> {
+    let comp = mark::<N>(&mut plane, x, q);
+    // Rows with inside or band pixels: the component's, and 2 more above and below.
+    let rows = comp.start.saturating_sub(2)..(comp.end + 2).min(plane.height);
+    let contrast = shape_pass::<S, N>(src, &mut plane, comp, rows.clone());
+    let sums = if contrast.abs() >= 1.0 {
+        src.weigh::<N>(&mut plane, rows, contrast)
+    } else {
+        [0.0; 3]
+    };
+    plane.restore::<N>();
+    let [sw, sx, sy] = sums;
+    let r = plane.r;
+    (sw > 0.0).then(|| [r.x0 as f32 + sx / sw, r.y0 as f32 + sy / sw])
+}
+
+/// The box in the mask plane while bit rows are measured. A box row whose fields are set up
+/// ([`Plane::init`]) holds [`FIELDS`] bit rows from its first byte, `stride` bytes each (its
+/// words little-endian): the mask bits of those bytes are then in the first field only, and
+/// [`Plane::restore`] puts them back.
+struct Plane<'m> {
+    mask: &'m mut [u8],
+    /// The image's width.
+    w: usize,
+    r: Rect,
+    width: usize,
+    height: usize,
+    /// Words of a row.
     words: usize,
     /// The valid bits of the last of them.
-    last: u32,
+    last: Word,
+    /// Bytes of a field: whole words where they fit, else `⌈width/8⌉`.
+    stride: usize,
+    /// The box rows whose fields are set up: `lo..hi`; of them, `restored` hold the mask again.
+    lo: usize,
+    hi: usize,
+    restored: Range<usize>,
 }
 
-impl Shape {
-    fn new(width: usize) -> Self {
-        let words = width.div_ceil(32).min(WORDS);
-        let last = match width % 32 {
-            0 => u32::MAX,
-            bits => (1u32 << bits) - 1,
-        };
-        Shape { words, last }
+impl<'m> Plane<'m> {
+    fn new(mask: &'m mut [u8], w: usize, r: Rect) -> Self {
+        let width = r.x1 - r.x0;
+        let words = width.div_ceil(BITS).min(WORDS);
+        Plane {
+            mask,
+            w,
+            r,
+            width,
+            height: r.y1 - r.y0,
+            words,
+            last: match width % BITS {
+                0 => Word::MAX,
+                bits => (1 << bits) - 1,
+            },
+            // (Whole words from two on: `FIELDS · 2 · WORD_BYTES` bytes fit a row of more than
+            // one word.)
+            stride: if FIELDS * words * WORD_BYTES <= width {
+                words * WORD_BYTES
+            } else {
+                width.div_ceil(8)
+            },
+            lo: 0,
+            hi: 0,
+            restored: 0..0,
+        }
     }
-}
 
-/// [`partial_volume_centroid`] after the component is marked in the box's rows `rows`, for a box
-/// at most [`MAX_WIDTH`] wide; leaves only the mask bit in the box.
-fn bit_row_centroid<B: AsRef<[u8]>>(
-    diff: &Difference<'_, B>,
-    mask: &mut [u8],
-    w: usize,
-    r: Rect,
-    rows: Range<usize>,
-) -> Option<[f32; 2]> {
-    // Where every image row's D comes from the frame's and background's rows (α = 1 and a full
-    // background plane: then also the rows above the last), a ring pixel's D is read anew as
-    // cheaply as it would be kept.
-    let keep = diff.height().checked_sub(1).and_then(|last| diff.rows(last)).is_none();
-    let mut values = RingValues::new(keep);
-    let contrast = mark_ring(diff, mask, w, r, rows.clone(), &mut values);
-    if contrast.abs() < 1.0 {
-        for q in rows {
-            if let Some(row) = box_row_mut(mask, w, r, q) {
-                keep_mask_bit(row);
+    /// The plane's index of box row `q`'s first byte (wrapping: only a row of the box's is read
+    /// there).
+    #[inline(always)]
+    fn at(&self, q: usize) -> usize {
+        self.r.y0.wrapping_add(q).wrapping_mul(self.w).wrapping_add(self.r.x0)
+    }
+
+    /// The fields' bytes of box row `q` (`None` where they are not set up).
+    #[inline(always)]
+    fn fields(&self, q: usize) -> Option<&[u8]> {
+        let s = self.at(q);
+        if q >= self.lo && q < self.hi {
+            self.mask.get(s..s + FIELDS * self.stride)
+        } else {
+            None
+        }
+    }
+
+    /// [`Self::fields`], mutable.
+    #[inline(always)]
+    fn fields_mut(&mut self, q: usize) -> Option<&mut [u8]> {
+        let s = self.at(q);
+        if q >= self.lo && q < self.hi {
+            self.mask.get_mut(s..s + FIELDS * self.stride)
+        } else {
+            None
+        }
+    }
+
+    /// Field `field` of box row `q` (empty where the row's fields are not set up).
+    #[inline(always)]
+    fn load<const N: usize>(&self, q: usize, field: usize) -> Bits<N> {
+        self.fields(q).map_or([0; N], |f| get(f, self.stride, field))
+    }
+
+    /// Sets field `field` of box row `q` (a row whose fields are set up).
+    #[inline(always)]
+    fn store<const N: usize>(&mut self, q: usize, field: usize, bits: &Bits<N>) {
+        let stride = self.stride;
+        if let Some(f) = self.fields_mut(q) {
+            put(f, stride, field, bits);
+        }
+    }
+
+    /// Sets up the fields of box row `q` when it is next to the rows set up (or the first): the
+    /// mask's bits from the row's bytes, the component empty (the ring and the band are set by
+    /// the shape pass); returns the mask's bits (empty when `q` is not set up).
+    #[inline(always)]
+    fn init<const N: usize>(&mut self, q: usize) -> Bits<N> {
+        let first = self.lo == self.hi;
+        if q >= self.height || !(first || q + 1 == self.lo || q == self.hi) {
+            return self.load(q, MASK_FIELD);
+        }
+        let (s, stride) = (self.at(q), self.stride);
+        let Some(row) = self.mask.get_mut(s..s + self.width) else {
+            return [0; N];
+        };
+        let m = gather::<N>(row);
+        put(row, stride, MASK_FIELD, &m);
+        put(row, stride, COMP_FIELD, &[0; N]);
+        (self.lo, self.hi) = match (first, q + 1 == self.lo) {
+            (true, _) => (q, q + 1),
+            (false, true) => (q, self.hi),
+            (false, false) => (self.lo, q + 1),
+        };
+        m
+    }
+
+    /// Puts the mask's bits back into the bytes of the fields (of the rows not `restored`); no
+    /// row is set up afterwards.
+    fn restore<const N: usize>(&mut self) {
+        let stride = self.stride;
+        for q in self.lo..self.hi {
+            if self.restored.contains(&q) {
+                continue;
+            }
+            let s = self.at(q);
+            if let Some(row) = self.mask.get_mut(s..s + FIELDS * stride) {
+                restore_row::<N>(row, stride);
             }
         }
-        return None;
+        (self.lo, self.hi, self.restored) = (0, 0, 0..0);
     }
-    weigh(diff, mask, w, r, rows, contrast, &mut values)
 }
 
-/// First pass: marks the ring (component eroded three times minus eroded five times) with
-/// [`RING`] in the plane and returns the median `D` over it (from a signed histogram; 0 without
-/// ring pixels). Not inlined: its histogram and [`weigh`]'s column sums need not share a stack
-/// frame.
+/// Puts the mask's bits back into a row's field bytes (`FIELDS · stride` of them): byte i from
+/// bit i of the mask's field (the fields take at most half of the row's bytes, so the first half
+/// of its words).
+#[inline(always)]
+fn restore_row<const N: usize>(row: &mut [u8], stride: usize) {
+    let m: Bits<N> = get(row, stride, MASK_FIELD);
+    if whole_words::<N>(stride) {
+        // A whole number of 8-byte chunks: unrolled.
+        for (i, c) in row.chunks_exact_mut(8).enumerate().take(FIELDS * N * WORD_BYTES / 8) {
+            let byte = m
+                .get(i / WORD_BYTES)
+                .map_or(0, |&w| (w >> (8 * (i % WORD_BYTES))) as u8);
+            c.copy_from_slice(&SPREAD.get(usize::from(byte)).copied().unwrap_or(0).to_le_bytes());
+        }
+    } else {
+        for (i, c) in row.chunks_mut(8).enumerate() {
+            let byte = m
+                .get(i / WORD_BYTES)
+                .map_or(0, |&w| (w >> (8 * (i % WORD_BYTES))) as u8);
+            for (b, v) in c.iter_mut().zip(spread(byte).to_le_bytes()) {
+                *b = v;
+            }
+        }
+    }
+}
+
+/// Whether fields of `stride` bytes are `N` whole words: known for rows of 2 to `WORDS − 1`
+/// words, which are always that wide (see [`Plane::new`]); the widest rows are also those of
+/// [`Approx`]'s, which may be narrower.
+#[inline(always)]
+fn whole_words<const N: usize>(stride: usize) -> bool {
+    (N > 1 && N < WORDS) || stride == N * WORD_BYTES
+}
+
+/// Field `field` of a row's bytes (its words little-endian from byte `stride · field`).
+#[inline(always)]
+fn get<const N: usize>(row: &[u8], stride: usize, field: usize) -> Bits<N> {
+    let mut out = [0; N];
+    if whole_words::<N>(stride) {
+        let s = N * WORD_BYTES * field;
+        if let Some(bytes) = row.get(s..s + N * WORD_BYTES) {
+            for (o, c) in out.iter_mut().zip(bytes.chunks_exact(WORD_BYTES)) {
+                *o = Word::from_le_bytes(c.try_into().unwrap_or_default());
+            }
+        }
+    } else if let Some(bytes) = row.get(stride * field..stride * (field + 1)) {
+        for (o, c) in out.iter_mut().zip(bytes.chunks(WORD_BYTES)) {
+            let mut word = [0u8; WORD_BYTES];
+            for (b, v) in word.iter_mut().zip(c) {
+                *b = *v;
+            }
+            *o = Word::from_le_bytes(word);
+        }
+    }
+    out
+}
+
+/// Sets field `field` of a row's bytes (see [`get`]).
+#[inline(always)]
+fn put<const N: usize>(row: &mut [u8], stride: usize, field: usize, bits: &Bits<N>) {
+    if whole_words::<N>(stride) {
+        let s = N * WORD_BYTES * field;
+        if let Some(bytes) = row.get_mut(s..s + N * WORD_BYTES) {
+            for (c, v) in bytes.chunks_exact_mut(WORD_BYTES).zip(bits) {
+                c.copy_from_slice(&v.to_le_bytes());
+            }
+        }
+    } else if let Some(bytes) = row.get_mut(stride * field..stride * (field + 1)) {
+        for (c, v) in bytes.chunks_mut(WORD_BYTES).zip(bits) {
+            for (b, v) in c.iter_mut().zip(v.to_le_bytes()) {
+                *b = v;
+            }
+        }
+    }
+}
+
+/// The low bit of each of 8 bytes.
+const LOW: u64 = 0x0101_0101_0101_0101;
+
+/// Bit `i` of the result is the low bit of byte `i` of `v` (the other bits of `v` 0).
+#[inline(always)]
+fn pack(v: u64) -> Word {
+    (v.wrapping_mul(0x0102_0408_1020_4080) >> 56) as Word
+}
+
+/// Byte `i` of the result is bit `i` of `byte`, 0 or 1.
+#[inline(always)]
+const fn spread(byte: u8) -> u64 {
+    let bits = (byte as u64 * LOW) & 0x8040_2010_0804_0201;
+    ((bits + 0x7F7F_7F7F_7F7F_7F7F) >> 7) & LOW
+}
+
+/// [`spread`] of every byte.
+static SPREAD: [u64; 256] = {
+    let mut table = [0; 256];
+    let mut i = 0;
+    while i < 256 {
+        table[i] = spread(i as u8);
+        i += 1;
+    }
+    table
+};
+
+/// Bit `x` of the result is bit 0 of `row[x]`, `x < BITS·N`.
+#[inline(always)]
+fn gather<const N: usize>(row: &[u8]) -> Bits<N> {
+    let mut out = [0; N];
+    for (o, chunk) in out.iter_mut().zip(row.chunks(BITS)) {
+        *o = match <&[u8; BITS]>::try_from(chunk) {
+            // A whole word's bytes: 8 at a time, unrolled.
+            Ok(bytes) => {
+                let mut word = 0;
+                for j in 0..WORD_BYTES {
+                    let eight = bytes.get(8 * j..8 * j + 8).and_then(|c| <[u8; 8]>::try_from(c).ok());
+                    word |= pack(u64::from_le_bytes(eight.unwrap_or_default()) & LOW) << (8 * j);
+                }
+                word
+            }
+            Err(_) => gather_partial(row, row.len() - chunk.len()),
+        };
+    }
+    out
+}
+
+/// [`gather`]'s last word, of fewer than `BITS` bytes from `start`: 8 at a time, and the last
+/// few as the top of the row's last 8 (when it has 8).
 #[inline(never)]
-fn mark_ring<B: AsRef<[u8]>>(
-    diff: &Difference<'_, B>,
-    mask: &mut [u8],
-    w: usize,
-    r: Rect,
-    comp_rows: Range<usize>,
-    values: &mut RingValues,
+fn gather_partial(row: &[u8], start: usize) -> Word {
+    let mut word = 0;
+    for j in 0..WORD_BYTES {
+        let s = start + 8 * j;
+        let v = match row.get(s..s + 8) {
+            Some(c) => u64::from_le_bytes(c.try_into().unwrap_or_default()),
+            None => {
+                let rest = row.len().saturating_sub(s);
+                let v = match row.len().checked_sub(8).and_then(|t| row.get(t..)) {
+                    Some(last) if rest > 0 => {
+                        u64::from_le_bytes(last.try_into().unwrap_or_default()) >> (8 * (8 - rest))
+                    }
+                    _ => {
+                        let mut eight = [0u8; 8];
+                        for (b, v) in eight.iter_mut().zip(row.get(s..).unwrap_or(&[])) {
+                            *b = *v;
+                        }
+                        u64::from_le_bytes(eight)
+                    }
+                };
+                word |= pack(v & LOW) << (8 * j);
+                break;
+            }
+        };
+        word |= pack(v & LOW) << (8 * j);
+    }
+    word
+}
+
+/// The bits of word `k` of a bit row within columns `lo..=hi`.
+#[inline(always)]
+fn range_word(k: usize, lo: usize, hi: usize) -> Word {
+    let (a, b) = (BITS * k, BITS * k + BITS - 1);
+    if hi < a || lo > b {
+        return 0;
+    }
+    let low = if lo > a { Word::MAX << (lo - a) } else { Word::MAX };
+    let high = if hi < b { Word::MAX >> (b - hi) } else { Word::MAX };
+    low & high
+}
+
+/// Whether column `x` of `bits` is set.
+#[inline(always)]
+fn bit<const N: usize>(bits: &Bits<N>, x: usize) -> bool {
+    bits.get(x / BITS).is_some_and(|&v| v >> (x % BITS) & 1 != 0)
+}
+
+/// The first column at or after `x` whose bit is `SET` (`BITS·N` when none is).
+#[inline(always)]
+fn next_bit<const SET: bool, const N: usize>(bits: &Bits<N>, x: usize) -> usize {
+    let flip = if SET { 0 } else { Word::MAX };
+    let mut k = x / BITS;
+    let mut word = match bits.get(k) {
+        Some(&v) => (v ^ flip) & (Word::MAX << (x % BITS)),
+        None => return BITS * N,
+    };
+    loop {
+        if word != 0 {
+            return BITS * k + word.trailing_zeros() as usize;
+        }
+        k += 1;
+        match bits.get(k) {
+            Some(&v) => word = v ^ flip,
+            None => return BITS * N,
+        }
+    }
+}
+
+/// The run of set bits of `bits` around column `x` (which is set): its first and last column.
+#[inline(always)]
+fn run_around<const N: usize>(bits: &Bits<N>, x: usize) -> (usize, usize) {
+    (run_start(bits, x), next_bit::<false, N>(bits, x) - 1)
+}
+
+/// Sets columns `lo..=hi` of `bits`.
+#[inline(always)]
+fn set_range<const N: usize>(bits: &mut Bits<N>, lo: usize, hi: usize) {
+    for (k, v) in bits.iter_mut().enumerate() {
+        *v |= range_word(k, lo, hi);
+    }
+}
+
+/// The runs of set bits of `m` that hold a bit of `seeds` (which is within `m`): from each
+/// run's lowest seed to its end by a carry through the run (`m + seeds` clears those bits), then
+/// down to its start.
+#[inline(always)]
+fn runs_of<const N: usize>(m: &Bits<N>, seeds: &Bits<N>) -> Bits<N> {
+    let mut up = [0; N];
+    let mut carry = false;
+    for ((u, &m), &s) in up.iter_mut().zip(m).zip(seeds) {
+        let (t, c1) = m.overflowing_add(s);
+        let (t, c2) = t.overflowing_add(Word::from(carry));
+        carry = c1 | c2;
+        *u = (m & !t) | s;
+    }
+    // Every run touched (the common case: its last bit is in `up`): all of `m`.
+    if none(&and_not(&and_not(m, &shift_down::<1, N>(m)), &up)) {
+        return *m;
+    }
+    // The lowest bit of each run of `up`: where the run reaches below, the rest down to its start.
+    let starts = and_not(&up, &shift_up::<1, N>(&up));
+    for_each_bit(&starts, |p| {
+        let a = run_start(m, p);
+        if a < p {
+            set_range(&mut up, a, p - 1);
+        }
+    });
+    up
+}
+
+/// The first column of the run of set bits of `bits` that holds column `x`.
+#[inline(always)]
+fn run_start<const N: usize>(bits: &Bits<N>, x: usize) -> usize {
+    let (mut k, b) = (x / BITS, x % BITS);
+    let word = |k: usize| bits.get(k).copied().unwrap_or(0);
+    let mut z = !word(k) & ((1 << b) - 1);
+    loop {
+        if z != 0 {
+            return BITS * k + BITS - z.leading_zeros() as usize;
+        }
+        if k == 0 {
+            return 0;
+        }
+        k -= 1;
+        z = !word(k);
+    }
+}
+
+/// `a & b`, `a | b`, `a & !b` word by word.
+#[inline(always)]
+fn and<const N: usize>(a: &Bits<N>, b: &Bits<N>) -> Bits<N> {
+    core::array::from_fn(|k| a.get(k).copied().unwrap_or(0) & b.get(k).copied().unwrap_or(0))
+}
+
+/// See [`and`].
+#[inline(always)]
+fn or<const N: usize>(a: &Bits<N>, b: &Bits<N>) -> Bits<N> {
+    core::array::from_fn(|k| a.get(k).copied().unwrap_or(0) | b.get(k).copied().unwrap_or(0))
+}
+
+/// See [`and`].
+#[inline(always)]
+fn and_not<const N: usize>(a: &Bits<N>, b: &Bits<N>) -> Bits<N> {
+    core::array::from_fn(|k| a.get(k).copied().unwrap_or(0) & !b.get(k).copied().unwrap_or(0))
+}
+
+/// Whether `bits` has no bit set.
+#[inline(always)]
+fn none<const N: usize>(bits: &Bits<N>) -> bool {
+    bits.iter().all(|&v| v == 0)
+}
+
+/// Bit `c` of the result is bit `c + S` of `x` (0 past the row's end); `0 < S < BITS`.
+#[inline(always)]
+fn shift_down<const S: usize, const N: usize>(x: &Bits<N>) -> Bits<N> {
+    core::array::from_fn(|k| {
+        let cur = x.get(k).copied().unwrap_or(0);
+        let next = x.get(k + 1).copied().unwrap_or(0);
+        (cur >> S) | (next << (BITS - S))
+    })
+}
+
+/// Bit `c` of the result is bit `c − S` of `x` (0 before the row's start); `0 < S < BITS`.
+#[inline(always)]
+fn shift_up<const S: usize, const N: usize>(x: &Bits<N>) -> Bits<N> {
+    core::array::from_fn(|k| {
+        let cur = x.get(k).copied().unwrap_or(0);
+        let prev = k.checked_sub(1).and_then(|p| x.get(p)).copied().unwrap_or(0);
+        (cur << S) | (prev >> (BITS - S))
+    })
+}
+
+/// Horizontal erosion by the `(2K+1)`-segment (columns outside the row count as 0), `K` 2, 3 or
+/// 5.
+#[inline(always)]
+fn erode<const K: usize, const N: usize>(x: &Bits<N>) -> Bits<N> {
+    // AND over windows from the column on: 2 columns, 4, then 5 (K = 2), 7 (K = 3) or 8 and 11
+    // (K = 5); then centred.
+    let a2 = and(x, &shift_down::<1, N>(x));
+    let a4 = and(&a2, &shift_down::<2, N>(&a2));
+    match K {
+        2 => shift_up::<2, N>(&and(&a4, &shift_down::<4, N>(x))),
+        3 => shift_up::<3, N>(&and(&a4, &shift_down::<3, N>(&a4))),
+        _ => {
+            let a8 = and(&a4, &shift_down::<4, N>(&a4));
+            shift_up::<5, N>(&and(&a8, &shift_down::<7, N>(&a4)))
+        }
+    }
+}
+
+/// Horizontal dilation by the `(2K+1)`-segment, `K` 1 or 2 (not clipped to the box: the bits
+/// past its width may be set).
+#[inline(always)]
+fn dilate<const K: usize, const N: usize>(x: &Bits<N>) -> Bits<N> {
+    let one = or(&or(x, &shift_down::<1, N>(x)), &shift_up::<1, N>(x));
+    if K == 1 {
+        one
+    } else {
+        or(&or(&one, &shift_down::<2, N>(x)), &shift_up::<2, N>(x))
+    }
+}
+
+/// Calls `f` with the first and end column of every run of set bits of `bits`, in increasing
+/// order.
+#[inline(always)]
+fn for_each_run<const N: usize>(bits: &Bits<N>, mut f: impl FnMut(usize, usize)) {
+    let mut x = next_bit::<true, N>(bits, 0);
+    while x < BITS * N {
+        let end = next_bit::<false, N>(bits, x);
+        f(x, end);
+        x = next_bit::<true, N>(bits, end);
+    }
+}
+
+/// Calls `f` with the column of every set bit of `bits`, in increasing order.
+#[inline(always)]
+fn for_each_bit<const N: usize>(bits: &Bits<N>, mut f: impl FnMut(usize)) {
+    for (k, &word) in bits.iter().enumerate() {
+        let mut word = word;
+        while word != 0 {
+            f(BITS * k + word.trailing_zeros() as usize);
+            word &= word - 1;
+        }
+    }
+}
+
+/// Marks the 8-connected component of the mask's pixel at box column `x` of box row `q` in the
+/// component field, setting up the rows it reaches and one more above and below; returns the box
+/// rows that hold it. One sweep down from the seed's row adds to each row the runs next to the
+/// row above; where a row's runs touch a free pixel of the row above (the component turns
+/// upward), [`settle`] sweeps back and forth over the rows concerned.
+#[inline(never)]
+fn mark<const N: usize>(plane: &mut Plane<'_>, x: usize, q: usize) -> Range<usize> {
+    let m = plane.init::<N>(q);
+    if !bit(&m, x) {
+        return q..q;
+    }
+    let (a, b) = run_around(&m, x);
+    let mut c = [0; N];
+    set_range(&mut c, a, b);
+    plane.store(q, COMP_FIELD, &c);
+    let mut grown = dilate::<1, N>(&c);
+    // The rows whose runs touch a free pixel of the row above.
+    let mut touched: Option<(usize, usize)> = None;
+    let mut touch = |k: usize| {
+        touched = Some(touched.map_or((k, k), |(lo, hi)| (lo.min(k), hi.max(k))));
+    };
+    if q > 0 && !none(&and(&plane.init::<N>(q - 1), &grown)) {
+        touch(q);
+    }
+    let mut above_free = and_not(&m, &c);
+    // Rows q..end hold the component; each next row is set up here, from the row's bytes (rows
+    // q − 1 ..= q are).
+    let (stride, width, height, w) = (plane.stride, plane.width, plane.height, plane.w);
+    let mut end = q + 1;
+    if plane.hi == end {
+        let mut next = end;
+        let mut s = plane.at(next);
+        let mask = &mut *plane.mask;
+        while next < height {
+            let Some(row) = mask.get_mut(s..s + width) else {
+                break;
+            };
+            let m = gather::<N>(row);
+            put(row, stride, MASK_FIELD, &m);
+            next += 1;
+            let seeds = and(&m, &grown);
+            if none(&seeds) {
+                put(row, stride, COMP_FIELD, &[0; N]);
+                break;
+            }
+            let c = runs_of(&m, &seeds);
+            put(row, stride, COMP_FIELD, &c);
+            end = next;
+            grown = dilate::<1, N>(&c);
+            if !none(&and(&above_free, &grown)) {
+                touch(end - 1);
+            }
+            above_free = and_not(&m, &c);
+            s += w;
+        }
+        plane.hi = next;
+    }
+    match touched {
+        None => q..end,
+        Some(rows) => settle::<N>(plane, rows),
+    }
+}
+
+/// Completes the component after [`mark`]'s sweep down, whose runs in the rows `touched` (first
+/// and last) touch free pixels of the row above: sweeps up from the row above the last, through
+/// the rows above those touched and on while rows grow, then down over the rows below those whose
+/// new runs touch free pixels below, and so on until a sweep's new runs touch nothing behind it.
+/// Every row is then settled: no free pixel of it is next to the component in the rows above and
+/// below. Returns the rows that hold the component.
+fn settle<const N: usize>(plane: &mut Plane<'_>, touched: (usize, usize)) -> Range<usize> {
+    // Rows to grow: `pending` (first and last), the row behind each row touched.
+    let mut pending = (touched.0.saturating_sub(1), touched.1.saturating_sub(1));
+    let mut up = true;
+    loop {
+        let mut next: Option<(usize, usize)> = None;
+        let mut k = if up { pending.1 } else { pending.0 };
+        let mut grew = false;
+        loop {
+            let must = (pending.0..=pending.1).contains(&k) || grew;
+            if !must || !(plane.lo..plane.hi).contains(&k) {
+                break;
+            }
+            let (g, touch) = grow_row::<N>(plane, k, up);
+            grew = g;
+            if touch {
+                next = Some(next.map_or((k, k), |(lo, hi)| (lo.min(k), hi.max(k))));
+            }
+            if up {
+                let Some(above) = k.checked_sub(1) else { break };
+                k = above;
+            } else {
+                k += 1;
+            }
+        }
+        let Some((lo, hi)) = next else { break };
+        // The rows behind those touched: below them after a sweep up, above after a sweep down.
+        pending = if up {
+            (lo + 1, hi + 1)
+        } else {
+            (lo.saturating_sub(1), hi.saturating_sub(1))
+        };
+        up = !up;
+    }
+    let mut rows = 0..0;
+    for r in plane.lo..plane.hi {
+        if !none(&plane.load::<N>(r, COMP_FIELD)) {
+            rows = if rows.start == rows.end {
+                r..r + 1
+            } else {
+                rows.start..r + 1
+            };
+        }
+    }
+    rows
+}
+
+/// Adds to row `k` its free runs next to the component in rows `k − 1` and `k + 1`, setting up
+/// the rows next to it; returns whether it added any, and whether those touch a free pixel of the
+/// row behind (below for a sweep `up`, above for a sweep down).
+fn grow_row<const N: usize>(plane: &mut Plane<'_>, k: usize, up: bool) -> (bool, bool) {
+    let (m, c) = (plane.load::<N>(k, MASK_FIELD), plane.load::<N>(k, COMP_FIELD));
+    let (above, below) = (
+        plane.load::<N>(k.wrapping_sub(1), COMP_FIELD),
+        plane.load::<N>(k + 1, COMP_FIELD),
+    );
+    let free = and_not(&m, &c);
+    let seeds = and(&free, &dilate::<1, N>(&or(&above, &below)));
+    if none(&seeds) {
+        return (false, false);
+    }
+    let new = runs_of(&free, &seeds);
+    plane.store(k, COMP_FIELD, &or(&c, &new));
+    if k + 1 == plane.hi {
+        plane.init::<N>(k + 1);
+    }
+    if k == plane.lo && k > 0 {
+        plane.init::<N>(k - 1);
+    }
+    let behind = if up { k + 1 } else { k.wrapping_sub(1) };
+    let behind_free = and_not(
+        &plane.load::<N>(behind, MASK_FIELD),
+        &plane.load::<N>(behind, COMP_FIELD),
+    );
+    (true, !none(&and(&behind_free, &dilate::<1, N>(&new))))
+}
+
+/// Slot of row `q` in a window of 16 rows.
+#[inline(always)]
+fn slot(q: usize) -> usize {
+    q % 16
+}
+
+/// First pass: each row of `rows` gets its inside (component eroded twice), band (dilated twice
+/// minus inside) and ring (eroded three times minus eroded five times) in its fields, the
+/// component's rows being `comp`; returns the median `D` over the ring (from a signed histogram;
+/// 0 without ring pixels). Not inlined: its histogram and [`weigh`]'s column sums need not share
+/// a stack frame.
+#[inline(never)]
+fn shape_pass<S: Source, const N: usize>(
+    src: &S,
+    plane: &mut Plane<'_>,
+    comp: Range<usize>,
+    rows: Range<usize>,
 ) -> f32 {
-    let n = Shape::new(r.x1 - r.x0).words;
+    // Fields for every row weighed.
+    while plane.lo > rows.start {
+        let lo = plane.lo;
+        plane.init::<N>(lo - 1);
+        if plane.lo == lo {
+            break;
+        }
+    }
+    while plane.hi < rows.end {
+        let hi = plane.hi;
+        plane.init::<N>(hi);
+        if plane.hi == hi {
+            break;
+        }
+    }
     let mut hist = [0u16; 511];
     let mut ring_count = 0usize;
-    // The component's row q as bits (empty outside `comp_rows`).
-    let comp = |mask: &[u8], q: usize| match box_row(mask, w, r, q) {
-        Some(row) if comp_rows.contains(&q) => gather(row, 7),
-        _ => EMPTY,
+    // No bin of a box of fewer than 2^16 pixels gets to u16::MAX.
+    let small = plane.width * plane.height < 1 << 16;
+    let load = |plane: &Plane<'_>, q: usize| {
+        if comp.contains(&q) {
+            plane.load::<N>(q, COMP_FIELD)
+        } else {
+            [0; N]
+        }
     };
-    // Ring rows have the component 3 rows above and below.
-    let ring_rows = comp_rows.start + 3..comp_rows.end.saturating_sub(3);
-    // The component's rows j − 5 ..= j + 5 around row j: row q in slot (q + 5) mod 11 (the slots of
-    // rows above the box stay empty).
-    let mut rows = [EMPTY; 11];
-    for q in ring_rows.start.saturating_sub(5)..ring_rows.start + 5 {
-        if let Some(slot) = rows.get_mut((q + 5) % 11) {
-            *slot = comp(mask, q);
+    // The component's rows j − 5 ..= j + 5 around row j (empty outside `comp`).
+    let mut window = [[0; N]; 16];
+    for q in rows.start.saturating_sub(5)..rows.start + 5 {
+        if let Some(w) = window.get_mut(slot(q)) {
+            *w = load(plane, q);
         }
     }
-    for j in ring_rows {
-        if let Some(slot) = rows.get_mut((j + 10) % 11) {
-            *slot = comp(mask, j + 5);
+    let valid: Bits<N> = core::array::from_fn(|k| match (k + 1).cmp(&plane.words) {
+        core::cmp::Ordering::Less => Word::MAX,
+        core::cmp::Ordering::Equal => plane.last,
+        core::cmp::Ordering::Greater => 0,
+    });
+    for j in rows {
+        if let Some(w) = window.get_mut(slot(j + 5)) {
+            *w = load(plane, j + 5);
         }
-        let row = |t: usize| rows.get((j + t) % 11).unwrap_or(&EMPTY);
-        // Erosion by the (2k+1)-square: AND of the rows within k, then of the columns within k.
-        let mut v3 = *row(5);
-        for t in [2, 3, 4, 6, 7, 8] {
-            and_into(&mut v3, row(t));
-        }
-        if v3 == EMPTY {
-            continue;
-        }
-        let mut v5 = v3;
-        for t in [0, 1, 9, 10] {
-            and_into(&mut v5, row(t));
-        }
-        let (e3, e5) = (erode::<3>(&v3, n), erode::<5>(&v5, n));
-        let mut ring = EMPTY;
-        for ((o, a), b) in ring.iter_mut().zip(e3).zip(e5).take(n) {
-            *o = a & !b;
-        }
-        if ring == EMPTY {
-            continue;
-        }
-        if let Some(plane) = box_row_mut(mask, w, r, j) {
-            scatter(plane, &ring, RING);
-        }
-        let y = r.y0 + j;
-        let rows = diff.rows(y);
-        for_each_bit(&ring, n, |col| {
-            let x = r.x0 + col;
-            let (d, bin) = match rows.and_then(|(f, b)| Some((*f.get(x)?, *b.get(x)?))) {
-                // An integer in −255..=255: its bin without the conversion back from `f32`.
-                Some((f, b)) => {
-                    let i = i32::from(f) - i32::from(b);
-                    (i as f32, (i + 255) as usize)
-                }
-                None => {
-                    let d = diff.at(x as isize, y as isize);
-                    (d, (d as i32 + 255).clamp(0, 510) as usize)
-                }
-            };
-            values.store(d);
-            if let Some(hb) = hist.get_mut(bin) {
-                *hb = hb.saturating_add(1);
+        // Row j + t − 6 for t = 1..=11.
+        let row = |t: usize| window.get(slot(j + t + 10)).copied().unwrap_or([0; N]);
+        // Erosion by the (2k+1)-square: AND of the rows within k, then of the columns within k;
+        // dilation likewise with OR.
+        let (a, b, c, d, e) = (row(4), row(5), row(6), row(7), row(8));
+        let grown = or(&or(&or(&a, &b), &or(&c, &d)), &e);
+        let (mut inside, mut band, mut ring) = ([0; N], [0; N], [0; N]);
+        if !none(&grown) {
+            let v2 = and(&and(&and(&a, &b), &and(&c, &d)), &e);
+            inside = erode::<2, N>(&v2);
+            band = and_not(&and(&dilate::<2, N>(&grown), &valid), &inside);
+            let v3 = and(&and(&v2, &row(3)), &row(9));
+            if !none(&v3) {
+                let v5 = and(&and(&and(&v3, &row(1)), &and(&row(2), &row(10))), &row(11));
+                ring = and_not(&erode::<3, N>(&v3), &erode::<5, N>(&v5));
             }
-            ring_count += 1;
-        });
+        }
+        let stride = plane.stride;
+        if let Some(fields) = plane.fields_mut(j) {
+            put(fields, stride, COMP_FIELD, &inside);
+            put(fields, stride, BAND_FIELD, &band);
+            put(fields, stride, RING_FIELD, &ring);
+        }
+        if !none(&ring) {
+            let image_row = src.row(plane.r.y0 + j);
+            if small {
+                src.histogram::<true, N>(image_row, &ring, &mut hist);
+            } else {
+                src.histogram::<false, N>(image_row, &ring, &mut hist);
+            }
+            ring_count += ring.iter().map(|w| w.count_ones() as usize).sum::<usize>();
+        }
     }
     if ring_count == 0 {
         return 0.0;
@@ -271,268 +937,283 @@ fn mark_ring<B: AsRef<[u8]>>(
     0.0
 }
 
-/// Second pass: the weighted centroid, in raster order. Row `p` of the plane is read (and left
-/// with only its mask bit) 4 rows ahead of the weights, so the ring's column sums cover rows
-/// `y − 4 ..= y + 4` when row `y` is weighed. Not inlined (see [`mark_ring`]).
+/// Second pass: the sums (Σw, Σw·x, Σw·y, box coordinates) of the weights of the rows `rows`, in
+/// raster order, from the fields the shape pass left. The ring's values are summed per column
+/// over rows `y − 4 ..= y + 4` while row `y` is weighed. Not inlined (see [`shape_pass`]).
 #[inline(never)]
-fn weigh<B: AsRef<[u8]>>(
-    diff: &Difference<'_, B>,
-    mask: &mut [u8],
-    w: usize,
-    r: Rect,
-    comp_rows: Range<usize>,
-    contrast: f32,
-    values: &mut RingValues,
-) -> Option<[f32; 2]> {
-    let shape = Shape::new(r.x1 - r.x0);
-    let n = shape.words;
-    let height = r.y1 - r.y0;
-    // f32 sums of coordinates relative to the box's corner (small numbers, so single precision
-    // keeps the centroid to about 1e-4 px; the MCU has no double-precision FPU).
+fn weigh<S: Source, const N: usize>(src: &S, plane: &Plane<'_>, rows: Range<usize>, contrast: f32) -> [f32; 3] {
     let mut sums = [0.0f32; 3];
-    // D of the pixels of one word of a row, by bit.
-    let mut d_at = [0.0f32; 32];
-    // The component's rows p − 7 ..= p (row q in slot q mod 8) and the ring's rows p − 9 ..= p
-    // (slot q mod 10); the slots of rows above the component stay empty.
-    let mut comp = [EMPTY; 8];
-    let mut rings = [EMPTY; 10];
-    let mut columns = Columns::new();
-    // Rows with inside or band pixels: the component's, and 2 more above and below.
-    for p in comp_rows.start..(comp_rows.end + 2).min(height) + 4 {
-        let (c, ring) = match box_row_mut(mask, w, r, p) {
-            Some(plane) if comp_rows.contains(&p) => gather_and_clear(plane),
-            _ => (EMPTY, EMPTY),
+    let mut columns = [S::Col::default(); COLUMNS];
+    let weights = Weights {
+        contrast,
+        sign: contrast.signum(),
+    };
+    // The image rows and ring rows of rows y − 4 ..= y + 4 (row q in slot q mod 16), each read
+    // once: when it enters the column sums; the ring values too, as many as the FIFO holds.
+    let mut images = [S::Row::default(); 16];
+    let mut rings = [[0; N]; 16];
+    let mut fifo = RingFifo::new(S::Col::default());
+    let enter = |columns: &mut [S::Col; COLUMNS],
+                 images: &mut [S::Row; 16],
+                 rings: &mut [Bits<N>; 16],
+                 fifo: &mut RingFifo<S::Col>,
+                 q: usize| {
+        let image_row = src.row(plane.r.y0 + q);
+        let bits = if rows.contains(&q) {
+            plane.load::<N>(q, RING_FIELD)
+        } else {
+            [0; N]
         };
-        if let Some(slot) = comp.get_mut(p % 8) {
-            *slot = c;
+        for_each_bit(&bits, |c| {
+            if let Some(s) = columns.get_mut(c + 4) {
+                let v = src.col(image_row, c, &weights);
+                *s = *s + v;
+                fifo.enter(v);
+            }
+        });
+        if let (Some(i), Some(r)) = (images.get_mut(q % 16), rings.get_mut(q % 16)) {
+            (*i, *r) = (image_row, bits);
         }
-        // The column sums move on to rows p − 8 ..= p.
-        if let Some(q) = p.checked_sub(9) {
-            columns.remove_row(diff, values, rings.get(q % 10).unwrap_or(&EMPTY), r, q, n);
-        }
-        columns.add_row(diff, values, &ring, r, p, n);
-        if let Some(slot) = rings.get_mut(p % 10) {
-            *slot = ring;
-        }
-        let Some(y) = p.checked_sub(4) else {
-            continue;
-        };
-        // Inside = eroded twice, band = dilated twice minus inside: rows y − 2 ..= y + 2.
-        let mut v2 = *comp.get((y + 6) % 8).unwrap_or(&EMPTY);
-        let mut grown = v2;
-        for k in 7..11 {
-            let row = comp.get((y + k) % 8).unwrap_or(&EMPTY);
-            for ((a, o), b) in v2.iter_mut().zip(grown.iter_mut()).zip(row).take(n) {
-                *a &= b;
-                *o |= b;
+    };
+    for q in rows.start.saturating_sub(4)..rows.start + 4 {
+        enter(&mut columns, &mut images, &mut rings, &mut fifo, q);
+    }
+    for y in rows.clone() {
+        enter(&mut columns, &mut images, &mut rings, &mut fifo, y + 4);
+        if let Some(fields) = plane.fields(y) {
+            let band: Bits<N> = get(fields, plane.stride, BAND_FIELD);
+            if !none(&band) {
+                let inside: Bits<N> = get(fields, plane.stride, COMP_FIELD);
+                let image_row = images.get(y % 16).copied().unwrap_or_default();
+                sums = src.weigh_row(image_row, y, &inside, &band, &columns, &weights, sums);
             }
         }
-        if grown == EMPTY {
-            continue;
+        if let Some(q) = y.checked_sub(4) {
+            if let (Some(&image_row), Some(bits)) = (images.get(q % 16), rings.get(q % 16)) {
+                for_each_bit(bits, |c| {
+                    if let Some(s) = columns.get_mut(c + 4) {
+                        *s = *s - fifo.leave(|| src.col(image_row, c, &weights));
+                    }
+                });
+            }
         }
-        let inside = erode::<2>(&v2, n);
-        let mut band = dilate2(&grown, shape);
-        for (b, s) in band.iter_mut().zip(inside).take(n) {
-            *b &= !s;
+    }
+    sums
+}
+
+/// Capacity of [`RingFifo`].
+const RING_FIFO: usize = 128;
+
+/// The ring values between entering the column sums and leaving them, in the order they enter
+/// (which is the order they leave), so that each is computed once ([`Approx`]'s are dear): the
+/// values numbered `kept` (at most [`RING_FIFO`] of them); the others are computed again.
+struct RingFifo<C> {
+    values: [C; RING_FIFO],
+    kept: Range<usize>,
+    /// The number of values entered, and left.
+    entered: usize,
+    left: usize,
+}
+
+impl<C: Copy> RingFifo<C> {
+    fn new(zero: C) -> Self {
+        RingFifo {
+            values: [zero; RING_FIFO],
+            kept: 0..0,
+            entered: 0,
+            left: 0,
         }
-        let yy = r.y0 + y;
-        let image_rows = diff.rows(yy);
-        let mut slide = Slide::default();
-        for (i, (&si, &bi)) in inside.iter().zip(&band).enumerate().take(n) {
-            let word = si | bi;
-            if word == 0 {
+    }
+
+    /// The next value entered: kept while the kept values stay consecutive and fit, or afresh
+    /// once none is.
+    #[inline(always)]
+    fn enter(&mut self, v: C) {
+        let k = self.entered;
+        self.entered += 1;
+        if self.kept.start == self.kept.end {
+            self.kept = k..k;
+        }
+        if k == self.kept.end && k - self.kept.start < RING_FIFO {
+            if let Some(slot) = self.values.get_mut(k % RING_FIFO) {
+                *slot = v;
+                self.kept.end = k + 1;
+            }
+        }
+    }
+
+    /// The next value to leave (`read` when it is not kept).
+    #[inline(always)]
+    fn leave(&mut self, read: impl FnOnce() -> C) -> C {
+        let k = self.left;
+        self.left += 1;
+        // Values leave in the order they enter: a kept one is the first kept.
+        if k == self.kept.start && k < self.kept.end {
+            self.kept.start += 1;
+            if let Some(&v) = self.values.get(k % RING_FIFO) {
+                return v;
+            }
+        }
+        read()
+    }
+}
+
+/// What the weights depend on besides `D` and the ring's column sums.
+struct Weights {
+    contrast: f32,
+    /// The contrast's sign, ±1.
+    sign: f32,
+}
+
+impl Weights {
+    /// `sums` plus the weights of the inside pixels `cols` of box row `y`: 1, unless the pixel
+    /// looks like the platform (a small hole or a narrow gap that the mask's closing filled;
+    /// printed labels keep at least a third of the part's contrast, holes keep none).
+    #[inline(always)]
+    fn inside_run<S: Source>(
+        &self,
+        src: &S,
+        image_row: S::Row,
+        cols: Range<usize>,
+        y: usize,
+        sums: [f32; 3],
+    ) -> [f32; 3] {
+        let (contrast, sign) = (self.contrast, self.sign);
+        // Division by the contrast is monotonic: when the least `D · sign` passes, all do.
+        let least = src.least(image_row, cols.clone(), sign);
+        if (least * sign) / contrast >= HOLE_RATIO {
+            return add_ones(sums, cols, y);
+        }
+        self.inside_by_pixel(src, image_row, cols, y, sums)
+    }
+
+    /// [`Self::inside_run`] pixel by pixel (runs of weight 1 between the others at once).
+    #[inline(never)]
+    fn inside_by_pixel<S: Source>(
+        &self,
+        src: &S,
+        image_row: S::Row,
+        cols: Range<usize>,
+        y: usize,
+        sums: [f32; 3],
+    ) -> [f32; 3] {
+        let contrast = self.contrast;
+        let mut sums = sums;
+        let mut ones = cols.start;
+        for c in cols.clone() {
+            let ratio = src.d(image_row, c) / contrast;
+            if ratio >= HOLE_RATIO {
                 continue;
             }
-            // D of the word's pixels first (of all between its first and last: one loop), then
-            // the weights (no call between the sums).
-            let (lo, hi) = (word.trailing_zeros() as usize, 32 - word.leading_zeros() as usize);
-            if let Some(span) = d_at.get_mut(lo..hi) {
-                d_span(diff, image_rows, r.x0 + 32 * i + lo, yy, span);
+            sums = add_ones(sums, ones..c, y);
+            ones = c + 1;
+            let weight = ratio.clamp(0.0, 1.0);
+            if weight > 0.0 {
+                let [sw, sx, sy] = sums;
+                sums = [sw + weight, sx + weight * c as u32 as f32, sy + weight * y as f32];
             }
-            let ones = at_least_hole_ratio(&d_at, si, contrast);
-            let row = RowWeights {
-                contrast,
-                y: y as f32,
-                first: 32 * i,
-            };
-            sums = row.add(sums, &d_at, [si, bi, ones], &mut slide, &columns);
         }
+        add_ones(sums, ones..cols.end, y)
+    }
+}
+
+/// `sums` (Σw, Σw·x, Σw·y) plus weight 1 for each pixel of columns `cols` of box row `y`: the
+/// same bits as adding them one by one in increasing column.
+#[inline(always)]
+fn add_ones(sums: [f32; 3], cols: Range<usize>, y: usize) -> [f32; 3] {
+    let (Ok(count), Ok(first), Ok(y)) = (u32::try_from(cols.len()), u32::try_from(cols.start), u32::try_from(y)) else {
+        return sums;
+    };
+    if count == 0 {
+        return sums;
     }
     let [sw, sx, sy] = sums;
-    (sw > 0.0).then(|| [r.x0 as f32 + sx / sw, r.y0 as f32 + sy / sw])
+    // Σ columns (below 2^17 for a box row).
+    let columns = u64::from(first) * u64::from(count) + u64::from(count) * u64::from(count - 1) / 2;
+    let at_once = |s: f32, t: u64| exact_integer(t).and_then(|t| exact_sum(s, t));
+    [
+        at_once(sw, u64::from(count)).unwrap_or_else(|| add_sequence(sw, 1, 0, count)),
+        at_once(sx, columns).unwrap_or_else(|| add_sequence(sx, first, 1, count)),
+        at_once(sy, u64::from(y) * u64::from(count)).unwrap_or_else(|| add_sequence(sy, y, 0, count)),
+    ]
 }
 
-/// The bits of `inside` (a word's inside pixels) whose `d_at[bit] / contrast ≥ HOLE_RATIO`: the
-/// inside pixels that weigh 1. Division by `contrast` is monotonic, so when the pixel of the
-/// least `D · sign(contrast)` from the first inside pixel to the last passes, all pass (one
-/// reduction, no branch a pixel); else pixel by pixel.
-#[inline]
-fn at_least_hole_ratio(d_at: &[f32; 32], inside: u32, contrast: f32) -> u32 {
-    let (lo, hi) = (inside.trailing_zeros() as usize, 32 - inside.leading_zeros() as usize);
-    let sign = contrast.signum();
-    // `sign` is ±1: the products are exact.
-    // (A select rather than `f32::min`: D is never NaN, and the compiler makes it one vector
-    // instruction.)
-    let least = d_at
-        .get(lo..hi)
-        .unwrap_or(&[])
-        .iter()
-        .fold(f32::INFINITY, |m, &d| if d * sign < m { d * sign } else { m });
-    if (least * sign) / contrast >= HOLE_RATIO {
-        return inside;
-    }
-    let mut ones = 0u32;
-    let mut bits = inside;
-    while bits != 0 {
-        let bit = bits.trailing_zeros();
-        bits &= bits - 1;
-        let d = d_at.get(bit as usize).copied().unwrap_or(0.0);
-        ones |= u32::from(d / contrast >= HOLE_RATIO) << bit;
-    }
-    ones
-}
-
-/// What the weights of one row's pixels depend on, besides `D`.
-struct RowWeights {
-    contrast: f32,
-    /// The row in the box.
-    y: f32,
-    /// The column of bit 0 of the word.
-    first: usize,
-}
-
-impl RowWeights {
-    /// `sums` (Σw, Σw·x, Σw·y) plus weight 1 for each pixel of `run` (bits of the word), the
-    /// same bits as adding them one by one in increasing column: at once when the sums are
-    /// sure to stay exact, else one by one.
-    #[inline]
-    fn add_ones(&self, sums: [f32; 3], run: u32) -> [f32; 3] {
-        self.add_ones_at_once(sums, run).unwrap_or_else(|| {
-            let [mut sw, mut sx, mut sy] = sums;
-            let mut bits = run;
-            while bits != 0 {
-                let col = self.first + bits.trailing_zeros() as usize;
-                bits &= bits - 1;
-                sw += 1.0;
-                sx += col as u32 as f32;
-                sy += self.y;
-            }
-            [sw, sx, sy]
-        })
-    }
-
-    /// [`Self::add_ones`] with one addition per sum, `None` when that might round differently.
-    #[inline]
-    fn add_ones_at_once(&self, sums: [f32; 3], run: u32) -> Option<[f32; 3]> {
-        // The number of pixels and the sum of their bits' indices.
-        let low = run.trailing_zeros();
-        let span = run.checked_shr(low).unwrap_or(0);
-        let (count, bit_sum) = if span & span.wrapping_add(1) == 0 {
-            // Columns low .. low + count.
-            let count = span.count_ones();
-            (count, count * low + count * count.saturating_sub(1) / 2)
-        } else {
-            let bit_sum = (run & 0xAAAA_AAAA).count_ones()
-                + 2 * (run & 0xCCCC_CCCC).count_ones()
-                + 4 * (run & 0xF0F0_F0F0).count_ones()
-                + 8 * (run & 0xFF00_FF00).count_ones()
-                + 16 * (run & 0xFFFF_0000).count_ones();
-            (run.count_ones(), bit_sum)
-        };
-        let cols = u32::try_from(self.first)
-            .ok()?
-            .checked_mul(count)?
-            .checked_add(bit_sum)?;
-        let [sw, sx, sy] = sums;
-        Some([
-            exact_sum(sw, count as f32)?,
-            exact_sum(sx, exact_integer(cols)?)?,
-            // y is an integer and count ≤ 32: the product is exact when it is below 2^24.
-            exact_sum(sy, exact_integer_f32(self.y * count as f32)?)?,
-        ])
-    }
-
-    /// `sums` (Σw, Σw·x, Σw·y) plus the weights of the word's inside and band pixels, in
-    /// increasing column; `d_at[bit]` is `D` of the pixel of `bit`, `ones` the inside pixels of
-    /// weight 1 (their runs between the other pixels are added at once). Not inlined, so the
-    /// sums stay in registers.
-    #[inline(never)]
-    fn add(
-        &self,
-        sums: [f32; 3],
-        d_at: &[f32; 32],
-        [inside, band, ones]: [u32; 3],
-        slide: &mut Slide,
-        columns: &Columns,
-    ) -> [f32; 3] {
-        let [mut sw, mut sx, mut sy] = sums;
-        let contrast = self.contrast;
-        let sign = contrast.signum();
-        let mut bits = inside | band;
-        // The pixels weighed one by one.
-        let single = bits & !ones;
-        while bits != 0 {
-            let next = bits & single;
-            let lowest = next & next.wrapping_neg();
-            // The pixels of weight 1 before the next one weighed alone (all when there is none).
-            let run = bits & lowest.wrapping_sub(1);
-            if run != 0 {
-                [sw, sx, sy] = self.add_ones([sw, sx, sy], run);
-                bits &= !run;
-            }
-            if lowest == 0 {
-                break;
-            }
-            bits &= !lowest;
-            let bit = lowest.trailing_zeros();
-            let col = self.first + bit as usize;
-            let d = d_at.get(bit as usize).copied().unwrap_or(0.0);
-            let weight = if inside & lowest != 0 {
-                // Inside counts 1, unless the pixel looks like the platform: a small hole or a
-                // narrow gap that the mask's closing filled. Printed labels keep at least a third
-                // of the part's contrast, holes keep none. (Here the ratio is below
-                // HOLE_RATIO: the others are in `ones`.)
-                (d / contrast).clamp(0.0, 1.0)
-            } else if d * sign > 0.0 {
-                // The local contrast: mean D of the ring pixels within 4 px (shading across the
-                // part changes it from one side to the other), else the part's median. (It has
-                // the contrast's sign, so a D of the other sign weighs 0.)
-                let (sum, count) = slide.around(col, columns);
-                let mut local = contrast;
-                if count > 0 {
-                    // At least 1 in size, of the contrast's sign (`sign` is ±1: exact).
-                    let mean = sum / count as f32;
-                    if mean * sign >= 1.0 {
-                        local = mean;
-                    }
-                }
-                (d / local).clamp(0.0, 1.0)
+/// `s` plus the `count` integers `first + step·k` (`k = 0, 1, …`) one by one in `f32`: at once as
+/// far as none of the additions rounds ([`exact_sum`]), the one that does on its own.
+#[inline(never)]
+fn add_sequence(s: f32, first: u32, step: u32, count: u32) -> f32 {
+    // The sum of the first `k` terms (exact: below 2^64).
+    let terms = |first: u32, k: u32| {
+        let (first, k, step) = (u64::from(first), u64::from(k), u64::from(step));
+        first * k + step * (k * k.saturating_sub(1) / 2)
+    };
+    let at_once = |s: f32, t: u64| exact_integer(t).and_then(|t| exact_sum(s, t));
+    let (mut s, mut first, mut count) = (s, first, count);
+    while count > 0 {
+        if let Some(total) = at_once(s, terms(first, count)) {
+            return total;
+        }
+        // The most terms that go at once (none at least, when `s` is a sum that rounds on its
+        // own): a bisection, the test is monotonic in the number of terms; first around where
+        // the terms reach the next binade of `s` (or 2^24 from an integer `s`).
+        let (mut lo, mut hi) = (0u32, count);
+        if at_once(s, 0).is_none() {
+            hi = 1;
+        } else if s > 0.0 {
+            let top = if s as u32 as f32 == s {
+                EXACT
             } else {
-                0.0
+                f32::from_bits(((s.to_bits() >> 23) + 1) << 23)
             };
-            if weight > 0.0 {
-                sw += weight;
-                sx += weight * col as u32 as f32;
-                sy += weight * self.y;
+            // (A guess in f32: the bisection settles it.)
+            let room = top - s;
+            let (a, b) = (first as f32, step as f32);
+            // b·k²/2 + (a − b/2)·k = room.
+            let k = if b > 0.0 {
+                let c = a - b / 2.0;
+                (crate::math::sqrt(c * c + 2.0 * b * room) - c) / b
+            } else if a > 0.0 {
+                room / a
+            } else {
+                count as f32
+            };
+            let k = (k.max(0.0) as u32).min(count - 1);
+            if at_once(s, terms(first, k)).is_some() {
+                lo = k;
+                if at_once(s, terms(first, k + 1)).is_none() {
+                    hi = k + 1;
+                }
+            } else {
+                hi = k;
             }
         }
-        [sw, sx, sy]
+        while hi - lo > 1 {
+            let mid = lo + (hi - lo) / 2;
+            if at_once(s, terms(first, mid)).is_some() {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        if let Some(part) = at_once(s, terms(first, lo)) {
+            s = part;
+        }
+        // The next term alone (it rounds, or is the first of a new binade).
+        let next = first.saturating_add(step.saturating_mul(lo));
+        s += next as f32;
+        first = next.saturating_add(step);
+        count -= lo + 1;
     }
+    s
 }
 
 /// Below this, every integer is an `f32`.
 const EXACT: f32 = 16_777_216.0;
 
-/// `v` as an `f32` when that is exact.
-#[inline]
-fn exact_integer(v: u32) -> Option<f32> {
+/// `v` as an `f32` when that is exact (at most 2^24).
+#[inline(always)]
+fn exact_integer(v: u64) -> Option<f32> {
     (v <= 1 << 24).then_some(v as f32)
-}
-
-/// `v` (an integer-valued product) when it is below 2^24, so that it was computed exactly.
-#[inline]
-fn exact_integer_f32(v: f32) -> Option<f32> {
-    (v < EXACT).then_some(v)
 }
 
 /// `s + t` for `s ≥ 0` and an integer `t ≥ 0` that stands for several integer terms added to `s`
@@ -540,7 +1221,7 @@ fn exact_integer_f32(v: f32) -> Option<f32> {
 /// either `s` is an integer and the sum stays below 2^24 (every partial sum is an integer an
 /// `f32` holds), or `s` and the sum share their exponent below 2^24 (every partial sum lies in
 /// that binade, on its grid of at most 1). `None` otherwise.
-#[inline]
+#[inline(always)]
 fn exact_sum(s: f32, t: f32) -> Option<f32> {
     let total = s + t;
     // Rounding is monotonic: a computed sum below 2^24 means a true one below it.
@@ -552,212 +1233,540 @@ fn exact_sum(s: f32, t: f32) -> Option<f32> {
     (same_binade || s as u32 as f32 == s).then_some(total)
 }
 
-/// The frame's and the background's image row (see [`Difference::rows`]), when `D` is their
-/// difference.
-type ImageRows<'a> = Option<(&'a [u8], &'a [u8])>;
+/// Where `D` comes from: the frame's and background's image rows ([`Exact`], `α = 1`: integers)
+/// or [`Difference::at`] ([`Approx`]). Columns are the box's. The pixel loops have a definition
+/// here, pixel by pixel through [`Source::d`]; [`Exact`] has faster ones with the same results.
+trait Source: Sized {
+    /// What a row's values are read from.
+    type Row: Copy + Default;
+    /// A sum of ring values: their `D` and how many.
+    type Col: Copy + Default + Add<Output = Self::Col> + Sub<Output = Self::Col>;
+    /// Image row `y`.
+    fn row(&self, y: usize) -> Self::Row;
+    /// `D` at column `c`: the value of [`Difference::at`].
+    fn d(&self, row: Self::Row, c: usize) -> f32;
+    /// The ring value at column `c`.
+    fn col(&self, row: Self::Row, c: usize, weights: &Weights) -> Self::Col;
+    /// The sum of `D` and the count of a sum of ring values.
+    fn split(col: Self::Col, weights: &Weights) -> (f32, u32);
 
-/// `D` at column `x` of image row `y` whose [`Difference::rows`] are `rows`: the value of
-/// [`Difference::at`], from the rows when there are.
-#[inline]
-fn d_pixel<B: AsRef<[u8]>>(diff: &Difference<'_, B>, rows: ImageRows<'_>, x: usize, y: usize) -> f32 {
-    match rows.and_then(|(f, b)| Some((f.get(x)?, b.get(x)?))) {
-        // Both exact integers, so the difference is exact: the same `f32` as `at`'s.
-        Some((&f, &b)) => (i32::from(f) - i32::from(b)) as f32,
-        None => diff.at(x as isize, y as isize),
+    /// Adds the ring pixels `ring` to the signed histogram of `D` (bin `D + 255`, clamped to
+    /// 0..=510), counts saturating at `u16::MAX` (`WRAP`: adding 1 plainly, for a box of fewer
+    /// pixels, where they cannot get there).
+    #[inline(always)]
+    fn histogram<const WRAP: bool, const N: usize>(&self, row: Self::Row, ring: &Bits<N>, hist: &mut [u16; 511]) {
+        for_each_bit(ring, |c| {
+            let bin = (self.d(row, c) as i32 + 255).clamp(0, 510) as usize;
+            if let Some(h) = hist.get_mut(bin) {
+                *h = if WRAP { h.wrapping_add(1) } else { h.saturating_add(1) };
+            }
+        });
     }
-}
 
-/// `D` of columns `x .. x + out.len()` of image row `y` into `out`, the values of
-/// [`Difference::at`]: one loop over `rows` (which the compiler vectorises) when they hold the
-/// columns, else pixel by pixel.
-#[inline]
-fn d_span<B: AsRef<[u8]>>(diff: &Difference<'_, B>, rows: ImageRows<'_>, x: usize, y: usize, out: &mut [f32]) {
-    let end = x + out.len();
-    if let Some((f, b)) = rows.and_then(|(f, b)| Some((f.get(x..end)?, b.get(x..end)?))) {
-        for ((o, &f), &b) in out.iter_mut().zip(f).zip(b) {
-            *o = (i32::from(f) - i32::from(b)) as f32;
-        }
-    } else {
-        for (o, col) in out.iter_mut().zip(x..) {
-            *o = diff.at(col as isize, y as isize);
-        }
+    /// The least `D · sign` over the columns `cols` (not empty), or a value that is not above 0
+    /// when that is not above 0.
+    #[inline(always)]
+    fn least(&self, row: Self::Row, cols: Range<usize>, sign: f32) -> f32 {
+        // `sign` is ±1: the products are exact. (A select rather than `f32::min`: D is never
+        // NaN.)
+        cols.map(|c| self.d(row, c) * sign)
+            .fold(f32::INFINITY, |m, v| if v < m { v } else { m })
     }
-}
 
-/// Row `q` of the box in the plane.
-fn box_row(mask: &[u8], w: usize, r: Rect, q: usize) -> Option<&[u8]> {
-    let start = (r.y0 + q) * w + r.x0;
-    mask.get(start..start + (r.x1 - r.x0))
-}
-
-/// Row `q` of the box in the plane, mutable.
-fn box_row_mut(mask: &mut [u8], w: usize, r: Rect, q: usize) -> Option<&mut [u8]> {
-    let start = (r.y0 + q) * w + r.x0;
-    mask.get_mut(start..start + (r.x1 - r.x0))
-}
-
-#[inline]
-fn and_into(acc: &mut Bits, row: &Bits) {
-    for (a, b) in acc.iter_mut().zip(row) {
-        *a &= b;
-    }
-}
-
-/// Horizontal erosion by the `(2K+1)`-segment (columns outside the row count as 0); `K < 32`.
-fn erode<const K: u32>(src: &Bits, n: usize) -> Bits {
-    let mut out = EMPTY;
-    let mut prev = 0u32;
-    for (i, o) in out.iter_mut().enumerate().take(n) {
-        let cur = src.get(i).copied().unwrap_or(0);
-        let next = src.get(i + 1).copied().unwrap_or(0);
-        let mut acc = cur;
-        for s in 1..=K {
-            acc &= ((cur << s) | (prev >> (32 - s))) & ((cur >> s) | (next << (32 - s)));
-        }
-        *o = acc;
-        prev = cur;
-    }
-    out
-}
-
-/// Horizontal dilation by the 5-segment, clipped to the box.
-#[inline]
-fn dilate2(src: &Bits, shape: Shape) -> Bits {
-    let n = shape.words;
-    let mut out = EMPTY;
-    let mut prev = 0u32;
-    for (i, o) in out.iter_mut().enumerate().take(n) {
-        let cur = src.get(i).copied().unwrap_or(0);
-        let next = if i + 1 < n {
-            src.get(i + 1).copied().unwrap_or(0)
-        } else {
-            0
+    /// `sums` plus the weights of the band pixels `cols` of the row at `yf` (box coordinates):
+    /// `D` over the local contrast, the mean `D` of the ring pixels within 4 px (shading across
+    /// the part changes it from one side to the other), else the part's median, clipped to
+    /// `[0, 1]`; `columns` holds the ring's values summed over the rows within 4.
+    #[inline(always)]
+    fn band_run(
+        &self,
+        row: Self::Row,
+        cols: Range<usize>,
+        yf: f32,
+        columns: &[Self::Col; COLUMNS],
+        weights: &Weights,
+        sums: [f32; 3],
+    ) -> [f32; 3] {
+        let (contrast, sign) = (weights.contrast, weights.sign);
+        let [mut sw, mut sx, mut sy] = sums;
+        let window = |c: usize| {
+            columns
+                .get(c..c + 9)
+                .unwrap_or(&[])
+                .iter()
+                .fold(Self::Col::default(), |s, &v| s + v)
         };
-        let left = (cur << 1) | (prev >> 31) | (cur << 2) | (prev >> 30);
-        let right = (cur >> 1) | (next << 31) | (cur >> 2) | (next << 30);
-        *o = cur | left | right;
-        if i + 1 == n {
-            *o &= shape.last;
-        }
-        prev = cur;
-    }
-    out
-}
-
-/// Calls `f` with the column of every set bit of the first `n` words of `bits`, in increasing
-/// order.
-#[inline]
-fn for_each_bit(bits: &[u32], n: usize, mut f: impl FnMut(usize)) {
-    for (i, &word) in bits.iter().enumerate().take(n) {
-        let mut word = word;
-        while word != 0 {
-            let col = 32 * i + word.trailing_zeros() as usize;
-            word &= word - 1;
-            f(col);
-        }
-    }
-}
-
-/// The low bit of each of 8 bytes.
-const LOW: u64 = 0x0101_0101_0101_0101;
-
-/// Bit `i` of the result is the low bit of byte `i` of `v` (the other bits of `v` 0).
-#[inline]
-fn pack(v: u64) -> u32 {
-    (v.wrapping_mul(0x0102_0408_1020_4080) >> 56) as u32
-}
-
-/// The bytes of `chunk` (at most 8) as a little-endian word, zeros past its end.
-fn load8(chunk: &[u8]) -> u64 {
-    let mut bytes = [0u8; 8];
-    for (b, v) in bytes.iter_mut().zip(chunk) {
-        *b = *v;
-    }
-    u64::from_le_bytes(bytes)
-}
-
-/// Bit `x` of the result is bit `bit` of `row[x]`, `x` < [`MAX_WIDTH`]. (Chunks of 8 bytes without
-/// the bit, as most of a box's are, cost a test.)
-fn gather(row: &[u8], bit: u32) -> Bits {
-    let mut out = EMPTY;
-    let mut chunks = row.chunks_exact(8);
-    let mut k = 0usize;
-    for chunk in &mut chunks {
-        if let Ok(bytes) = <[u8; 8]>::try_from(chunk) {
-            let v = (u64::from_le_bytes(bytes) >> bit) & LOW;
-            if v != 0 {
-                if let Some(word) = out.get_mut(k / 4) {
-                    *word |= pack(v) << (8 * (k % 4));
+        for c in cols {
+            let d = self.d(row, c);
+            let (sum, count) = Self::split(window(c), weights);
+            let mut local = contrast;
+            if count > 0 {
+                // At least 1 in size, of the contrast's sign (`sign` is ±1: exact).
+                let mean = sum / count as f32;
+                if mean * sign >= 1.0 {
+                    local = mean;
                 }
             }
-        }
-        k += 1;
-    }
-    if let Some(word) = out.get_mut(k / 4) {
-        *word |= pack((load8(chunks.remainder()) >> bit) & LOW) << (8 * (k % 4));
-    }
-    out
-}
-
-/// [`COMPONENT`] and [`RING`] of `row` as bit rows (see [`gather`]); the row's bytes keep only
-/// the mask bit. (Chunks of 8 bytes with only mask bits cost a test.)
-fn gather_and_clear(row: &mut [u8]) -> (Bits, Bits) {
-    let (mut comp, mut ring) = (EMPTY, EMPTY);
-    let mut put = |k: usize, v: u64| {
-        if let (Some(c), Some(g)) = (comp.get_mut(k / 4), ring.get_mut(k / 4)) {
-            *c |= pack((v >> 7) & LOW) << (8 * (k % 4));
-            *g |= pack((v >> 6) & LOW) << (8 * (k % 4));
-        }
-    };
-    let mut chunks = row.chunks_exact_mut(8);
-    let mut k = 0usize;
-    for chunk in &mut chunks {
-        if let Ok(bytes) = <&mut [u8; 8]>::try_from(chunk) {
-            let v = u64::from_le_bytes(*bytes);
-            if v & !LOW != 0 {
-                put(k, v);
-                *bytes = (v & LOW).to_le_bytes();
+            // (A D of the other sign than the contrast weighs 0.)
+            let weight = (d / local).clamp(0.0, 1.0);
+            if weight > 0.0 {
+                sw += weight;
+                sx += weight * c as u32 as f32;
+                sy += weight * yf;
             }
         }
-        k += 1;
+        [sw, sx, sy]
     }
-    let rest = chunks.into_remainder();
-    put(k, load8(rest));
-    for b in rest {
-        *b &= 1;
+
+    /// The second pass ([`weigh`]).
+    #[inline(always)]
+    fn weigh<const N: usize>(&self, plane: &mut Plane<'_>, rows: Range<usize>, contrast: f32) -> [f32; 3] {
+        weigh::<Self, N>(self, plane, rows, contrast)
     }
-    (comp, ring)
+
+    /// `sums` plus the weights of box row `y`'s inside and band pixels, in increasing column.
+    /// Inside pixels come in runs between band pixels (next to an inside pixel is an inside or a
+    /// band pixel); a run whose pixels all pass the hole test is added at once.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn weigh_row<const N: usize>(
+        &self,
+        row: Self::Row,
+        y: usize,
+        inside: &Bits<N>,
+        band: &Bits<N>,
+        columns: &[Self::Col; COLUMNS],
+        weights: &Weights,
+        sums: [f32; 3],
+    ) -> [f32; 3] {
+        let mut sums = sums;
+        let yf = y as f32;
+        // The column after the last band pixel.
+        let mut after = 0usize;
+        for_each_run(band, |a, e| {
+            if a > after && bit(inside, after) {
+                sums = weights.inside_run(self, row, after..a, y, sums);
+            }
+            after = e;
+            sums = self.band_run(row, a..e, yf, columns, weights, sums);
+        });
+        sums
+    }
 }
 
-/// Sets `flag` in the bytes of `row` whose bit in `bits` is set (8 bytes a step, only where
-/// `bits` has any: ring rows are sparse).
-fn scatter(row: &mut [u8], bits: &Bits, flag: u8) {
-    for (i, &word) in bits.iter().enumerate() {
-        let mut rest = word;
-        while rest != 0 {
-            // The byte of the bit row with the lowest set bit: bytes 8k .. 8k + 8 of `row`.
-            let b = rest.trailing_zeros() / 8;
-            let byte = (rest >> (8 * b)) & 0xFF;
-            rest &= !(0xFF << (8 * b));
-            // Byte j of `set` is `flag` when bit j of `byte` is set.
-            let high = (((byte as u64 * LOW) & 0x8040_2010_0804_0201) + 0x7F7F_7F7F_7F7F_7F7F) & 0x8080_8080_8080_8080;
-            let set = (high >> 7) * flag as u64;
-            let start = 8 * (4 * i + b as usize);
-            match row.get_mut(start..start + 8).map(<&mut [u8; 8]>::try_from) {
-                Some(Ok(bytes)) => *bytes = (u64::from_le_bytes(*bytes) | set).to_le_bytes(),
-                // The row's last bytes.
-                _ => {
-                    for (v, m) in row
-                        .get_mut(start..)
-                        .unwrap_or(&mut [])
-                        .iter_mut()
-                        .zip(set.to_le_bytes())
-                    {
-                        *v |= m;
+/// `D` from the frame's and background's rows ([`Difference::rows`]): integers in −255..=255,
+/// so that every sum of them is exact and the weights' tests can be integer ones. The rows of the
+/// box come from the bytes of both from its first row on (no call a row).
+struct Exact<'a> {
+    /// The frame's bytes from the box's first row, and the step from a row to the next.
+    frame: &'a [u8],
+    stride: usize,
+    /// The background plane's bytes from the box's first row (a row is `w` bytes).
+    background: &'a [u8],
+    w: usize,
+    /// The box's first image row and column, its width and its image rows.
+    y0: usize,
+    x0: usize,
+    width: usize,
+    rows: usize,
+}
+
+impl<'a> Exact<'a> {
+    /// The rows of box `r` when every row has its `D` from the frame's and background's rows:
+    /// when the last has ([`Difference::rows`]: `α = 1`, and the background plane reaches that
+    /// far).
+    fn new<B: AsRef<[u8]>>(diff: &Difference<'a, B>, r: Rect) -> Option<Self> {
+        diff.rows(r.y1.checked_sub(1)?)?;
+        let (frame, stride, background) = diff.rows_from(r.y0)?;
+        Some(Exact {
+            frame,
+            stride,
+            background,
+            w: diff.width(),
+            y0: r.y0,
+            x0: r.x0,
+            width: r.x1 - r.x0,
+            rows: r.y1 - r.y0,
+        })
+    }
+
+    /// The row's bytes whose difference is `D · sign`: the frame's first for a positive contrast.
+    #[inline(always)]
+    fn signed((f, b): (&'a [u8], &'a [u8]), weights: &Weights) -> (&'a [u8], &'a [u8]) {
+        if weights.sign > 0.0 {
+            (f, b)
+        } else {
+            (b, f)
+        }
+    }
+}
+
+impl<'a> Source for Exact<'a> {
+    /// The box's columns of the frame's and the background's row.
+    type Row = (&'a [u8], &'a [u8]);
+    /// `128·Σ(D·sign) + count` (counts are at most 81, |ΣD| at most 81·255).
+    type Col = i32;
+
+    #[inline(always)]
+    fn row(&self, y: usize) -> Self::Row {
+        match y.checked_sub(self.y0) {
+            Some(k) if k < self.rows => {
+                let (f, b) = (k * self.stride + self.x0, k * self.w + self.x0);
+                match (
+                    self.frame.get(f..f + self.width),
+                    self.background.get(b..b + self.width),
+                ) {
+                    (Some(f), Some(b)) => (f, b),
+                    _ => (&[], &[]),
+                }
+            }
+            _ => (&[], &[]),
+        }
+    }
+
+    #[inline(always)]
+    fn d(&self, (f, b): Self::Row, c: usize) -> f32 {
+        match (f.get(c), b.get(c)) {
+            // Both exact integers, so the difference is exact: the same `f32` as `at`'s.
+            (Some(&f), Some(&b)) => (i32::from(f) - i32::from(b)) as f32,
+            _ => 0.0,
+        }
+    }
+
+    #[inline(always)]
+    fn col(&self, row: Self::Row, c: usize, weights: &Weights) -> i32 {
+        let (hi, lo) = Self::signed(row, weights);
+        match (hi.get(c), lo.get(c)) {
+            (Some(&h), Some(&l)) => 128 * (i32::from(h) - i32::from(l)) + 1,
+            _ => 0,
+        }
+    }
+
+    #[inline(always)]
+    fn split(col: i32, weights: &Weights) -> (f32, u32) {
+        let sign = if weights.sign > 0.0 { 1 } else { -1 };
+        (((col >> 7) * sign) as f32, (col & 127) as u32)
+    }
+
+    #[inline(always)]
+    fn histogram<const WRAP: bool, const N: usize>(&self, (f, b): Self::Row, ring: &Bits<N>, hist: &mut [u16; 511]) {
+        for_each_bit_with(ring, f, b, |_, f, b| {
+            // An integer in −255..=255: its bin without a conversion.
+            if let Some(h) = hist.get_mut((i32::from(f) - i32::from(b) + 255) as usize) {
+                *h = if WRAP { h.wrapping_add(1) } else { h.saturating_add(1) };
+            }
+        });
+    }
+
+    /// The least of `D · sign` where it is positive, else 0: the minimum of the bytes' saturating
+    /// difference (which the compiler vectorises).
+    #[inline(always)]
+    fn least(&self, (f, b): Self::Row, cols: Range<usize>, sign: f32) -> f32 {
+        let (Some(f), Some(b)) = (f.get(cols.clone()), b.get(cols)) else {
+            return 0.0;
+        };
+        let (hi, lo) = if sign > 0.0 { (f, b) } else { (b, f) };
+        hi.iter()
+            .zip(lo)
+            .fold(u8::MAX, |m, (&h, &l)| m.min(h.saturating_sub(l))) as f32
+    }
+
+    /// [`weigh`] with the constants of the part out of the loop, each image row read once, and
+    /// each row's mask put back once it is weighed ([`Plane::restore`] does the others).
+    #[inline(always)]
+    fn weigh<const N: usize>(&self, plane: &mut Plane<'_>, rows: Range<usize>, contrast: f32) -> [f32; 3] {
+        let part = ExactPart::new(contrast);
+        let (stride, w, y0) = (plane.stride, plane.w, plane.r.y0);
+        let fields_len = FIELDS * stride;
+        let mut columns = [0i32; COLUMNS];
+        // The image rows (signed: `hi − lo = D·sign`) and ring rows of rows y − 4 ..= y + 4 (row q
+        // in slot q mod 16); rows outside `rows` hold no ring.
+        let mut images: [Self::Row; 16] = [(&[], &[]); 16];
+        let mut rings = [[0; N]; 16];
+        let mut sums = [0.0f32; 3];
+        // The plane's index of row q's first byte, and of row q − 4's.
+        let (mut s, mut s_weighed) = (plane.at(rows.start), plane.at(rows.start));
+        let mask = &mut *plane.mask;
+        for q in rows.start..rows.end + 4 {
+            if q < rows.end {
+                // Row q enters the column sums.
+                let (f, b) = self.row(y0 + q);
+                let (hi, lo) = if part.positive { (f, b) } else { (b, f) };
+                let ring: Bits<N> = mask
+                    .get(s..s + fields_len)
+                    .map_or([0; N], |f| get(f, stride, RING_FIELD));
+                move_ring::<true, N>(hi, lo, &ring, &mut columns);
+                if let (Some(i), Some(r)) = (images.get_mut(q % 16), rings.get_mut(q % 16)) {
+                    (*i, *r) = ((hi, lo), ring);
+                }
+                s += w;
+            }
+            // Row q − 4 is weighed, and its mask put back.
+            if let Some(y) = q.checked_sub(4).filter(|&y| y >= rows.start) {
+                if let (Some(fields), Some(&(hi, lo))) =
+                    (mask.get_mut(s_weighed..s_weighed + fields_len), images.get(y % 16))
+                {
+                    let band: Bits<N> = get(fields, stride, BAND_FIELD);
+                    if !none(&band) {
+                        let inside: Bits<N> = get(fields, stride, COMP_FIELD);
+                        sums = part.row(self, hi, lo, y, &inside, &band, &columns, sums);
+                    }
+                    restore_row::<N>(fields, stride);
+                }
+                s_weighed += w;
+                // Row q − 8 leaves.
+                if let Some(r) = q.checked_sub(8).filter(|&r| r >= rows.start) {
+                    if let (Some(&(hi, lo)), Some(bits)) = (images.get(r % 16), rings.get(r % 16)) {
+                        move_ring::<false, N>(hi, lo, bits, &mut columns);
                     }
                 }
             }
         }
+        plane.restored = rows;
+        sums
+    }
+}
+
+/// Adds (`ENTER`) the ring values `128·(hi − lo) + 1` of the pixels `ring` to their columns'
+/// sums, or takes them away ([`Exact`]'s column sums).
+#[inline(always)]
+fn move_ring<const ENTER: bool, const N: usize>(hi: &[u8], lo: &[u8], ring: &Bits<N>, columns: &mut [i32; COLUMNS]) {
+    for_each_bit_with(ring, hi, lo, |c, h, l| {
+        if let Some(s) = columns.get_mut(c + 4) {
+            let v = 128 * (i32::from(h) - i32::from(l)) + 1;
+            *s = if ENTER { *s + v } else { *s - v };
+        }
+    });
+}
+
+/// Calls `f(c, a[c], b[c])` for the column `c` of every set bit of `bits` within the slices, in
+/// increasing order: with a whole word's bytes of both at once where they hold them (a bit's
+/// index into them needs no test then).
+#[inline(always)]
+fn for_each_bit_with<const N: usize>(bits: &Bits<N>, a: &[u8], b: &[u8], mut f: impl FnMut(usize, u8, u8)) {
+    for (k, &word) in bits.iter().enumerate() {
+        let mut word = word;
+        if word == 0 {
+            continue;
+        }
+        let base = BITS * k;
+        let whole = (
+            a.get(base..base + BITS).and_then(|s| <&[u8; BITS]>::try_from(s).ok()),
+            b.get(base..base + BITS).and_then(|s| <&[u8; BITS]>::try_from(s).ok()),
+        );
+        if let (Some(wa), Some(wb)) = whole {
+            while word != 0 {
+                let t = word.trailing_zeros() as usize % BITS;
+                word &= word - 1;
+                if let (Some(&x), Some(&y)) = (wa.get(t), wb.get(t)) {
+                    f(base + t, x, y);
+                }
+            }
+        } else {
+            while word != 0 {
+                let c = base + word.trailing_zeros() as usize;
+                word &= word - 1;
+                if let (Some(&x), Some(&y)) = (a.get(c), b.get(c)) {
+                    f(c, x, y);
+                }
+            }
+        }
+    }
+}
+
+/// `v` (in 0..=255) as an `f32`, from a table (one load rather than a conversion).
+#[inline(always)]
+fn to_f32(v: i32) -> f32 {
+    SMALL_F32.get((v & 255) as usize).copied().unwrap_or(0.0)
+}
+
+/// The integers 0..=255 as `f32`.
+static SMALL_F32: [f32; 256] = {
+    let mut table = [0.0; 256];
+    let mut i = 0;
+    while i < 256 {
+        table[i] = i as f32;
+        i += 1;
+    }
+    table
+};
+
+/// The constants of [`Exact`]'s second pass.
+struct ExactPart {
+    weights: Weights,
+    positive: bool,
+    /// `|C|` (the median of integers is one), and as `f32`.
+    median: i32,
+    median_f: f32,
+    /// The least `D·sign` of an inside pixel of weight 1: `u / |C| ≥ HOLE_RATIO` (monotonic
+    /// in `u`) from here on.
+    hole: u8,
+}
+
+impl ExactPart {
+    fn new(contrast: f32) -> Self {
+        let median = contrast.abs() as i32;
+        let median_f = median as f32;
+        // The division as the definition does it, integer by integer (at most 255 of them).
+        let hole = (1..=255u8)
+            .find(|&u| f32::from(u) / median_f >= HOLE_RATIO)
+            .unwrap_or(u8::MAX);
+        ExactPart {
+            weights: Weights {
+                contrast,
+                sign: contrast.signum(),
+            },
+            positive: contrast > 0.0,
+            median,
+            median_f,
+            hole,
+        }
+    }
+
+    /// `sums` plus the weights of box row `y`'s inside and band pixels (`hi − lo = D·sign`), in
+    /// increasing column: [`Source::weigh_row`] with integer tests where the weights clip. With
+    /// `u = D·sign > 0`, `V = ΣD·sign` and `n` ring pixels in the window, the mean is the local
+    /// contrast iff `V ≥ n` (a quotient `V/n < 1` is at most 80/81), and `u / (V/n)` is at least
+    /// 1 iff `u·n ≥ V` (else `V/n − u ≥ 1/81`, far more than the roundings); against the median
+    /// `C`, iff `u ≥ |C|`. Only the weights between 0 and 1 are divided, as the definition does.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn row<const N: usize>(
+        &self,
+        src: &Exact<'_>,
+        hi: &[u8],
+        lo: &[u8],
+        y: usize,
+        inside: &Bits<N>,
+        band: &Bits<N>,
+        columns: &[i32; COLUMNS],
+        sums: [f32; 3],
+    ) -> [f32; 3] {
+        let (median, median_f) = (self.median, self.median_f);
+        let yf = y as f32;
+        let [mut sw, mut sx, mut sy] = sums;
+        // The column after the last band pixel.
+        let mut after = 0usize;
+        let mut a = next_bit::<true, N>(band, 0);
+        while a < BITS * N {
+            let e = next_bit::<false, N>(band, a);
+            if a > after && bit(inside, after) {
+                // An inside run: weight 1 unless a pixel fails the hole test.
+                let least = match (hi.get(after..a), lo.get(after..a)) {
+                    (Some(h), Some(l)) => h.iter().zip(l).fold(u8::MAX, |m, (&h, &l)| m.min(h.saturating_sub(l))),
+                    _ => 0,
+                };
+                [sw, sx, sy] = if least >= self.hole {
+                    add_ones([sw, sx, sy], after..a, y)
+                } else {
+                    let row = if self.positive { (hi, lo) } else { (lo, hi) };
+                    self.weights.inside_by_pixel(src, row, after..a, y, [sw, sx, sy])
+                };
+            }
+            after = e;
+            // The run's pixels, and the column sums of their windows: columns a − 4 ..= e + 3,
+            // padded a .. e + 8, the first window the first 9, then one in and one out a pixel.
+            if e <= hi.len() && e <= lo.len() && e + 9 <= columns.len() {
+                let mut window: i32 = columns.get(a..a + 9).map_or(0, |w| w.iter().sum());
+                let mut xf = a as u32 as f32;
+                for c in a..e {
+                    let (Some(&h), Some(&l), Some(&i), Some(&o)) =
+                        (hi.get(c), lo.get(c), columns.get(c + 9), columns.get(c))
+                    else {
+                        break;
+                    };
+                    let u = i32::from(h) - i32::from(l);
+                    if u > 0 {
+                        let (v, n) = (window >> 7, window & 127);
+                        let weight = if v >= n.max(1) {
+                            if u * n >= v {
+                                1.0
+                            } else {
+                                // The mean (`V/n`, exact operands) as the definition divides it.
+                                to_f32(u) / (v as f32 / to_f32(n))
+                            }
+                        } else if u >= median {
+                            1.0
+                        } else {
+                            to_f32(u) / median_f
+                        };
+                        sw += weight;
+                        sx += weight * xf;
+                        sy += weight * yf;
+                    }
+                    xf += 1.0;
+                    window += i - o;
+                }
+            }
+            a = next_bit::<true, N>(band, e);
+        }
+        [sw, sx, sy]
+    }
+}
+
+/// `D` through [`Difference::at`] (`α < 1`, or a background plane that ends within the box).
+struct Approx<'d, 'a, B> {
+    diff: &'d Difference<'a, B>,
+    x0: usize,
+}
+
+/// A sum of `f32` ring values and their count.
+#[derive(Clone, Copy, Default)]
+struct FloatSum {
+    sum: f32,
+    count: u32,
+}
+
+impl Add for FloatSum {
+    type Output = Self;
+    #[inline(always)]
+    fn add(self, o: Self) -> Self {
+        FloatSum {
+            sum: self.sum + o.sum,
+            count: self.count + o.count,
+        }
+    }
+}
+
+impl Sub for FloatSum {
+    type Output = Self;
+    /// An empty sum restarts from an exact 0.
+    #[inline(always)]
+    fn sub(self, o: Self) -> Self {
+        let count = self.count.saturating_sub(o.count);
+        FloatSum {
+            sum: if count == 0 { 0.0 } else { self.sum - o.sum },
+            count,
+        }
+    }
+}
+
+impl<B: AsRef<[u8]>> Source for Approx<'_, '_, B> {
+    /// The image row.
+    type Row = usize;
+    type Col = FloatSum;
+
+    #[inline(always)]
+    fn row(&self, y: usize) -> usize {
+        y
+    }
+
+    #[inline(always)]
+    fn d(&self, y: usize, c: usize) -> f32 {
+        self.diff.at((self.x0 + c) as isize, y as isize)
+    }
+
+    #[inline(always)]
+    fn col(&self, y: usize, c: usize, _: &Weights) -> FloatSum {
+        FloatSum {
+            sum: self.d(y, c),
+            count: 1,
+        }
+    }
+
+    #[inline(always)]
+    fn split(col: FloatSum, _: &Weights) -> (f32, u32) {
+        (col.sum, col.count)
     }
 }
 
@@ -771,207 +1780,6 @@ fn keep_mask_bit(row: &mut [u8]) {
     }
     for v in chunks.into_remainder() {
         *v &= 1;
-    }
-}
-
-/// Capacity of [`RingValues`].
-const RING_VALUES: usize = 256;
-
-/// `D` of consecutive ring pixels (numbered in raster order), so that each is read from the
-/// difference image once: the first pass stores the first [`RING_VALUES`]; the second reads each
-/// pixel's value twice, when its row enters the column sums and when it leaves them, and stores
-/// the values it has to read anew while there is room. Not kept at all (each read when asked
-/// for) when `D` comes from the image's rows, as cheap as a kept value.
-struct RingValues {
-    /// Whether values are kept at all (else each is read when asked for).
-    keep: bool,
-    values: [f32; RING_VALUES],
-    /// The pixels stored, `[from, to)` (pixel `k` in slot `k mod RING_VALUES`).
-    from: usize,
-    to: usize,
-    /// The next pixel to enter the sums, and to leave them.
-    entering: usize,
-    leaving: usize,
-}
-
-impl RingValues {
-    fn new(keep: bool) -> Self {
-        RingValues {
-            keep,
-            values: [0.0; RING_VALUES],
-            from: 0,
-            to: 0,
-            entering: 0,
-            leaving: 0,
-        }
-    }
-
-    /// First pass: the next ring pixel's `D`.
-    fn store(&mut self, d: f32) {
-        if !self.keep {
-            return;
-        }
-        if let Some(slot) = self.values.get_mut(self.to) {
-            *slot = d;
-            self.to += 1;
-        }
-    }
-
-    /// `D` of the next pixel to enter the sums (`read` when it is not stored).
-    #[inline]
-    fn enter(&mut self, read: impl FnOnce() -> f32) -> f32 {
-        if !self.keep {
-            return read();
-        }
-        let k = self.entering;
-        self.entering += 1;
-        // Pixels leave in the order they enter, so `from <= k` here.
-        if k < self.to {
-            return self.values.get(k % RING_VALUES).copied().unwrap_or(0.0);
-        }
-        let d = read();
-        // Stored while the stored pixels stay consecutive and fit, or afresh once none is.
-        if self.from == self.to {
-            (self.from, self.to) = (k, k);
-        }
-        if k == self.to && k - self.from < RING_VALUES {
-            if let Some(slot) = self.values.get_mut(k % RING_VALUES) {
-                *slot = d;
-                self.to = k + 1;
-            }
-        }
-        d
-    }
-
-    /// `D` of ring pixel `k` when it is stored: a pixel between entering and leaving the sums
-    /// is, unless it was read when there was no room. (For the tests.)
-    #[cfg(test)]
-    fn peek(&self, k: usize) -> Option<f32> {
-        if (self.from..self.to).contains(&k) {
-            self.values.get(k % RING_VALUES).copied()
-        } else {
-            None
-        }
-    }
-
-    /// `D` of the next pixel to leave the sums (`read` when it is not stored).
-    #[inline]
-    fn leave(&mut self, read: impl FnOnce() -> f32) -> f32 {
-        if !self.keep {
-            return read();
-        }
-        let k = self.leaving;
-        self.leaving += 1;
-        // While any pixel is stored, `k <= from`.
-        if k == self.from && k < self.to {
-            self.from += 1;
-            return self.values.get(k % RING_VALUES).copied().unwrap_or(0.0);
-        }
-        read()
-    }
-}
-
-/// The ring's `D` summed per column over 9 consecutive rows, and the number of ring pixels in each
-/// sum; column `c` of the box at index `c + 4` (4 empty columns each side).
-struct Columns {
-    sum: [f32; MAX_WIDTH + 8],
-    count: [u8; MAX_WIDTH + 8],
-}
-
-impl Columns {
-    fn new() -> Self {
-        Columns {
-            sum: [0.0; MAX_WIDTH + 8],
-            count: [0; MAX_WIDTH + 8],
-        }
-    }
-
-    /// Adds the ring pixels `ring` of box row `q`.
-    fn add_row<B: AsRef<[u8]>>(
-        &mut self,
-        diff: &Difference<'_, B>,
-        values: &mut RingValues,
-        ring: &Bits,
-        r: Rect,
-        q: usize,
-        n: usize,
-    ) {
-        let y = r.y0 + q;
-        let rows = diff.rows(y);
-        for_each_bit(ring, n, |col| {
-            let d = values.enter(|| d_pixel(diff, rows, r.x0 + col, y));
-            if let (Some(s), Some(c)) = (self.sum.get_mut(col + 4), self.count.get_mut(col + 4)) {
-                *s += d;
-                // At most 9 (one a row).
-                *c = c.saturating_add(1);
-            }
-        });
-    }
-
-    /// Removes the ring pixels `ring` of box row `q` (the oldest row in the sums).
-    fn remove_row<B: AsRef<[u8]>>(
-        &mut self,
-        diff: &Difference<'_, B>,
-        values: &mut RingValues,
-        ring: &Bits,
-        r: Rect,
-        q: usize,
-        n: usize,
-    ) {
-        let y = r.y0 + q;
-        let rows = diff.rows(y);
-        for_each_bit(ring, n, |col| {
-            let d = values.leave(|| d_pixel(diff, rows, r.x0 + col, y));
-            if let (Some(s), Some(c)) = (self.sum.get_mut(col + 4), self.count.get_mut(col + 4)) {
-                *c = c.saturating_sub(1);
-                // An empty column restarts from an exact 0.
-                *s = if *c == 0 { 0.0 } else { *s - d };
-            }
-        });
-    }
-}
-
-/// The sum of the 9 column sums around a column, sliding right along a row.
-#[derive(Default)]
-struct Slide {
-    /// The column of the last call plus 1 (0: none yet).
-    next: usize,
-    sum: f32,
-    count: u32,
-}
-
-impl Slide {
-    /// The ring's `D` summed over columns `col − 4 ..= col + 4` (clipped to the box), and the
-    /// number of ring pixels in the sum; `col` above the previous call's.
-    #[inline]
-    fn around(&mut self, col: usize, columns: &Columns) -> (f32, u32) {
-        // Padded, the window is [col, col + 9).
-        if self.next != 0 && col == self.next {
-            // One column enters, one leaves.
-            let enter = (columns.sum.get(col + 8), columns.count.get(col + 8));
-            let leave = (
-                columns.sum.get(col.wrapping_sub(1)),
-                columns.count.get(col.wrapping_sub(1)),
-            );
-            if let ((Some(s_in), Some(&c_in)), (Some(s_out), Some(&c_out))) = (enter, leave) {
-                self.sum = self.sum + s_in - s_out;
-                self.count = (self.count + c_in as u32).saturating_sub(c_out as u32);
-            }
-        } else {
-            let window = col..col + 9;
-            self.sum = columns
-                .sum
-                .get(window.clone())
-                .unwrap_or(&[])
-                .iter()
-                .fold(0.0, |a, s| a + s);
-            self.count = columns.count.get(window).unwrap_or(&[]).iter().map(|&c| c as u32).sum();
-        }
-        if self.count == 0 {
-            self.sum = 0.0;
-        }
-        self.next = col + 1;
-        (self.sum, self.count)
     }
 }
 
@@ -1812,47 +2620,6 @@ mod tests {
         }
     }
 
-    /// The weights of a word's pixels added one by one in increasing column, as `RowWeights::add`
-    /// did before it added runs of weight 1 at once (and as the per-pixel path does).
-    fn one_by_one(
-        row: &RowWeights,
-        sums: [f32; 3],
-        d_at: &[f32; 32],
-        inside: u32,
-        band: u32,
-        slide: &mut Slide,
-        columns: &Columns,
-    ) -> [f32; 3] {
-        let [mut sw, mut sx, mut sy] = sums;
-        let sign = row.contrast.signum();
-        for (bit, &d) in d_at.iter().enumerate() {
-            let col = row.first + bit;
-            let weight = if inside >> bit & 1 != 0 {
-                let ratio = d / row.contrast;
-                if ratio >= HOLE_RATIO {
-                    1.0
-                } else {
-                    ratio.clamp(0.0, 1.0)
-                }
-            } else if band >> bit & 1 != 0 && d * sign > 0.0 {
-                let (sum, count) = slide.around(col, columns);
-                let mut local = row.contrast;
-                if count > 0 && (sum / count as f32) * sign >= 1.0 {
-                    local = sum / count as f32;
-                }
-                (d / local).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            if weight > 0.0 {
-                sw += weight;
-                sx += weight * col as u32 as f32;
-                sy += weight * row.y;
-            }
-        }
-        [sw, sx, sy]
-    }
-
     /// Sums as they come up while a part is weighed: integers, fractions, values just below a
     /// power of two and up to 2^24 and beyond.
     fn random_sum(rng: &mut Rng) -> f32 {
@@ -1868,84 +2635,203 @@ mod tests {
         }
     }
 
-    #[test]
-    fn runs_of_weight_one_add_up_like_one_pixel_at_a_time() {
-        // `add` (runs of weight 1 at once when exact) against `one_by_one`: the same bits for
-        // random words, D (integer as with α = 1, or fractional), ring sums and running sums.
-        let mut rng = Rng(0x5EED_0001);
-        let (mut at_once, mut words) = (0usize, 0usize);
-        for case in 0..40_000 {
-            let contrast = if rng.chance(0.5) { 1.0 } else { -1.0 } * (1 + rng.below(200)) as f32;
-            let row = RowWeights {
-                contrast,
-                y: rng.below(if case % 8 == 0 { 70_000 } else { 400 }) as f32,
-                first: 32 * rng.below(WORDS),
-            };
-            let integer = rng.chance(0.5);
-            let mut d_at = [0.0f32; 32];
-            for d in &mut d_at {
-                // Mostly the part's contrast, some holes and other-signed values.
-                let v = match rng.below(6) {
-                    0 => rng.range(-255.0, 255.0),
-                    1 => contrast * rng.range(0.0, 0.3),
-                    _ => contrast * rng.range(0.5, 1.5),
-                };
-                *d = if integer { v.round() } else { v };
-            }
-            let mut columns = Columns::new();
-            for (s, c) in columns.sum.iter_mut().zip(columns.count.iter_mut()) {
-                *c = rng.below(4) as u8;
-                *s = if *c == 0 { 0.0 } else { contrast * rng.range(0.0, 3.0) };
-            }
-            // Inside in the middle, band at the ends, as at a part's edge; or random bits.
-            let (inside, band) = if rng.chance(0.5) {
-                let (a, b) = (rng.below(33) as u32, rng.below(33) as u32);
-                let (lo, hi) = (a.min(b), a.max(b));
-                let span = |from: u32, to: u32| {
-                    if to <= from {
-                        0
-                    } else {
-                        (u32::MAX >> (32 - (to - from))) << from
-                    }
-                };
-                let inside = span(lo, hi);
-                (
-                    inside,
-                    span(lo.saturating_sub(2), hi.saturating_add(2).min(32)) & !inside,
-                )
-            } else {
-                let inside = rng.next() as u32 & rng.next() as u32 | rng.next() as u32;
-                (inside, rng.next() as u32 & !inside)
-            };
-            let ones = (0..32).fold(0u32, |m, b| m | (((d_at[b] / contrast >= HOLE_RATIO) as u32) << b)) & inside;
-            let sums = [random_sum(&mut rng), random_sum(&mut rng), random_sum(&mut rng)];
-            let got = row.add(sums, &d_at, [inside, band, ones], &mut Slide::default(), &columns);
-            let want = one_by_one(&row, sums, &d_at, inside, band, &mut Slide::default(), &columns);
-            assert_eq!(got.map(f32::to_bits), want.map(f32::to_bits), "case {case}");
-            // The runs alone, and how often they go at once.
-            if ones != 0 {
-                words += 1;
-                let by_pixel = one_by_one(&row, sums, &[contrast; 32], ones, 0, &mut Slide::default(), &columns);
-                let run = row.add_ones(sums, ones);
-                assert_eq!(run.map(f32::to_bits), by_pixel.map(f32::to_bits), "case {case}");
-                if let Some(sum) = row.add_ones_at_once(sums, ones) {
-                    assert_eq!(sum.map(f32::to_bits), by_pixel.map(f32::to_bits), "case {case}");
-                    at_once += 1;
-                }
+    /// A random bit row of `width` columns (the bits past it 0).
+    fn random_bits(rng: &mut Rng, width: usize) -> Bits<WORDS> {
+        let mut bits = [0; WORDS];
+        let density = rng.unit();
+        for x in 0..width {
+            if rng.chance(density) {
+                bits[x / BITS] |= 1 << (x % BITS);
             }
         }
-        // Runs are added at once often (here a third: the random sums are small and cross
-        // binades more often than a part's); not near 2^24 nor across a binade.
-        assert!(at_once > words / 5 && at_once < words, "{at_once} of {words}");
+        bits
+    }
+
+    /// One row of inside and band pixels as a part's rows have them: runs of inside pixels with
+    /// band pixels on both sides, band runs alone, outside pixels between.
+    fn random_row_regions(rng: &mut Rng, width: usize) -> (Bits<WORDS>, Bits<WORDS>) {
+        let (mut inside, mut band) = ([0; WORDS], [0; WORDS]);
+        let mut x = rng.below(6);
+        let set = |bits: &mut Bits<WORDS>, from: usize, len: usize| {
+            for c in from..(from + len).min(width) {
+                bits[c / BITS] |= 1 << (c % BITS);
+            }
+        };
+        while x < width {
+            let left = 1 + rng.below(6);
+            set(&mut band, x, left);
+            x += left;
+            if rng.chance(0.7) {
+                let longest = if rng.chance(0.3) { 250 } else { 40 };
+                let run = 1 + rng.below(longest);
+                if x + run < width {
+                    set(&mut inside, x, run);
+                    x += run;
+                    let right = 1 + rng.below(6);
+                    set(&mut band, x, right);
+                    x += right;
+                } else {
+                    continue;
+                }
+            }
+            let gap = if rng.chance(0.5) { 3 } else { 60 };
+            x += rng.below(gap);
+        }
+        (inside, band)
     }
 
     #[test]
-    fn image_rows_give_the_values_of_at() {
-        // D from the frame's and background's rows (α = 1), pixel by pixel and a span at a
-        // time, against `Difference::at`; with α < 1 and short background planes the rows are
-        // missing and the same functions fall back to `at`.
+    fn row_weights_are_the_per_pixel_weights() {
+        // `ExactPart::row` (runs of weight 1 at once, integer tests where the weights clip, the
+        // window sliding along the band) against the per-pixel definition with the pixels added
+        // one by one in increasing column, and against `Source`'s own loops: the same bits for
+        // random rows, integer D (α = 1), column sums and running sums.
+        let mut rng = Rng(0x5EED_0001);
+        let (mut runs, mut pixels, mut clipped) = (0usize, 0usize, 0usize);
+        for case in 0..6000 {
+            let width = MIN_WIDTH + rng.below(MAX_WIDTH - MIN_WIDTH + 1);
+            let contrast = if rng.chance(0.5) { 1.0 } else { -1.0 } * (1 + rng.below(200)) as f32;
+            let sign = contrast.signum();
+            let base = rng.below(256) as f32;
+            let frame_row: Vec<u8> = (0..width)
+                .map(|_| {
+                    // Mostly the part's contrast, some holes and other-signed values.
+                    let d = match rng.below(8) {
+                        0 => rng.range(-255.0, 255.0),
+                        1 => contrast * rng.range(0.0, 0.3),
+                        _ => contrast * rng.range(0.5, 1.5),
+                    };
+                    (base + d).round().clamp(0.0, 255.0) as u8
+                })
+                .collect();
+            let background = vec![base as u8; width];
+            let frame = Frame::new_checked(&frame_row[..], width, 1).unwrap();
+            let diff = Difference::new(&frame, &background, Alpha::ONE);
+            let src = Exact::new(
+                &diff,
+                Rect {
+                    x0: 0,
+                    y0: 0,
+                    x1: width,
+                    y1: 1,
+                },
+            )
+            .unwrap();
+            let image_row = src.row(0);
+            // Column sums of D·sign: windows of means near integers, below 1, of the other sign.
+            let mut columns = [0i32; COLUMNS];
+            let typical = (contrast.abs() * rng.range(0.3, 1.5)).round();
+            for c in columns.iter_mut().skip(4).take(width) {
+                let count = rng.below(10) as i32;
+                let sum: i32 = (0..count)
+                    .map(|_| match rng.below(6) {
+                        0 => rng.below(511) as i32 - 255,
+                        1 => rng.below(3) as i32 - 1,
+                        _ => (typical + rng.range(-2.0, 2.0)).round().clamp(-255.0, 255.0) as i32,
+                    })
+                    .sum();
+                *c = 128 * sum + count;
+            }
+            let (inside, band) = random_row_regions(&mut rng, width);
+            let y = rng.below(if case % 8 == 0 { 70_000 } else { 400 });
+            let sums = if rng.chance(0.2) {
+                [0.0; 3]
+            } else {
+                [random_sum(&mut rng), random_sum(&mut rng), random_sum(&mut rng)]
+            };
+            let weights = Weights { contrast, sign };
+            let (f, b) = image_row;
+            let (hi, lo) = if contrast > 0.0 { (f, b) } else { (b, f) };
+            let got = ExactPart::new(contrast).row::<WORDS>(&src, hi, lo, y, &inside, &band, &columns, sums);
+            let plain = src.weigh_row::<WORDS>(image_row, y, &inside, &band, &columns, &weights, sums);
+            let [mut sw, mut sx, mut sy] = sums;
+            for c in 0..width {
+                let d = diff.at(c as isize, 0);
+                let weight = if bit(&inside, c) {
+                    let ratio = d / contrast;
+                    if ratio >= HOLE_RATIO {
+                        1.0
+                    } else {
+                        ratio.clamp(0.0, 1.0)
+                    }
+                } else if bit(&band, c) {
+                    let window: i32 = columns[c..c + 9].iter().sum();
+                    let (sum, count) = ((window >> 7) as f32 * sign, window & 127);
+                    let local = (count > 0)
+                        .then(|| sum / count as f32)
+                        .filter(|m| m.abs() >= 1.0 && m.signum() == contrast.signum());
+                    let w = (d / local.unwrap_or(contrast)).clamp(0.0, 1.0);
+                    clipped += usize::from(w == 1.0);
+                    w
+                } else {
+                    0.0
+                };
+                if weight > 0.0 {
+                    sw += weight;
+                    sx += weight * c as f32;
+                    sy += weight * y as f32;
+                }
+            }
+            let want = [sw, sx, sy].map(f32::to_bits);
+            assert_eq!(got.map(f32::to_bits), want, "case {case}");
+            assert_eq!(plain.map(f32::to_bits), want, "case {case} (definition's loops)");
+            runs += inside
+                .iter()
+                .map(|w| (w & !(w << 1)).count_ones() as usize)
+                .sum::<usize>();
+            pixels += band.iter().map(|w| w.count_ones() as usize).sum::<usize>();
+        }
+        assert!(
+            runs > 5000 && pixels > 50_000 && clipped > 10_000,
+            "{runs} {pixels} {clipped}"
+        );
+    }
+
+    #[test]
+    fn sequences_add_up_like_one_term_at_a_time() {
+        // `add_sequence` (at once where nothing rounds, the rounding terms alone) against adding
+        // the terms one by one, across binades, at 2^24 and beyond, from 0 and from fractions.
+        let mut rng = Rng(0x5EED_0002);
+        let mut split = 0usize;
+        for case in 0..40_000 {
+            let s = match rng.below(4) {
+                0 => 0.0,
+                1 => rng.below(300) as f32,
+                _ => random_sum(&mut rng),
+            };
+            let step = rng.below(2) as u32;
+            let first = match rng.below(3) {
+                0 => rng.below(3) as u32,
+                1 => rng.below(256) as u32,
+                _ => rng.below(100_000) as u32,
+            };
+            let most = if rng.chance(0.2) { 2000 } else { 256 };
+            let count = 1 + rng.below(most) as u32;
+            let mut want = s;
+            for k in 0..count {
+                want += (first + step * k) as f32;
+            }
+            let got = add_sequence(s, first, step, count);
+            assert_eq!(
+                got.to_bits(),
+                want.to_bits(),
+                "case {case}: {s} + {first} + {step}·k, {count} terms"
+            );
+            let total = u64::from(first) * u64::from(count) + u64::from(step) * u64::from(count * (count - 1) / 2);
+            split += usize::from(exact_integer(total).and_then(|t| exact_sum(s, t)).is_none());
+        }
+        // Many sums had to be split where a term rounds.
+        assert!(split > 5000, "{split}");
+    }
+
+    #[test]
+    fn sources_give_the_values_of_at() {
+        // D from the frame's and background's rows (α = 1) and through `at` (α < 1, or a short
+        // background plane): values, histogram bins, ring values into column sums and out again,
+        // and the hole test's least value, against `Difference::at` and the pixel-by-pixel test.
         let mut rng = Rng(4242);
-        for case in 0..300 {
+        let mut shortcut = 0usize;
+        for case in 0..400 {
             let (w, h) = (1 + rng.below(40), 1 + rng.below(12));
             let pixels: Vec<u8> = (0..w * h).map(|_| rng.below(256) as u8).collect();
             let full = rng.chance(0.6);
@@ -1954,70 +2840,156 @@ mod tests {
             let frame = Frame::new_checked(&pixels[..], w, h).unwrap();
             for alpha in [1.0, 0.5] {
                 let diff = Difference::new(&frame, &background, Alpha::new(alpha).unwrap());
+                assert_eq!(
+                    diff.rows(h - 1).is_some(),
+                    alpha >= 1.0 && bg_len == w * h,
+                    "case {case}"
+                );
+                let x0 = rng.below(w);
+                let x1 = x0 + 1 + rng.below(w - x0);
+                // (Exact reads the rows of a box whose rows all have them: those up to the first
+                // without.)
+                let avail = (0..h).take_while(|&y| diff.rows(y).is_some()).count();
+                let full = Rect {
+                    x0,
+                    y0: 0,
+                    x1,
+                    y1: avail,
+                };
+                let exact = Exact::new(&diff, full).unwrap_or(Exact {
+                    frame: &[],
+                    stride: w,
+                    background: &[],
+                    w,
+                    y0: 0,
+                    x0,
+                    width: x1 - x0,
+                    rows: h,
+                });
+                let approx = Approx { diff: &diff, x0 };
                 for y in 0..h {
-                    let rows = diff.rows(y);
-                    assert_eq!(
-                        rows.is_some(),
-                        alpha >= 1.0 && (y + 1) * w <= bg_len,
-                        "case {case} row {y}"
-                    );
-                    if let Some((f, b)) = rows {
-                        assert_eq!((f.len(), b.len()), (w, w));
+                    let rows = diff.rows(y).is_some();
+                    assert_eq!(rows, y < avail, "case {case}");
+                    let (er, ar) = (exact.row(y), approx.row(y));
+                    let ring = random_bits(&mut rng, x1 - x0);
+                    let (mut want_hist, mut want_cols) = ([0u16; 511], Vec::new());
+                    let contrast = if rng.chance(0.5) { 9.0 } else { -9.0 };
+                    let weights = Weights {
+                        contrast,
+                        sign: contrast.signum(),
+                    };
+                    for c in 0..x1 - x0 {
+                        let want = diff.at((x0 + c) as isize, y as isize);
+                        assert_eq!(approx.d(ar, c).to_bits(), want.to_bits());
+                        let (s, n) = <Approx<'_, '_, &[u8]> as Source>::split(approx.col(ar, c, &weights), &weights);
+                        assert_eq!((s.to_bits(), n), (want.to_bits(), 1));
+                        if rows {
+                            assert_eq!(exact.d(er, c).to_bits(), want.to_bits(), "case {case} ({c}, {y})");
+                            let (s, n) = <Exact<'_> as Source>::split(exact.col(er, c, &weights), &weights);
+                            assert_eq!((s.to_bits(), n), (want.to_bits(), 1));
+                        }
+                        if bit(&ring, c) {
+                            want_hist[(want as i32 + 255).clamp(0, 510) as usize] += 1;
+                            want_cols.push(c);
+                        }
                     }
-                    for x in 0..w {
-                        let (got, want) = (d_pixel(&diff, rows, x, y), diff.at(x as isize, y as isize));
-                        assert_eq!(got.to_bits(), want.to_bits(), "case {case} α {alpha} ({x}, {y})");
+                    // The ring's histogram, and its values into the column sums and out again.
+                    let mut hist = [0u16; 511];
+                    approx.histogram::<false, WORDS>(ar, &ring, &mut hist);
+                    assert_eq!(hist, want_hist);
+                    if rows {
+                        for wrap in [false, true] {
+                            let mut hist = [0u16; 511];
+                            if wrap {
+                                exact.histogram::<true, WORDS>(er, &ring, &mut hist);
+                            } else {
+                                exact.histogram::<false, WORDS>(er, &ring, &mut hist);
+                            }
+                            assert_eq!(hist, want_hist, "case {case}");
+                        }
+                        let mut columns = [0i32; COLUMNS];
+                        let (hi, lo) = Exact::signed(er, &weights);
+                        move_ring::<true, WORDS>(hi, lo, &ring, &mut columns);
+                        for c in 0..x1 - x0 {
+                            let want = if bit(&ring, c) { exact.col(er, c, &weights) } else { 0 };
+                            assert_eq!(columns[c + 4], want);
+                        }
+                        move_ring::<false, WORDS>(hi, lo, &ring, &mut columns);
+                        assert!(columns.iter().all(|&v| v == 0));
                     }
-                    // Spans, some past the row's end (those read through `at`, clamped).
-                    let x = rng.below(w);
-                    let mut span = vec![f32::NAN; rng.below(w + 4 - x)];
-                    d_span(&diff, rows, x, y, &mut span);
-                    for (k, got) in span.iter().enumerate() {
-                        let want = diff.at((x + k) as isize, y as isize);
-                        assert_eq!(
-                            got.to_bits(),
-                            want.to_bits(),
-                            "case {case} α {alpha} span ({x}+{k}, {y})"
-                        );
+                    // The hole test of a run by its least value, both signs of contrast, at the
+                    // threshold too.
+                    for _ in 0..8 {
+                        let a = rng.below(x1 - x0);
+                        let e = a + 1 + rng.below(x1 - x0 - a);
+                        let contrast = match rng.below(3) {
+                            0 => (1 + rng.below(255)) as f32,
+                            1 => -((1 + rng.below(255)) as f32),
+                            _ => {
+                                // A contrast that puts a pixel of the run at the threshold.
+                                let d = diff.at((x0 + a) as isize, y as isize);
+                                if d.abs() >= 1.0 {
+                                    (d / HOLE_RATIO).round()
+                                } else {
+                                    7.0
+                                }
+                            }
+                        };
+                        let sign = contrast.signum();
+                        let all = (a..e).all(|c| diff.at((x0 + c) as isize, y as isize) / contrast >= HOLE_RATIO);
+                        let by_least = |least: f32| (least * sign) / contrast >= HOLE_RATIO;
+                        assert_eq!(by_least(approx.least(ar, a..e, sign)), all, "case {case}");
+                        if rows {
+                            assert_eq!(by_least(exact.least(er, a..e, sign)), all, "case {case} {a}..{e}");
+                        }
+                        shortcut += usize::from(all);
                     }
                 }
             }
         }
-        let frame = Frame::new_checked(&[0u8; 6][..], 3, 2).unwrap();
-        let diff = Difference::new(&frame, &[0u8; 6], Alpha::new(1.0).unwrap());
-        assert!(diff.rows(2).is_none());
+        assert!(shortcut > 1000, "{shortcut}");
     }
 
     #[test]
-    fn hole_test_by_reduction_is_the_per_pixel_test() {
-        // Words where every inside pixel passes (the reduction's shortcut), where some fail, and
-        // values at the threshold, both signs of contrast.
-        let mut rng = Rng(777);
-        let mut shortcut = 0;
-        for case in 0..40_000 {
-            let contrast = rng.range(1.0, 200.0) * if rng.chance(0.5) { 1.0 } else { -1.0 };
-            let at_threshold = contrast * HOLE_RATIO;
-            let mode = rng.below(3);
-            let d_at: [f32; 32] = core::array::from_fn(|_| match mode {
-                0 => contrast * rng.range(0.2, 1.5),
-                1 => at_threshold + [-1.0, 0.0, 1.0][rng.below(3)] * at_threshold.abs() * f32::EPSILON,
-                _ => rng.below(511) as f32 - 255.0,
-            });
-            let inside = match rng.below(3) {
-                0 => u32::MAX,
-                1 => (rng.next() as u32) & (rng.next() as u32),
-                _ => (u32::MAX >> rng.below(32)) << rng.below(32),
-            };
-            let mut want = 0u32;
-            for (bit, &d) in d_at.iter().enumerate() {
-                if inside >> bit & 1 == 1 && d / contrast >= HOLE_RATIO {
-                    want |= 1 << bit;
+    fn ring_fifo_gives_each_value_back() {
+        // Rows of ring values enter the column sums and leave them 9 rows later, as in `weigh`;
+        // kept or computed again, each value must come back as it entered, and a window that
+        // fits the FIFO computes none again.
+        let mut rng = Rng(4242);
+        for case in 0..300 {
+            let rows: Vec<usize> = (0..1 + rng.below(60))
+                .map(|_| match case % 4 {
+                    0 => rng.below(8),
+                    1 => rng.below(40),
+                    2 => rng.below(3) * 60,
+                    _ => rng.below(200),
+                })
+                .collect();
+            let value = |k: usize| k as f32 * 0.75 - 100.0;
+            let mut fifo = RingFifo::new(0.0f32);
+            let (mut entered, mut left, mut reads, mut most) = (0usize, 0usize, 0usize, 0usize);
+            for p in 0..rows.len() + 9 {
+                for _ in 0..rows.get(p).copied().unwrap_or(0) {
+                    fifo.enter(value(entered));
+                    entered += 1;
+                }
+                most = most.max(entered - left);
+                if let Some(q) = p.checked_sub(8) {
+                    for _ in 0..rows.get(q).copied().unwrap_or(0) {
+                        let v = fifo.leave(|| {
+                            reads += 1;
+                            value(left)
+                        });
+                        assert_eq!(v, value(left), "case {case} value {left}");
+                        left += 1;
+                    }
                 }
             }
-            assert_eq!(at_least_hole_ratio(&d_at, inside, contrast), want, "case {case}");
-            shortcut += usize::from(want == inside && inside != 0);
+            assert_eq!(entered, left);
+            if most <= RING_FIFO {
+                assert_eq!(reads, 0, "case {case}");
+            }
         }
-        assert!(shortcut > 10_000, "{shortcut}");
     }
 
     #[test]
@@ -2048,103 +3020,273 @@ mod tests {
     }
 
     #[test]
-    fn ring_values_give_each_pixel_its_own_value() {
-        // Rows of ring pixels enter the column sums and leave them 9 rows later, as in `weigh`;
-        // whatever is stored or not, each pixel must come back with its own D.
-        let mut rng = Rng(4242);
-        for case in 0..200 {
-            let rows: Vec<usize> = (0..1 + rng.below(60))
-                .map(|_| match case % 4 {
-                    0 => rng.below(8),
-                    1 => rng.below(40),
-                    2 => rng.below(3) * 150,
-                    _ => rng.below(400),
-                })
-                .collect();
-            let total: usize = rows.iter().sum();
-            let value = |k: usize| k as f32 * 0.75 - 100.0;
-            let mut values = RingValues::new(true);
-            for k in 0..total {
-                values.store(value(k));
-            }
-            let (mut entered, mut left, mut reads) = (0usize, 0usize, 0usize);
-            for p in 0..rows.len() + 9 {
-                if let Some(q) = p.checked_sub(9) {
-                    for _ in 0..rows[q] {
-                        let d = values.leave(|| {
-                            reads += 1;
-                            value(left)
-                        });
-                        assert_eq!(d, value(left), "case {case} leaving {left}");
-                        left += 1;
+    fn bit_row_morphology_is_the_per_bit_definition() {
+        // Erosion and dilation by segments over a row's words, and the shifts they are made of,
+        // against the definition column by column (outside the row is 0).
+        let mut rng = Rng(2024);
+        for case in 0..3000 {
+            let width = 1 + rng.below(MAX_WIDTH);
+            let x = random_bits(&mut rng, width);
+            let at = |c: isize| c >= 0 && bit(&x, c as usize);
+            for c in 0..MAX_WIDTH {
+                let ci = c as isize;
+                let window = |k: isize, all: bool| {
+                    let mut v = (-k..=k).map(|d| at(ci + d));
+                    if all {
+                        v.all(|b| b)
+                    } else {
+                        v.any(|b| b)
                     }
-                }
-                for _ in 0..rows.get(p).copied().unwrap_or(0) {
-                    let d = values.enter(|| {
-                        reads += 1;
-                        value(entered)
-                    });
-                    assert_eq!(d, value(entered), "case {case} entering {entered}");
-                    entered += 1;
-                }
-                // What is kept is the pixel's own value (`weigh` reads the pixels 4 rows after
-                // they entered), and nothing that left; all is kept when it fits.
-                for k in left.saturating_sub(3)..total.min(entered + 600) {
-                    match values.peek(k) {
-                        Some(d) => {
-                            // (Or stored by the first pass and yet to enter.)
-                            assert!(k >= left, "case {case} peek {k}");
-                            assert_eq!(d, value(k), "case {case} peek {k}");
-                        }
-                        None => assert!(!(left..entered).contains(&k) || total > RING_VALUES),
-                    }
-                }
+                };
+                assert_eq!(
+                    bit(&erode::<2, WORDS>(&x), c),
+                    window(2, true),
+                    "case {case} erode 2 at {c}"
+                );
+                assert_eq!(
+                    bit(&erode::<3, WORDS>(&x), c),
+                    window(3, true),
+                    "case {case} erode 3 at {c}"
+                );
+                assert_eq!(
+                    bit(&erode::<5, WORDS>(&x), c),
+                    window(5, true),
+                    "case {case} erode 5 at {c}"
+                );
+                assert_eq!(
+                    bit(&dilate::<1, WORDS>(&x), c),
+                    window(1, false),
+                    "case {case} dilate 1 at {c}"
+                );
+                assert_eq!(
+                    bit(&dilate::<2, WORDS>(&x), c),
+                    window(2, false),
+                    "case {case} dilate 2 at {c}"
+                );
+                assert_eq!(bit(&shift_down::<7, WORDS>(&x), c), at(ci + 7));
+                assert_eq!(bit(&shift_up::<5, WORDS>(&x), c), at(ci - 5));
             }
-            assert_eq!((entered, left), (total, total));
-            // Small parts need no second read at all.
-            if total <= RING_VALUES {
-                assert_eq!(reads, 0, "case {case}");
+            // Runs around a set bit, runs of seeds, the next set or clear bit, column ranges.
+            let set: Vec<usize> = (0..width).filter(|&c| bit(&x, c)).collect();
+            if let Some(&c) = set.get(rng.below(set.len().max(1))) {
+                let (l, r) = run_around(&x, c);
+                assert!((l..=r).all(|k| bit(&x, k)), "case {case}");
+                assert!(l == 0 || !bit(&x, l - 1));
+                assert!(!bit(&x, r + 1));
+            }
+            let seeds = and(&random_bits(&mut rng, width), &x);
+            let runs = runs_of(&x, &seeds);
+            for c in 0..MAX_WIDTH {
+                let (mut l, mut r) = (c, c);
+                while l > 0 && bit(&x, l - 1) {
+                    l -= 1;
+                }
+                while bit(&x, r + 1) {
+                    r += 1;
+                }
+                let want = bit(&x, c) && (l..=r).any(|k| bit(&seeds, k));
+                assert_eq!(bit(&runs, c), want, "case {case} runs at {c}");
+            }
+            let from = rng.below(MAX_WIDTH + 1);
+            for set in [true, false] {
+                let want = (from..MAX_WIDTH).find(|&c| bit(&x, c) == set).unwrap_or(MAX_WIDTH);
+                let got = if set {
+                    next_bit::<true, WORDS>(&x, from)
+                } else {
+                    next_bit::<false, WORDS>(&x, from)
+                };
+                assert_eq!(got, want, "case {case} next {set} from {from}");
+            }
+            let lo = rng.below(MAX_WIDTH);
+            let hi = lo + rng.below(MAX_WIDTH - lo);
+            for c in 0..MAX_WIDTH {
+                assert_eq!(
+                    range_word(c / BITS, lo, hi) >> (c % BITS) & 1 != 0,
+                    (lo..=hi).contains(&c)
+                );
             }
         }
     }
 
+    /// A random box (at least [`MIN_WIDTH`] wide, at most [`MAX_WIDTH`]; narrow ones often) in a
+    /// random 0/1 plane.
+    fn random_box(rng: &mut Rng, density: f32) -> (usize, usize, Vec<u8>, Rect) {
+        let (w, h) = (MIN_WIDTH + rng.below(300), 1 + rng.below(60));
+        let mask: Vec<u8> = (0..w * h).map(|_| rng.chance(density) as u8).collect();
+        let x0 = rng.below(w - MIN_WIDTH + 1);
+        let most = if rng.chance(0.3) { 40 } else { MAX_WIDTH };
+        let x1 = (x0 + MIN_WIDTH + rng.below(most - MIN_WIDTH + 1)).min(w);
+        let y0 = rng.below(h);
+        let r = Rect {
+            x0,
+            y0,
+            x1,
+            y1: y0 + 1 + rng.below(h - y0),
+        };
+        (w, h, mask, r)
+    }
+
+    /// Calls `f::<N>` with the box's words.
+    macro_rules! with_words {
+        ($width:expr, $f:ident ( $($arg:expr),* )) => {
+            match ($width).div_ceil(BITS) {
+                1 => $f::<1>($($arg),*),
+                2 => $f::<2>($($arg),*),
+                3 => $f::<3>($($arg),*),
+                4 => $f::<4>($($arg),*),
+                _ => $f::<WORDS>($($arg),*),
+            }
+        };
+    }
+
+    fn plane_case<const N: usize>(rng: &mut Rng, case: usize, w: usize, mask: &[u8], r: Rect) -> bool {
+        let mut plane_bytes = mask.to_vec();
+        let mut plane = Plane::new(&mut plane_bytes, w, r);
+        assert!(FIELDS * plane.stride <= plane.width);
+        let packed = plane.stride < N * WORD_BYTES;
+        let first = rng.below(plane.height);
+        plane.init::<N>(first);
+        // Not next to the rows set up: refused.
+        plane.init::<N>(first + 2);
+        assert_eq!((plane.lo, plane.hi), (first, first + 1));
+        for q in (0..first).rev().chain(first + 1..plane.height) {
+            plane.init::<N>(q);
+        }
+        assert_eq!((plane.lo, plane.hi), (0, plane.height));
+        let width = r.x1 - r.x0;
+        let narrow = |bits: Bits<WORDS>| -> Bits<N> { core::array::from_fn(|k| bits[k]) };
+        let mut rows = Vec::new();
+        for q in 0..plane.height {
+            let m = plane.load::<N>(q, MASK_FIELD);
+            for c in 0..BITS * N {
+                let want = c < width && mask[(r.y0 + q) * w + r.x0 + c] == 1;
+                assert_eq!(bit(&m, c), want, "case {case} row {q} column {c}");
+            }
+            assert_eq!(plane.load::<N>(q, COMP_FIELD), [0; N]);
+            let (c, g, b) = (
+                narrow(random_bits(rng, width)),
+                narrow(random_bits(rng, width)),
+                narrow(random_bits(rng, width)),
+            );
+            plane.store(q, COMP_FIELD, &c);
+            plane.store(q, RING_FIELD, &g);
+            plane.store(q, BAND_FIELD, &b);
+            rows.push((m, c, g, b));
+        }
+        for (q, &(m, c, g, b)) in rows.iter().enumerate() {
+            assert_eq!(plane.load::<N>(q, MASK_FIELD), m, "case {case}");
+            assert_eq!(plane.load::<N>(q, COMP_FIELD), c, "case {case}");
+            assert_eq!(plane.load::<N>(q, RING_FIELD), g, "case {case}");
+            assert_eq!(plane.load::<N>(q, BAND_FIELD), b, "case {case}");
+        }
+        assert_eq!(plane.load::<N>(plane.height, MASK_FIELD), [0; N]);
+        plane.restore::<N>();
+        assert_eq!(plane.load::<N>(0, MASK_FIELD), [0; N]);
+        assert!(plane_bytes == mask, "case {case}: plane not restored");
+        packed
+    }
+
     #[test]
-    fn bit_rows_gather_scatter_and_clear() {
+    fn plane_fields_hold_bit_rows_and_give_the_mask_back() {
+        // Rows set up from the mask's bytes, next to each other only; their fields loaded and
+        // stored (whole words and packed); the plane as it was after `restore`.
         let mut rng = Rng(99);
-        for len in [0, 1, 3, 7, 8, 9, 31, 32, 33, 100, 255, 256] {
-            let mut row: Vec<u8> = (0..len).map(|_| rng.next() as u8).collect();
-            let before = row.clone();
-            let comp = gather(&row, 7);
-            assert_eq!(gather(&row, 6), gather(&before, 6));
-            let (c, g) = gather_and_clear(&mut row);
-            assert_eq!(comp, c);
-            for (x, &v) in before.iter().enumerate() {
-                assert_eq!(c[x / 32] >> (x % 32) & 1 != 0, v & COMPONENT != 0);
-                assert_eq!(g[x / 32] >> (x % 32) & 1 != 0, v & RING != 0);
-                assert_eq!(row[x], v & 1);
+        let mut packed = 0;
+        for case in 0..400 {
+            let (w, _, mask, r) = random_box(&mut rng, 0.5);
+            packed += usize::from(with_words!(r.x1 - r.x0, plane_case(&mut rng, case, w, &mask, r)));
+        }
+        assert!(packed > 50, "{packed}");
+        for byte in 0..=255u8 {
+            let v = spread(byte);
+            assert_eq!(v & !LOW, 0);
+            assert_eq!(pack(v), byte as Word);
+        }
+    }
+
+    fn fill_case<const N: usize>(
+        w: usize,
+        mask: &[u8],
+        r: Rect,
+        seed: (usize, usize),
+        want: &[(usize, usize)],
+        case: usize,
+    ) {
+        let (bw, bh) = (r.x1 - r.x0, r.y1 - r.y0);
+        let top = want.iter().map(|p| p.1).min().unwrap();
+        let bottom = want.iter().map(|p| p.1).max().unwrap() + 1;
+        let mut bytes = mask.to_vec();
+        let mut plane = Plane::new(&mut bytes, w, r);
+        let rows = mark::<N>(&mut plane, seed.0 - r.x0, seed.1 - r.y0);
+        assert_eq!(rows, top..bottom, "case {case}");
+        assert!(
+            plane.lo <= top.saturating_sub(1) && (bottom + 1).min(bh) <= plane.hi,
+            "case {case}"
+        );
+        let mut marked = 0;
+        for q in 0..bh {
+            let c = plane.load::<N>(q, COMP_FIELD);
+            marked += c.iter().map(|v| v.count_ones() as usize).sum::<usize>();
+            for x in 0..bw {
+                assert_eq!(bit(&c, x), want.contains(&(x, q)), "case {case} ({x}, {q})");
             }
-            for x in len..MAX_WIDTH {
-                assert_eq!(c[x / 32] >> (x % 32) & 1, 0);
-                assert_eq!(g[x / 32] >> (x % 32) & 1, 0);
-            }
-            let mut again = before.clone();
-            keep_mask_bit(&mut again);
-            assert_eq!(again, row);
-            // Scatter sets exactly the flagged bytes' bit.
-            let mut bits = EMPTY;
-            for x in 0..len {
-                if rng.chance(0.3) {
-                    bits[x / 32] |= 1 << (x % 32);
+        }
+        assert_eq!(marked, want.len(), "case {case}");
+        plane.restore::<N>();
+        assert!(bytes == mask, "case {case}: plane not restored");
+    }
+
+    #[test]
+    fn bit_row_fill_finds_the_component() {
+        // The fill over bit rows (one sweep down, and sweeps back and forth where the component
+        // turns upward): exactly the 8-connected component within the box, the rows that hold it
+        // with one more set up above and below, the mask back after `restore`. Ragged random
+        // masks, and spirals and combs that turn many times.
+        let mut rng = Rng(12345);
+        let mut upward = 0usize;
+        for case in 0..600 {
+            let density = rng.range(0.3, 0.8);
+            let (w, h, mut mask, r) = random_box(&mut rng, density);
+            if case % 3 == 0 {
+                // Vertical and horizontal bars joined alternately at the top and the bottom, or
+                // a square spiral.
+                let spiral = rng.chance(0.5);
+                for y in 0..h {
+                    for x in 0..w {
+                        let (bx, by) = (x / 2, y / 2);
+                        mask[y * w + x] = if spiral {
+                            let ring = bx
+                                .min(by)
+                                .min((w / 2).saturating_sub(bx + 1))
+                                .min((h / 2).saturating_sub(by + 1));
+                            u8::from(
+                                ring % 2 == 0 && !(bx == ring + 1 && by == ring)
+                                    || (ring % 2 == 1 && bx == ring && by == ring - 1),
+                            )
+                        } else {
+                            let joint = if (bx / 2) % 2 == 0 { y + 2 >= h } else { y < 2 };
+                            u8::from(bx % 2 == 0 || joint)
+                        };
+                    }
                 }
             }
-            let mut plane = row.clone();
-            scatter(&mut plane, &bits, RING);
-            for x in 0..len {
-                let on = bits[x / 32] >> (x % 32) & 1 != 0;
-                assert_eq!(plane[x], row[x] | if on { RING } else { 0 });
+            let seed = (r.x0 + rng.below(r.x1 - r.x0), r.y0 + rng.below(r.y1 - r.y0));
+            if mask[seed.1 * w + seed.0] == 0 {
+                continue;
             }
-            assert_eq!(gather(&plane, 6), bits);
+            let (bw, bh) = (r.x1 - r.x0, r.y1 - r.y0);
+            let boxed: Vec<u8> = (0..bw * bh)
+                .map(|i| mask[(r.y0 + i / bw) * w + r.x0 + i % bw])
+                .collect();
+            let comps = components(&boxed, bw, bh);
+            let want = comps
+                .iter()
+                .find(|c| c.contains(&(seed.0 - r.x0, seed.1 - r.y0)))
+                .unwrap();
+            upward += usize::from(want.iter().any(|p| p.1 < seed.1 - r.y0));
+            with_words!(bw, fill_case(w, &mask, r, seed, want, case));
         }
+        assert!(upward > 100, "{upward}");
     }
 
     mod reference {

@@ -241,6 +241,22 @@ impl<'a, B: AsRef<[u8]>> Difference<'a, B> {
         (frame.len() == w).then_some((frame, background))
     }
 
+    /// [`Self::rows`] from row `y` on, without a call per row: the frame's bytes from row `y`
+    /// (row `y + k` at `k · stride`), the stride, and the background plane's from row `y` (row
+    /// `y + k` at `k · width`). `None` for `α < 1` or a row outside the image.
+    #[inline]
+    pub(crate) fn rows_from(&self, y: usize) -> Option<(&'a [u8], usize, &'a [u8])> {
+        if !(self.alpha.get() >= 1.0) || y >= self.frame.height() {
+            return None;
+        }
+        let start = y.checked_mul(self.frame.width())?;
+        Some((
+            self.frame.bytes_from(y),
+            self.frame.stride(),
+            self.background.get(start..)?,
+        ))
+    }
+
     /// `I' = α·I + (1 − α)·|∇I|` at an in-image pixel (α < 1), kept out of line so that
     /// [`Self::at`] stays small.
     #[inline(never)]
