@@ -5,7 +5,8 @@
 //! 0 background, 1 foreground), which border following then labels in place. The threshold τ is
 //! fixed or chosen by Otsu's method on the histogram of the difference (`docs/pipeline-spec.md`
 //! §3). [`foreground_mask_spans`] also says where each row holds foreground ([`RowSpans`]), so
-//! that later whole-plane passes can keep to those columns.
+//! that the later whole-plane passes (the border scan, [`crate::contour::clear_labels`]) keep to
+//! those columns.
 //!
 //! The mask is built bit-packed inside the plane itself, in words of 64 pixels (`u64`) on
 //! 64-bit targets and of 32 (`u32`) elsewhere (the Cortex-M4); the word size changes the cost,
@@ -109,8 +110,11 @@ const SPAN_END: u8 = u8::MAX;
 ///
 /// [`foreground_mask_spans`] writes them for its mask: a group's span is the hull of the
 /// group's foreground, widened to multiples of 32 px (to the row's end from 8160 px on, where
-/// the bounds saturate), and empty when the group holds none. `2·SPAN_GROUPS` bytes and three
-/// words.
+/// the bounds saturate), and empty when the group holds none. Border following labels only
+/// foreground pixels, so the spans stay true for the labelled plane:
+/// [`crate::contour::trace_borders_in`] scans only inside them and
+/// [`crate::contour::clear_labels`] turns labels back into the 0/1 mask only there.
+/// `2·SPAN_GROUPS` bytes and three words.
 ///
 /// ```
 /// use vorl_core::mask::RowSpans;
@@ -408,7 +412,7 @@ const WIDE: bool = cfg!(target_pointer_width = "64");
 /// Whether the target has 128-bit SIMD registers that LLVM's auto-vectoriser uses for loops
 /// over bytes (x86_64's SSE2 baseline, AArch64's NEON, wasm `simd128`). Without them (the
 /// Cortex-M4) the SWAR forms are leaner than byte loops.
-const BYTE_SIMD: bool = cfg!(any(
+pub(crate) const BYTE_SIMD: bool = cfg!(any(
     target_feature = "sse2",
     target_feature = "neon",
     target_feature = "simd128"
@@ -1325,7 +1329,35 @@ mod tests {
                 );
             }
             assert_spans(&want[..n], w, h, &spans);
+            if form == 0 {
+                assert_spans_serve_borders(&want[..n], w, h, &spans);
+            }
         }
+    }
+
+    /// The mask's spans serve border following: the scan within them gives what the whole
+    /// plane's scan gives, and clearing the labels within them leaves the mask again.
+    fn assert_spans_serve_borders(mask: &[u8], w: usize, h: usize, spans: &RowSpans) {
+        use crate::contour::{clear_labels, trace_borders, trace_borders_in, BorderFilter, ContourStore};
+        let filter = BorderFilter {
+            min_points: 1,
+            min_area: 0.0,
+        };
+        let n = mask.len();
+        let (mut within, mut whole) = ([0u8; MAX_PX], [0u8; MAX_PX]);
+        within[..n].copy_from_slice(mask);
+        whole[..n].copy_from_slice(mask);
+        let (mut a, mut b) = (ContourStore::<1024, 64>::new(), ContourStore::<1024, 64>::new());
+        let got = trace_borders_in(&mut within[..n], w, h, spans, filter, &mut a);
+        let want = trace_borders(&mut whole[..n], w, h, filter, &mut b);
+        assert_eq!(got, want, "{w}×{h}");
+        assert!(within[..n] == whole[..n], "{w}×{h}: labels");
+        assert_eq!(a.contours(), b.contours());
+        for i in 0..a.contours().len() {
+            assert_eq!(a.points(i), b.points(i));
+        }
+        clear_labels(&mut within[..n], w, h, spans);
+        assert!(within[..n] == *mask, "{w}×{h}: cleared labels");
     }
 
     /// `spans` are those of the 0/1 plane `labels`: per group of rows (`2^s` rows, the fewest
