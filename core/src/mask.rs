@@ -55,7 +55,7 @@
 //! SIMD pack and the zero words. On a Cortex-M4 (QEMU, QVGA frames of four parts) about 7.8
 //! per pixel for τ fixed with the opening, 0.60 M per frame (0.61 M before): step 1 0.42 M,
 //! the opening 0.10 M, step 3 0.08 M. Memory: none beyond the plane and the spans, and the
-//! 1 KiB histogram on the stack.
+//! 1 KiB histogram on the stack ([`foreground_mask`] also keeps its [`RowSpans`] there, 0.5 KiB).
 
 use core::ops::{BitAnd, BitOr, Not, Range, Shl, Shr};
 
