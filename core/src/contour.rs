@@ -17,16 +17,31 @@
 //! Pixels outside the image count as background, which is what `imageproc`'s `find_contours`
 //! gives on the mask padded with a one-pixel zero frame (`docs/pipeline-spec.md` §4).
 //!
-//! Time: one raster scan plus `O(border length)` per border (twice for a subsampled one). The
-//! scan skips runs of background and of unlabelled interior pixels 16 bytes at a time; a trace
-//! step reads neighbours at fixed offsets in the plane away from the image's edge. On the
-//! bench set (callgrind, `vorl detect`) that is 0.71 M x86_64 instructions per 640×480 frame
-//! (2.56 M with a byte-wise scan and bounds-checked neighbours); on a Cortex-M4 0.28–0.31 M
-//! per QVGA frame of four parts (QEMU; 0.63–0.65 M before).
+//! [`trace_borders_in`] takes the mask's [`RowSpans`]
+//! ([`crate::mask::foreground_mask_spans`]): rows without foreground are not read at all, the
+//! others only inside their span. Labels are written only on foreground pixels, so the spans
+//! also bound them: [`clear_labels`] turns the labelled plane back into the 0/1 mask inside
+//! them only.
+//!
+//! Time: one raster scan (inside the spans) plus `O(border length)` per border (twice for a
+//! subsampled one). The scan skips runs of background and of unlabelled interior pixels 16
+//! bytes at a time; where it stops after a run of background it knows the left neighbour is
+//! background. A trace step reads neighbours at fixed offsets in the plane away from the
+//! image's edge, and starts its search past the neighbours the step before found background
+//! (after a step along a row or column the first two, after a diagonal one the first, when the
+//! search before passed them). On the bench set (callgrind, `vorl detect`, the 30 frames' calls
+//! with all their code) that is 0.31 M x86_64 instructions per 640×480 frame, of which the
+//! traces (`follow`) are 0.16 M; before the spans and the leaner scan and step it was 0.58 M
+//! (the traces 0.24 M; 0.71 M with the templates' traces counted in), 2.56 M with a byte-wise
+//! scan and bounds-checked neighbours. On a Cortex-M4 0.20–0.22 M per QVGA frame of four parts
+//! (QEMU; 0.28–0.31 M before the spans, 0.63–0.65 M before that). [`clear_labels`] on the bench
+//! set: 0.04 M x86_64 instructions per frame (the whole-plane pass it replaces 0.09 M); on the
+//! Cortex-M4 0.05 M (0.38 M, five instructions per byte).
 //! Memory: `4·P` bytes of points and a small record per border in the store; 128 border records
 //! on the stack while tracing.
 
 use crate::error::{Error, Result};
+use crate::mask::RowSpans;
 
 /// A border pixel (pixel-centre coordinates).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -201,6 +216,7 @@ impl Plane<'_> {
         self.px.get(y as usize * self.w + x as usize).copied().unwrap_or(0)
     }
 
+    #[cfg(test)]
     #[inline]
     fn set(&mut self, x: i32, y: i32, v: u8) {
         if x >= 0 && y >= 0 && (x as usize) < self.w && (y as usize) < self.h {
@@ -244,6 +260,37 @@ pub fn trace_borders<const P: usize, const C: usize>(
     filter: BorderFilter,
     store: &mut ContourStore<P, C>,
 ) -> Result<TraceStats> {
+    trace_borders_in(labels, width, height, &RowSpans::full(width, height), filter, store)
+}
+
+/// [`trace_borders`] scanning each row only inside its span of `spans`
+/// ([`crate::mask::foreground_mask_spans`] writes them with the mask): the plane must be 0
+/// outside them. The result is [`trace_borders`]'s; only rows and columns that hold nothing
+/// are not read. Spans of another plane size count as unknown (every row scanned whole).
+///
+/// ```
+/// use vorl_core::contour::{trace_borders, trace_borders_in, BorderFilter, ContourStore};
+/// use vorl_core::mask::RowSpans;
+/// let mut plane = [0u8; 16];
+/// for (x, y) in [(1, 1), (2, 1), (1, 2), (2, 2)] { plane[y * 4 + x] = 1; }
+/// let mut again = plane;
+/// let (mut a, mut b) = (ContourStore::<64, 4>::new(), ContourStore::<64, 4>::new());
+/// let f = BorderFilter { min_points: 1, min_area: 0.0 };
+/// let spans = RowSpans::full(4, 4);
+/// assert_eq!(trace_borders_in(&mut plane, 4, 4, &spans, f, &mut a), trace_borders(&mut again, 4, 4, f, &mut b));
+/// assert_eq!(plane, again);
+/// ```
+///
+/// # Errors
+/// As [`trace_borders`].
+pub fn trace_borders_in<const P: usize, const C: usize>(
+    labels: &mut [u8],
+    width: usize,
+    height: usize,
+    spans: &RowSpans,
+    filter: BorderFilter,
+    store: &mut ContourStore<P, C>,
+) -> Result<TraceStats> {
     if width == 0 || height == 0 {
         return Err(Error::EmptyFrame { width, height });
     }
@@ -261,6 +308,7 @@ pub fn trace_borders<const P: usize, const C: usize>(
             got: labels.len(),
         });
     }
+    let known = spans.width() == width && spans.height() == height;
     store.clear();
     let mut plane = Plane {
         px: &mut labels[..n],
@@ -275,28 +323,35 @@ pub fn trace_borders<const P: usize, const C: usize>(
         stored: None,
     }; MAX_NBD as usize + 1];
     let mut nbd: u8 = 1;
-    for y in 0..height as i32 {
+    for y in 0..height {
+        // Background pixels start nothing and change nothing, and outside its span a row holds
+        // only background.
+        let span = if known { spans.row(y) } else { 0..width };
+        if span.is_empty() {
+            continue;
+        }
         let mut lnbd: u8 = 1;
-        let row = y as usize * width;
-        let mut x = -1i32;
+        let row = y * width;
+        let end = row + span.end;
+        let mut i = row + span.start;
         loop {
-            x += 1;
-            // Background pixels start nothing and change nothing: skip the run of them (a
-            // plain search the compiler vectorises). The row is read afresh, as tracing writes
-            // labels into it.
-            let rest = plane.px.get(row + x as usize..row + width).unwrap_or_default();
+            // Skip the run of background (a plain search the compiler vectorises). The row is
+            // read afresh, as tracing writes labels into it (never into background).
+            let rest = plane.px.get(i..end).unwrap_or_default();
             let skip = run_of(rest, 0);
             if skip >= rest.len() {
                 break;
             }
-            x += skip as i32;
-            let v = plane.at(x, y);
-            if v == 0 {
-                continue;
-            }
-            let start = if v == 1 && plane.at(x - 1, y) == 0 {
+            // The left neighbour is background when a run of it was skipped, and at the span's
+            // first column (outside the span, or outside the image); otherwise it is the pixel
+            // visited last or an interior pixel.
+            let left_zero = skip > 0 || i == row + span.start;
+            i += skip;
+            let x = i - row;
+            let v = plane.px.get(i).copied().unwrap_or(0);
+            let start = if v == 1 && left_zero {
                 Some((false, 0usize))
-            } else if v & NEG == 0 && plane.at(x + 1, y) == 0 {
+            } else if v & NEG == 0 && (x + 1 == width || plane.px.get(i + 1).is_some_and(|&r| r == 0)) {
                 if v > 1 {
                     lnbd = v;
                 }
@@ -337,23 +392,82 @@ pub fn trace_borders<const P: usize, const C: usize>(
                         };
                     }
                 }
-            }
-            let v = plane.at(x, y);
-            if v != 1 {
+                let v = plane.px.get(i).copied().unwrap_or(0);
+                if v != 1 {
+                    lnbd = label_abs(v);
+                }
+            } else if v != 1 {
                 lnbd = label_abs(v);
             }
             // So do unlabelled interior pixels (1) between two foreground neighbours: no border
             // starts there and LNBD stays. Skip their run too.
-            let interior = plane.px.get(row + x as usize + 1..row + width).map_or(0, interior_run);
-            x += interior as i32;
+            i += 1 + plane.px.get(i + 1..end).map_or(0, interior_run);
         }
     }
     Ok(stats)
 }
 
+/// Turns the plane labelled by [`trace_borders_in`] back into the 0/1 mask: every byte that is
+/// not 0 becomes 1. Only the columns inside `spans` are read, where the plane must hold all its
+/// non-zero bytes (spans of another plane size count as unknown: whole rows). A plane that
+/// `labels` does not fully hold is cleared as far as it goes.
+///
+/// ```
+/// use vorl_core::contour::{clear_labels, trace_borders_in, BorderFilter, ContourStore};
+/// use vorl_core::mask::RowSpans;
+/// let mut plane = [0u8; 16];
+/// for (x, y) in [(1, 1), (2, 1), (1, 2), (2, 2)] { plane[y * 4 + x] = 1; }
+/// let mask = plane;
+/// let spans = RowSpans::full(4, 4);
+/// let f = BorderFilter { min_points: 1, min_area: 0.0 };
+/// trace_borders_in(&mut plane, 4, 4, &spans, f, &mut ContourStore::<64, 4>::new()).unwrap();
+/// assert_ne!(plane, mask);
+/// clear_labels(&mut plane, 4, 4, &spans);
+/// assert_eq!(plane, mask);
+/// ```
+pub fn clear_labels(labels: &mut [u8], width: usize, height: usize, spans: &RowSpans) {
+    let known = spans.width() == width && spans.height() == height;
+    for (y, row) in labels.chunks_mut(width.max(1)).take(height).enumerate() {
+        let span = if known { spans.row(y) } else { 0..width };
+        if let Some(r) = row.get_mut(span.start..span.end.min(row.len())) {
+            binarize(r);
+        }
+    }
+}
+
+/// Every byte of `r` that is not 0 becomes 1: a byte loop where it vectorises, four bytes at a
+/// time in a `u32` elsewhere (`(x & 0x7F) + 0x7F | x` reaches bit 7 exactly when `x ≠ 0`).
+#[inline]
+fn binarize(r: &mut [u8]) {
+    binarize_form::<{ crate::mask::BYTE_SIMD }>(r);
+}
+
+/// [`binarize`] as a byte loop (`SIMD`) or four bytes at a time (the Cortex-M4's form).
+#[inline(always)]
+fn binarize_form<const SIMD: bool>(r: &mut [u8]) {
+    if SIMD {
+        for v in r.iter_mut() {
+            *v = u8::from(*v != 0);
+        }
+        return;
+    }
+    let mut quads = r.chunks_exact_mut(4);
+    for q in quads.by_ref() {
+        if let Some(q) = q.first_chunk_mut::<4>() {
+            let x = u32::from_le_bytes(*q);
+            *q = ((((x & 0x7F7F_7F7F) + 0x7F7F_7F7F) | x) >> 7 & 0x0101_0101).to_le_bytes();
+        }
+    }
+    for v in quads.into_remainder() {
+        *v = u8::from(*v != 0);
+    }
+}
+
 /// Length of the run of bytes equal to `v` at the start of `r` (`r.len()` when all are): 16
 /// bytes to a comparison of little-endian `u128` words (a few instructions per 16 pixels on
 /// x86_64 and on the Cortex-M4 alike), then the first differing byte from the lowest set bit.
+/// The bytes after the last whole word are compared as the slice's last 16 (or 8) bytes, the
+/// ones already compared included (they are `v`).
 #[inline]
 fn run_of(r: &[u8], v: u8) -> usize {
     const LANE: usize = 16;
@@ -367,8 +481,31 @@ fn run_of(r: &[u8], v: u8) -> usize {
         }
         run += LANE;
     }
-    let rest = chunks.remainder();
-    run + rest.iter().position(|&b| b != v).unwrap_or(rest.len())
+    let len = r.len();
+    if run == len {
+        return len;
+    }
+    if let Some(last) = r.last_chunk::<LANE>() {
+        let diff = u128::from_le_bytes(*last) ^ pattern;
+        return if diff == 0 {
+            len
+        } else {
+            len - LANE + (diff.trailing_zeros() / 8) as usize
+        };
+    }
+    // Fewer than 16 bytes.
+    let pattern = u64::from_le_bytes([v; 8]);
+    if let (Some(head), Some(tail)) = (r.first_chunk::<8>(), r.last_chunk::<8>()) {
+        let (h, t) = (u64::from_le_bytes(*head) ^ pattern, u64::from_le_bytes(*tail) ^ pattern);
+        return if h != 0 {
+            (h.trailing_zeros() / 8) as usize
+        } else if t != 0 {
+            len - 8 + (t.trailing_zeros() / 8) as usize
+        } else {
+            len
+        };
+    }
+    r.iter().position(|&b| b != v).unwrap_or(len)
 }
 
 /// How many unlabelled interior pixels start `r` (the rest of a row after a pixel): pixels of
@@ -389,8 +526,8 @@ fn interior_run(r: &[u8]) -> usize {
 #[allow(clippy::too_many_arguments)]
 fn follow<const P: usize, const C: usize>(
     plane: &mut Plane<'_>,
-    x0: i32,
-    y0: i32,
+    x0: usize,
+    y0: usize,
     from: usize,
     nbd: u8,
     hole: bool,
@@ -400,7 +537,7 @@ fn follow<const P: usize, const C: usize>(
     stats: &mut TraceStats,
 ) -> Option<u16> {
     let free = P.saturating_sub(store.used);
-    let first = trace(plane, x0, y0, from, nbd, 1, &mut store.points, store.used, free);
+    let first = trace::<false>(plane, x0, y0, from, nbd, 1, &mut store.points, store.used, free);
     let Some(first) = first else {
         stats.aborted += 1;
         return None;
@@ -418,7 +555,7 @@ fn follow<const P: usize, const C: usize>(
             return None;
         }
         stride = first.len.div_ceil(free);
-        match trace(plane, x0, y0, from, nbd, stride, &mut store.points, store.used, free) {
+        match trace::<true>(plane, x0, y0, from, nbd, stride, &mut store.points, store.used, free) {
             Some(r) => result = r,
             None => {
                 stats.aborted += 1;
@@ -457,16 +594,18 @@ struct TraceResult {
 
 /// Traces one border, labelling pixels, storing every `stride`-th point into
 /// `points[offset .. offset + free]` while there is room. `None` when the iteration guard trips.
+/// `STRIDED` unset: `stride` is 1 (every point, the first trace of each border).
 ///
 /// Each step searches counter-clockwise from the direction back to the previous pixel, which is
 /// the opposite of the step that reached the current one. Away from the image's edge the
-/// neighbours are read at fixed offsets in the plane; on the edge through the bounds checks of
-/// [`Plane::at`] (outside counts as background).
+/// neighbours are read at fixed offsets in the plane; on the edge (which is what
+/// [`Contour::touches_edge`] means) through the bounds checks of [`Plane::at`] (outside counts
+/// as background). Whether the search examined the east neighbour follows from where it stopped.
 #[allow(clippy::too_many_arguments)]
-fn trace(
+fn trace<const STRIDED: bool>(
     plane: &mut Plane<'_>,
-    x0: i32,
-    y0: i32,
+    x0: usize,
+    y0: usize,
     from: usize,
     nbd: u8,
     stride: usize,
@@ -474,113 +613,164 @@ fn trace(
     offset: usize,
     free: usize,
 ) -> Option<TraceResult> {
-    let (w, h) = (plane.w as i32, plane.h as i32);
+    let (w, h) = (plane.w, plane.h);
+    // The points' room.
+    let points = points
+        .get_mut(offset..offset.saturating_add(free).min(points.len()))
+        .unwrap_or_default();
+    let (x0i, y0i) = (x0 as i32, y0 as i32);
+    // Step 3.1: clockwise from `from` for the first foreground neighbour.
+    let mut first = None;
+    for k in 0..8 {
+        let d = (from + k) % 8;
+        let (dx, dy) = DIRS[d];
+        if plane.at(x0i + dx, y0i + dy) != 0 {
+            first = Some(d);
+            break;
+        }
+    }
+    let i0 = y0 * w + x0;
+    let Some(d1) = first else {
+        // Isolated pixel.
+        if let Some(p) = plane.px.get_mut(i0) {
+            *p = NEG | nbd;
+        }
+        if let Some(p) = points.first_mut() {
+            *p = Point {
+                x: x0 as u16,
+                y: y0 as u16,
+            };
+        }
+        return Some(TraceResult {
+            len: 1,
+            area2: 0,
+            touches_edge: x0 == 0 || y0 == 0 || x0 + 1 == w || y0 + 1 == h,
+        });
+    };
+    // Offsets in the plane of the neighbours in the order of [`DIRS`], twice over: the search
+    // from `back` reads entries `back + 7` down to `back`.
+    let row = w as isize;
+    let once: [isize; 8] = [-1, -row - 1, -row, 1 - row, 1, row + 1, row, row - 1];
+    let offsets: [isize; 16] = core::array::from_fn(|j| once[j & 7]);
+    // The first pixel after the start, (x1, y1).
+    let i1 = i0.wrapping_add_signed(offsets[d1]);
+    // The current pixel (x3, y3) at index i3, and the direction back to the previous one
+    // (x2, y2), which starts as (x1, y1).
+    let (mut x3, mut y3) = (x0, y0);
+    let mut i3 = i0;
+    let mut back = d1;
+    // Columns and rows of pixels away from the edge: 1 ..= w − 2 (none when w < 3).
+    let (inner_w, inner_h) = (w.saturating_sub(2), h.saturating_sub(2));
+    // Each pixel is entered at most 4 times on one border; the guard only protects against a
+    // plane changed under our feet.
+    let guard = 4 * (w * h) + 16;
     let mut len = 0usize;
     let mut stored = 0usize;
     // `len % stride`, counted instead of divided.
     let mut phase = 0usize;
     let mut area2: i64 = 0;
     let mut touches_edge = false;
-    let mut push = |x: i32, y: i32, len: &mut usize| {
-        if phase == 0 && stored < free {
-            if let Some(p) = points.get_mut(offset + stored) {
-                *p = Point {
-                    x: x as u16,
-                    y: y as u16,
-                };
-            }
-            stored += 1;
-        }
-        phase += 1;
-        if phase >= stride {
-            phase = 0;
-        }
-        *len += 1;
-        if x == 0 || y == 0 || x == w - 1 || y == h - 1 {
-            touches_edge = true;
-        }
-    };
-    // Step 3.1: clockwise from `from` for the first foreground neighbour.
-    let mut first = None;
-    for k in 0..8 {
-        let d = (from + k) % 8;
-        let (dx, dy) = DIRS[d];
-        if plane.at(x0 + dx, y0 + dy) != 0 {
-            first = Some((d, x0 + dx, y0 + dy));
-            break;
-        }
-    }
-    let Some((d1, x1, y1)) = first else {
-        // Isolated pixel.
-        plane.set(x0, y0, NEG | nbd);
-        push(x0, y0, &mut len);
-        return Some(TraceResult {
-            len,
-            area2: 0,
-            touches_edge,
-        });
-    };
-    // Offsets in the plane of the neighbours in the order of [`DIRS`].
-    let row = plane.w as isize;
-    let offsets: [isize; 8] = [-1, -row - 1, -row, 1 - row, 1, row + 1, row, row - 1];
-    // The current pixel (x3, y3) at index i3, and the direction back to the previous one
-    // (x2, y2), which starts as (x1, y1).
-    let (mut x3, mut y3) = (x0, y0);
-    let mut i3 = y0 as usize * plane.w + x0 as usize;
-    let mut back = d1;
-    // Each pixel is entered at most 4 times on one border; the guard only protects against a
-    // plane changed under our feet.
-    let guard = 4 * (plane.w * plane.h) + 16;
+    // Search steps known to find background (none before the first step).
+    let mut known = 0;
     loop {
-        push(x3, y3, &mut len);
+        if !STRIDED || phase == 0 {
+            if let Some(p) = points.get_mut(stored) {
+                *p = Point {
+                    x: x3 as u16,
+                    y: y3 as u16,
+                };
+                stored += 1;
+            }
+        }
+        if STRIDED {
+            phase += 1;
+            if phase >= stride {
+                phase = 0;
+            }
+        }
+        len += 1;
         if len > guard {
             return None;
         }
         // Step 3.3: counter-clockwise from the direction after (x2, y2); (x2, y2) itself when
-        // nothing else is foreground.
-        let inner = x3 > 0 && y3 > 0 && x3 < w - 1 && y3 < h - 1;
-        let mut east_examined = false;
-        let mut next = back;
-        for k in 1..=8 {
-            let d = (back + 8 - k) & 7;
-            let v = if inner {
-                plane.px.get(i3.wrapping_add_signed(offsets[d])).copied().unwrap_or(0)
-            } else {
-                let (dx, dy) = DIRS[d];
-                plane.at(x3 + dx, y3 + dy)
-            };
-            if v != 0 {
-                next = d;
-                break;
+        // nothing else is foreground. `found` is the step of the search that stopped it (9: none).
+        let inner = x3.wrapping_sub(1) < inner_w && y3.wrapping_sub(1) < inner_h;
+        touches_edge |= !inner;
+        // The first `known` steps read neighbours the previous step's search found background.
+        let found = if inner {
+            let ahead = offsets.get(back..back + 8).unwrap_or_default();
+            match known {
+                0 => search_inner::<1>(plane.px, i3, ahead),
+                1 => search_inner::<2>(plane.px, i3, ahead),
+                _ => search_inner::<3>(plane.px, i3, ahead),
             }
-            if d == EAST {
-                east_examined = true;
+        } else {
+            let mut found = 9;
+            for k in known + 1..=8 {
+                let (dx, dy) = DIRS[(back + 8 - k) & 7];
+                if plane.at(x3 as i32 + dx, y3 as i32 + dy) != 0 {
+                    found = k;
+                    break;
+                }
             }
-        }
-        // Step 3.4: label.
+            found
+        };
+        let next = if found <= 8 { (back + 8 - found) & 7 } else { back };
+        // Step 3.4: label. The search reaches east at step (back − 4) mod 8 (8 for 0); it was
+        // examined (and background) when that comes before the step that stopped it.
+        let east = match (back + 4) & 7 {
+            0 => 8,
+            k => k,
+        };
         if let Some(p) = plane.px.get_mut(i3) {
-            if east_examined {
+            if east < found {
                 *p = NEG | nbd;
             } else if *p == 1 {
                 *p = nbd;
             }
         }
         let (dx, dy) = DIRS[next];
-        let (x4, y4) = (x3 + dx, y3 + dy);
-        area2 += x3 as i64 * y4 as i64 - x4 as i64 * y3 as i64;
+        // x3·y4 − x4·y3 with (x4, y4) = (x3 + dx, y3 + dy).
+        area2 += x3 as i64 * dy as i64 - y3 as i64 * dx as i64;
+        let i4 = i3.wrapping_add_signed(offsets[next]);
         // Step 3.5: back at the start heading for the first point → done.
-        if x4 == x0 && y4 == y0 && x3 == x1 && y3 == y1 {
+        if i4 == i0 && i3 == i1 {
             break;
         }
+        // This search found directions next + 1 ..= next + found − 1 background. From the next
+        // pixel, the search's first step reads this pixel's neighbour next + 2 (a step along a
+        // row or column) or next + 1 (a diagonal one), and after a straight step its second
+        // reads next + 1: those are known when this search passed them.
+        known = match (next & 1, found) {
+            (_, 9..) => 0,
+            (0, 3..) => 2,
+            (1, 2..) => 1,
+            _ => 0,
+        };
         back = (next + 4) & 7;
-        (x3, y3) = (x4, y4);
-        i3 = i3.wrapping_add_signed(offsets[next]);
+        x3 = x3.wrapping_add_signed(dx as isize);
+        y3 = y3.wrapping_add_signed(dy as isize);
+        i3 = i4;
     }
     Some(TraceResult {
         len,
         area2,
         touches_edge,
     })
+}
+
+/// The step of the search around pixel `i` (away from the image's edge) that first finds
+/// foreground, from step `FROM` on (9: none): step `k` reads the neighbour at offset
+/// `ahead[8 − k]`.
+#[inline(always)]
+fn search_inner<const FROM: usize>(px: &[u8], i: usize, ahead: &[isize]) -> usize {
+    for k in FROM..=8 {
+        let o = ahead.get(8 - k).copied().unwrap_or(0);
+        if px.get(i.wrapping_add_signed(o)).is_some_and(|&v| v != 0) {
+            return k;
+        }
+    }
+    9
 }
 
 #[cfg(test)]
@@ -895,13 +1085,81 @@ mod tests {
         }
     }
 
+    /// Spans of `plane`: each row's foreground hull, widened by `widen()` columns each way
+    /// (a true superset of its foreground, as [`trace_borders_in`] needs).
+    fn spans_of(plane: &[u8], w: usize, h: usize, mut widen: impl FnMut() -> (usize, usize)) -> RowSpans {
+        let mut spans = RowSpans::new();
+        spans.clear(w, h);
+        for (y, row) in plane.chunks_exact(w).take(h).enumerate() {
+            if let (Some(x0), Some(x1)) = (row.iter().position(|&v| v != 0), row.iter().rposition(|&v| v != 0)) {
+                let (a, b) = widen();
+                spans.include(y, x0.saturating_sub(a), (x1 + 1 + b).min(w));
+            }
+        }
+        spans
+    }
+
+    /// Every mask of a 4×4, 5×3 and 3×5 window, in a frame of background and at the image's
+    /// corner, against the reference: every local shape the search meets (spurs, one-pixel
+    /// lines, diagonal steps, pixels met twice) in every position.
+    #[test]
+    fn borders_equal_reference_on_every_small_mask() {
+        let filter = BorderFilter {
+            min_points: 0,
+            min_area: 0.0,
+        };
+        for (bw, bh) in [(4usize, 4usize), (5, 3), (3, 5)] {
+            for (ox, oy, w, h) in [(1usize, 1usize, bw + 2, bh + 2), (0, 0, bw + 1, bh)] {
+                for bits in 0u32..1 << (bw * bh) {
+                    let mut plane = [0u8; 64];
+                    for i in 0..bw * bh {
+                        if bits >> i & 1 == 1 {
+                            plane[(oy + i / bw) * w + ox + i % bw] = 1;
+                        }
+                    }
+                    let spans = spans_of(&plane[..w * h], w, h, || (0, 0));
+                    assert_same::<64, 16>(&plane[..w * h], w, h, filter, &spans, bits as usize);
+                }
+            }
+        }
+    }
+
+    /// Both forms of the label clearing (the byte loop runs on the host, the four-byte one on
+    /// the Cortex-M4) against the definition, on every byte value in every position and on
+    /// random lengths.
+    #[test]
+    fn binarize_forms_match_definition() {
+        let mut rng = Rng(9);
+        for case in 0..20_000 {
+            let len = rng.below(40) as usize;
+            let mut r = [0u8; 40];
+            for (i, v) in r[..len].iter_mut().enumerate() {
+                *v = if case < 256 {
+                    (case as u8).wrapping_add(i as u8)
+                } else {
+                    [0, 1, 2, 0x80, 0x81, 0xFF][rng.below(6) as usize]
+                };
+            }
+            let want = r.map(|v| u8::from(v != 0));
+            let (mut a, mut b) = (r, r);
+            binarize_form::<true>(&mut a[..len]);
+            binarize_form::<false>(&mut b[..len]);
+            assert_eq!(a[..len], want[..len], "{:?}", &r[..len]);
+            assert_eq!(b[..len], want[..len], "{:?}", &r[..len]);
+            assert_eq!((&a[len..], &b[len..]), (&r[len..], &r[len..]));
+        }
+    }
+
     /// Traces `plane` with both implementations into stores of `P` points and `C` borders and
     /// asserts the same labels, borders (points, order, kinds, parents) and stats; returns them.
+    /// The scan within `spans` (which must cover the plane's foreground) gives the same, and
+    /// [`clear_labels`] within them leaves the plane itself again.
     fn assert_same<const P: usize, const C: usize>(
         plane: &[u8],
         w: usize,
         h: usize,
         filter: BorderFilter,
+        spans: &RowSpans,
         case: usize,
     ) -> TraceStats {
         let (mut got, mut want) = (plane.to_vec(), plane.to_vec());
@@ -918,6 +1176,25 @@ mod tests {
                 "case {case} P={P} border {i}"
             );
         }
+        let mut within = plane.to_vec();
+        let mut store_within = ContourStore::<P, C>::new();
+        let s = trace_borders_in(&mut within, w, h, spans, filter, &mut store_within).unwrap();
+        assert_eq!(s, r, "case {case}: {w}×{h} P={P} within spans");
+        assert_eq!(within, want, "case {case}: {w}×{h} P={P} within spans");
+        assert_eq!(
+            store_within.contours(),
+            store_want.contours(),
+            "case {case} P={P} within spans"
+        );
+        for i in 0..store_within.contours().len() {
+            assert_eq!(
+                store_within.points(i),
+                store_want.points(i),
+                "case {case} P={P} border {i}"
+            );
+        }
+        clear_labels(&mut within, w, h, spans);
+        assert_eq!(within, plane, "case {case}: {w}×{h} cleared within spans");
         g
     }
 
@@ -937,7 +1214,9 @@ mod tests {
             } else {
                 1 + rng.below(200) as usize
             };
-            let h = 1 + rng.below((MAX / w).min(40) as u64) as usize;
+            // Every fifth plane as tall as fits: over 256 rows the spans are per group of rows.
+            let tall = if case % 5 == 4 { MAX / w } else { (MAX / w).min(40) };
+            let h = 1 + rng.below(tall as u64) as usize;
             let n = w * h;
             let density = rng.below(101);
             for p in plane[..n].iter_mut() {
@@ -957,9 +1236,17 @@ mod tests {
                 min_points: rng.below(4) as usize,
                 min_area: rng.below(3) as f32,
             };
+            // Spans: the foreground's hull per row (widened to 32 px), or widened further at
+            // random, or of another plane (unknown: whole rows).
+            let spans = match case % 3 {
+                0 => spans_of(&plane[..n], w, h, || (0, 0)),
+                1 => spans_of(&plane[..n], w, h, || (rng.below(40) as usize, rng.below(40) as usize)),
+                _ if case % 2 == 0 => RowSpans::full(w + 1, h),
+                _ => spans_of(&plane[..n], w, h, || (rng.below(3) as usize, 0)),
+            };
             for g in [
-                assert_same::<8192, 256>(&plane[..n], w, h, filter, case),
-                assert_same::<64, 256>(&plane[..n], w, h, filter, case),
+                assert_same::<8192, 256>(&plane[..n], w, h, filter, &spans, case),
+                assert_same::<64, 256>(&plane[..n], w, h, filter, &spans, case),
             ] {
                 saturated += usize::from(g.labels_saturated);
                 skipped += g.skipped_capacity;

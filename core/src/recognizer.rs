@@ -38,11 +38,11 @@
 //! cannot be described is reported as a [`Skip`] with the reason.
 
 use crate::background::Background;
-use crate::contour::{trace_borders, BorderKind, ContourStore, TraceStats};
+use crate::contour::{clear_labels, trace_borders_in, BorderKind, ContourStore, TraceStats};
 use crate::descriptor::describe;
 use crate::error::{Error, Result};
 use crate::frame::Frame;
-use crate::mask::{foreground_mask, MaskStats};
+use crate::mask::{foreground_mask_spans, MaskStats, RowSpans};
 use crate::matching::{
     best_cost, best_match, match_at_start, sorted_lower_bound, sorted_window_bound, table_cells, Match,
 };
@@ -294,7 +294,8 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
     }
 
     /// Runs one frame through the whole pipeline. `labels` (`width·height` bytes) is scratch;
-    /// afterwards it holds the labelled mask (0 = background).
+    /// afterwards it holds the 0/1 foreground mask (the border labels are cleared again, inside
+    /// the mask's [`RowSpans`], outside which the mask is 0).
     ///
     /// # Errors
     /// [`Error::NoBackground`], [`Error::FrameSize`] (frame and background differ),
@@ -321,16 +322,21 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         mut observe: F,
     ) -> Result<Report> {
         let params = self.params;
-        let mask = foreground_mask(
+        let (w, h) = (frame.width(), frame.height());
+        // Where each row of the mask holds foreground: border following scans only there, and
+        // only there can it leave labels.
+        let mut spans = RowSpans::new();
+        let mask = foreground_mask_spans(
             frame,
             background,
             params.alpha(),
             params.threshold,
             params.cleanup,
             labels,
+            &mut spans,
         )?;
         observe(Stage::Mask);
-        let trace = trace_borders(labels, frame.width(), frame.height(), params.filter(), &mut self.store)?;
+        let trace = trace_borders_in(labels, w, h, &spans, params.filter(), &mut self.store)?;
         observe(Stage::Borders);
         let mut report = Report {
             mask,
@@ -339,9 +345,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         };
         // From here on the label plane is the plain 0/1 mask (the partial-volume centroid uses
         // its other bits as scratch and clears them again).
-        for v in labels.iter_mut() {
-            *v = (*v != 0) as u8;
-        }
+        clear_labels(labels, w, h, &spans);
         for index in 0..self.store.contours().len() {
             let Some(contour) = self.store.contours().get(index).copied() else {
                 continue;
@@ -923,6 +927,47 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
 mod tests {
     use super::*;
     extern crate std;
+
+    /// After `process` the label plane holds the 0/1 mask, the same as [`foreground_mask`]'s,
+    /// however the borders were labelled (rings with holes, parts on the edge, over 126
+    /// borders) and whatever the plane held before.
+    #[test]
+    fn process_leaves_the_foreground_mask_in_the_label_plane() {
+        use crate::mask::foreground_mask;
+        let mut rng = crate::test_rng::XorShiftStar(0x1abe1);
+        for case in 0..40 {
+            let (w, h) = ([97usize, 160, 64, 33][case % 4], [61usize, 40, 70, 90][case % 4]);
+            let n = w * h;
+            let bg_px: std::vec::Vec<u8> = (0..n).map(|_| 60 + rng.below(6) as u8).collect();
+            let mut frame_px = bg_px.clone();
+            for _ in 0..rng.below(150) {
+                let (x0, y0) = (rng.below(w as u64) as usize, rng.below(h as u64) as usize);
+                let (rw, rh) = (1 + rng.below(20) as usize, 1 + rng.below(20) as usize);
+                let ring = rng.below(2) == 0;
+                let v = if rng.below(2) == 0 { 200 } else { 5 };
+                for y in y0..(y0 + rh).min(h) {
+                    for x in x0..(x0 + rw).min(w) {
+                        let inside = x > x0 + 2 && x + 3 < x0 + rw && y > y0 + 2 && y + 3 < y0 + rh;
+                        if !(ring && inside) {
+                            frame_px[y * w + x] = v;
+                        }
+                    }
+                }
+            }
+            let frame = Frame::new_checked(&frame_px[..], w, h).unwrap();
+            let mut bg = Background::new(std::vec![0u8; n], w, h).unwrap();
+            bg.set_from_frame(&Frame::new_checked(&bg_px[..], w, h).unwrap(), Params::DEFAULT.alpha())
+                .unwrap();
+            let mut rec: std::boxed::Box<Recognizer<4, 96, 4096, 64, 2112>> = std::boxed::Box::default();
+            let mut labels = std::vec![rng.below(256) as u8; n + 3];
+            let report = rec.process(&frame, &bg, &mut labels).unwrap();
+            let p = Params::DEFAULT;
+            let mut mask = std::vec![0u8; n];
+            let stats = foreground_mask(&frame, &bg, p.alpha(), p.threshold, p.cleanup, &mut mask).unwrap();
+            assert_eq!(report.mask, stats);
+            assert!(labels[..n] == mask[..], "case {case}: {w}×{h}");
+        }
+    }
 
     /// Smooth descriptor-like values with a little noise, from a seed.
     fn values(seed: u64, len: usize, out: &mut [f32]) {
