@@ -1286,6 +1286,10 @@ fn step_blocks(row: &mut [f32], t: &[f32], ci: f32, pa: usize, pb: usize, a: usi
 }
 
 #[cfg(test)]
+#[path = "matching_spec.rs"]
+mod spec;
+
+#[cfg(test)]
 mod tests {
     use super::*;
     use crate::descriptor::{describe, scaled_k, DescriptorParams};
@@ -1745,5 +1749,56 @@ mod tests {
             Err(Error::DegenerateContour { points: 4 })
         );
         assert_eq!(best_cost(&part, &template, f32::INFINITY, &mut table), Ok(None));
+    }
+
+    /// Inputs for the bit-for-bit checks: continuous values, a coarse grid (ties), constants,
+    /// and values with some infinite or NaN points.
+    fn awkward(rng: &mut Rng, count: usize, kind: u64) -> Vec<f32> {
+        let mut v = values(rng, count, kind % 3);
+        if kind >= 3 {
+            for x in v.iter_mut() {
+                match rng.next() % 16 {
+                    0 => *x = f32::INFINITY,
+                    1 if kind == 4 => *x = f32::NAN,
+                    _ => {}
+                }
+            }
+        }
+        v
+    }
+
+    /// The search against its definition ([`spec`]): the same cost bits, start and
+    /// correspondence, with and without a bound and a correspondence, on every kind of input.
+    #[test]
+    fn search_equals_its_definition_bit_for_bit() {
+        let mut rng = Rng(0x5EED_D1CE_0BAD_F00D);
+        let mut sizes: Vec<(usize, usize)> = vec![(64, 96), (32, 48), (64, 127), (20, 39), (70, 140 - 1)];
+        for _ in 0..400 {
+            let n = 1 + rng.next() as usize % 40;
+            let m = n + rng.next() as usize % n;
+            sizes.push((n, m));
+        }
+        for (round, &(n, m)) in sizes.iter().enumerate() {
+            let kind = round as u64 % 5;
+            let part = awkward(&mut rng, n, kind);
+            let template = awkward(&mut rng, m, kind);
+            let want = spec::search(&part, &template, f32::INFINITY, false);
+            let cost = want.as_ref().map_or(1.0, |w| w.0);
+            for bound in [f32::INFINITY, cost, cost * 1.01 + 0.01, cost * rng.unit() * 2.0] {
+                for with_out in [false, true] {
+                    let want = spec::search(&part, &template, bound, with_out);
+                    let mut big = vec![0.0f32; search_cells(n, m)];
+                    let mut out = vec![0u16; if with_out { n } else { 0 }];
+                    let got = search(&part, &template, bound, &mut big, &mut out).unwrap();
+                    let key = |f: &(f32, usize, Vec<u16>)| (f.0.to_bits(), f.1, f.2.clone());
+                    let got = got.map(|g| (g.cost, g.start, out.clone()));
+                    assert_eq!(
+                        got.as_ref().map(key),
+                        want.as_ref().map(key),
+                        "n {n} m {m} kind {kind} bound {bound} out {with_out}"
+                    );
+                }
+            }
+        }
     }
 }
