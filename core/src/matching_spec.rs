@@ -120,33 +120,8 @@ impl Spec<'_> {
         Some(start + path[i])
     }
 
-    /// The band DP: the table of every row (`None` once a row minimum reaches the best, with
-    /// `abandon`). Row −1 is 0 everywhere.
     fn band_dp(&self, band: &Band, abandon: bool) -> Option<Vec<Vec<f32>>> {
-        let mut table: Vec<Vec<f32>> = Vec::new();
-        for (i, &(a, b)) in band.iter().enumerate() {
-            let p = self.part[i];
-            let mut row = Vec::new();
-            for k in a..=b {
-                let before = if i == 0 {
-                    0.0
-                } else {
-                    let (pa, pb) = band[i - 1];
-                    let mut q = f32::INFINITY;
-                    for x in pa..=pb.min(k - 1) {
-                        q = lesser(q, table[i - 1][x - pa]);
-                    }
-                    q
-                };
-                row.push((p - self.t2[k]).abs() + before);
-            }
-            let row_min = row.iter().copied().fold(f32::INFINITY, lesser);
-            table.push(row);
-            if abandon && row_min >= self.best {
-                return None;
-            }
-        }
-        Some(table)
+        band_table(self.part, &self.t2, band, abandon, self.best)
     }
 
     fn relaxed(&mut self, first: usize, last: usize, lower: Edge, upper: Edge) -> f32 {
@@ -177,19 +152,7 @@ impl Spec<'_> {
         let Some(table) = self.band_dp(&band, abandon) else {
             return false;
         };
-        // The first minimum of a row's values over columns `from ..= to` (`from` when none is
-        // below +∞).
-        let first_min = |i: usize, to: usize| {
-            let (a, _) = band[i];
-            let (mut at, mut least) = (a, f32::INFINITY);
-            for (x, &v) in table[i].iter().enumerate().take(to + 1 - a) {
-                if v < least {
-                    (at, least) = (a + x, v);
-                }
-            }
-            (at, least)
-        };
-        let (mut k, total) = first_min(n - 1, band[n - 1].1);
+        let (mut k, total) = first_min(&table, &band, n - 1, band[n - 1].1);
         let wins = total < self.best;
         if wins {
             self.best = total;
@@ -202,7 +165,7 @@ impl Spec<'_> {
         let mut path = vec![0usize; n];
         path[n - 1] = k - s - (n - 1);
         for i in (1..n).rev() {
-            k = first_min(i - 1, (k - 1).min(band[i - 1].1)).0;
+            k = first_min(&table, &band, i - 1, (k - 1).min(band[i - 1].1)).0;
             path[i - 1] = k - s - (i - 1);
         }
         if report {
@@ -215,4 +178,54 @@ impl Spec<'_> {
         }
         keep.is_some()
     }
+}
+
+/// The band DP by definition: row `i` covers columns `band[i].0 ..= band[i].1` of `t` (indices
+/// taken mod its length), `D_i(k) = |p_i − t_k| + min D_{i−1}` over the previous row's band up
+/// to column `k − 1` (0 for row 0). Every row's values, or `None` once a row minimum reaches
+/// `best` (with `abandon`).
+pub(super) fn band_table(
+    part: &[f32],
+    t: &[f32],
+    band: &[(usize, usize)],
+    abandon: bool,
+    best: f32,
+) -> Option<Vec<Vec<f32>>> {
+    let mut table: Vec<Vec<f32>> = Vec::new();
+    for (i, &(a, b)) in band.iter().enumerate() {
+        let p = part[i];
+        let mut row = Vec::new();
+        for k in a..=b {
+            let before = if i == 0 {
+                0.0
+            } else {
+                let (pa, pb) = band[i - 1];
+                let mut q = f32::INFINITY;
+                for x in pa..=pb.min(k - 1) {
+                    q = lesser(q, table[i - 1][x - pa]);
+                }
+                q
+            };
+            row.push((p - t[k % t.len()]).abs() + before);
+        }
+        let row_min = row.iter().copied().fold(f32::INFINITY, lesser);
+        table.push(row);
+        if abandon && row_min >= best {
+            return None;
+        }
+    }
+    Some(table)
+}
+
+/// The first minimum of row `i`'s values over the columns from its band's first up to `to`
+/// (the band's first column when none is below `+∞`), and that minimum.
+pub(super) fn first_min(table: &[Vec<f32>], band: &[(usize, usize)], i: usize, to: usize) -> (usize, f32) {
+    let (a, _) = band[i];
+    let (mut at, mut least) = (a, f32::INFINITY);
+    for (x, &v) in table[i].iter().enumerate().take(to + 1 - a) {
+        if v < least {
+            (at, least) = (a + x, v);
+        }
+    }
+    (at, least)
 }
