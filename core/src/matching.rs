@@ -113,11 +113,12 @@
 //!
 //! # Memory
 //!
-//! Everything lives in the caller's `f32` buffer: [`search_cells`]`(n, m)` cells (the part
-//! values and the column buffer, `n + 3` and `n + 4`, the band of a DP, `2n`, `1 + ⌈log2 m⌉`
-//! paths of `n` cells — one per depth — and `(n + w − 1)·⌈w/16⌉ + 3` bit cells), which is at
-//! most [`table_cells`]`(n, m) = n·w` once `m − n` exceeds about `⌈log2 m⌉ + 6` (every
-//! `m ≥ n + 13` for `n = 64`). With fewer cells (at
+//! Everything lives in the caller's `f32` buffer: [`search_cells`]`(n, m)` cells (the template
+//! twice, `2m`, the part values and the column buffer, `n + 3` and `n + 4`, the band of a DP,
+//! `2n`, `max(1, ⌈log2 m⌉)` paths of `n` cells — start 0's and one per depth that splits an
+//! interval — and `(n + w − 1)·⌈w/16⌉ + 3` bit cells), which is at most
+//! [`table_cells`]`(n, m) = n·w` once `m − n` exceeds about `⌈log2 m⌉ + 7` (every
+//! `m ≥ n + 14` for `n = 64`). With fewer cells (at
 //! least `w`) the plain per-start DP with row-minimum pruning runs instead, cheap for such
 //! narrow rows, and [`match_with_assignment`] then refills the table for the winning start to
 //! backtrack; the optimum is the same either way (up to the rounding above). The recursion is
@@ -162,8 +163,21 @@ const fn ceil_log2(m: usize) -> usize {
     }
 }
 
+/// Path slots the search keeps, `max(1, ⌈log2 m⌉)`: start 0's, and one per depth at which an
+/// interval of three or more starts is split (an interval at depth `d` holds at most
+/// `⌈m/2^d⌉` starts, so the deepest is `⌈log2 m⌉ − 2`).
+const fn path_slots(m: usize) -> usize {
+    let slots = ceil_log2(m);
+    if slots == 0 {
+        1
+    } else {
+        slots
+    }
+}
+
 /// Cells the divide-and-conquer search over all starts needs (see the module docs):
-/// `4n + 7 + (1 + ⌈log2 m⌉)·n + (n + w − 1)·⌈w/16⌉ + 3` with `w = m − n + 1`, or 0 when `m < n`.
+/// `2m + 4n + 7 + max(1, ⌈log2 m⌉)·n + (n + w − 1)·⌈w/16⌉ + 3` with `w = m − n + 1`, or 0 when
+/// `m < n`.
 ///
 /// [`best_cost`] and [`match_with_assignment`] use the search whenever their buffer holds this
 /// many cells; it is at most [`table_cells`]`(n, m)` unless `m − n` is small (then the plain
@@ -173,11 +187,15 @@ pub const fn search_cells(n: usize, m: usize) -> usize {
         return 0;
     }
     let w = m - n + 1;
-    let paths = (1 + ceil_log2(m)).saturating_mul(n);
+    let paths = path_slots(m).saturating_mul(n);
     let bits = (n + w - 1).saturating_mul(w.div_ceil(BITS_PER_CELL)).saturating_add(3);
-    // The part values and two column buffers, with `PAD` cells each; the band of a DP.
+    // The template twice, the part values and the column buffer (`PAD` cells more each), the
+    // band of a DP.
     let columns = n.saturating_mul(4).saturating_add(2 * PAD + 1);
-    columns.saturating_add(paths).saturating_add(bits)
+    m.saturating_mul(2)
+        .saturating_add(columns)
+        .saturating_add(paths)
+        .saturating_add(bits)
 }
 
 /// The optimal cyclic match.
@@ -729,13 +747,14 @@ const _: () = assert!(LANES >= 1 && LANES - 1 <= PAD);
 struct Search<'a, const L: usize> {
     /// The part values and `PAD` cells more (0).
     pc: &'a [f32],
-    template: &'a [f32],
+    /// The template twice over: `t2[k] = template[k mod m]` for `k < 2m`.
+    t2: &'a [f32],
     /// The column buffer of [`sweep`], `n + 1 + PAD` cells.
     cols: &'a mut [f32],
     /// The band of the current DP: the first column of row `i` in cell `i`, the last in cell
     /// `n + i` (as the cells' bit patterns).
     band: &'a mut [f32],
-    /// `1 + ⌈log2 m⌉` path slots of `n` cells (`δ_i` as the cells' bit patterns): slot 0 for
+    /// [`path_slots`]`(m)` path slots of `n` cells (`δ_i` as the cells' bit patterns): slot 0 for
     /// start 0, slot `1 + depth` for the middle start of the interval being split at that depth.
     paths: &'a mut [f32],
     /// Backtracking bits of the current start: `chunks` cells per column.
@@ -777,8 +796,9 @@ fn search_counted<const L: usize>(
     }
     let w = m - n + 1;
     let chunks = w.div_ceil(BITS_PER_CELL);
-    let slots = 1 + ceil_log2(m);
-    let (pc, rest) = scratch.split_at_mut(n + PAD);
+    let slots = path_slots(m);
+    let (t2, rest) = scratch.split_at_mut(2 * m);
+    let (pc, rest) = rest.split_at_mut(n + PAD);
     let (cols, rest) = rest.split_at_mut(n + 1 + PAD);
     let (band, rest) = rest.split_at_mut(2 * n);
     let (paths, rest) = rest.split_at_mut(slots * n);
@@ -786,9 +806,12 @@ fn search_counted<const L: usize>(
     let (values, pad) = pc.split_at_mut(n);
     values.copy_from_slice(part);
     pad.fill(0.0);
+    let (first, second) = t2.split_at_mut(m);
+    first.copy_from_slice(template);
+    second.copy_from_slice(template);
     let mut st = Search::<L> {
         pc,
-        template,
+        t2,
         cols,
         band,
         paths,
@@ -898,10 +921,9 @@ impl<const L: usize> Search<'_, L> {
             let a = dl.max(lo);
             (i + a, i + du.min(hi).max(a))
         });
-        let (pc, template, best, cells) = (self.pc, self.template, self.best, &mut self.cells);
+        let (pc, t2, best, cells) = (self.pc, self.t2, self.best, &mut self.cells);
         let (cols, band) = (&mut *self.cols, &*self.band);
-        sweep::<false, false, L>(band, n, pc, template, cols, &mut [], 0, 0, 0, true, best, cells)
-            .unwrap_or(f32::INFINITY)
+        sweep::<false, false, L>(band, n, pc, t2, cols, &mut [], 0, 0, 0, true, best, cells).unwrap_or(f32::INFINITY)
     }
 
     /// Start `s`'s DP inside the band: records the path in slot `keep`, and the winner when it
@@ -929,40 +951,14 @@ impl<const L: usize> Search<'_, L> {
         });
         // The path is read back only to keep it or to report a winner: without either, no bits.
         let record = keep.is_some() || !self.out.is_empty();
-        let (pc, template, best, cells) = (self.pc, self.template, self.best, &mut self.cells);
+        let (pc, t2, best, cells) = (self.pc, self.t2, self.best, &mut self.cells);
         let (cols, band, bits) = (&mut *self.cols, &*self.band, &mut *self.bits);
         let total = if !record {
-            sweep::<false, false, L>(band, n, pc, template, cols, &mut [], 0, 0, 0, abandon, best, cells)
+            sweep::<false, false, L>(band, n, pc, t2, cols, &mut [], 0, 0, 0, abandon, best, cells)
         } else if chunks <= 64 / BITS_PER_CELL {
-            sweep::<true, false, L>(
-                band,
-                n,
-                pc,
-                template,
-                cols,
-                bits,
-                chunks,
-                s + top,
-                s,
-                abandon,
-                best,
-                cells,
-            )
+            sweep::<true, false, L>(band, n, pc, t2, cols, bits, chunks, s + top, s, abandon, best, cells)
         } else {
-            sweep::<true, true, L>(
-                band,
-                n,
-                pc,
-                template,
-                cols,
-                bits,
-                chunks,
-                s + top,
-                s,
-                abandon,
-                best,
-                cells,
-            )
+            sweep::<true, true, L>(band, n, pc, t2, cols, bits, chunks, s + top, s, abandon, best, cells)
         };
         let Some(total) = total else {
             return false;
@@ -1033,10 +1029,10 @@ fn fill_band(
     }
 }
 
-/// One band DP over the columns `k` of the unrolled template (module docs): row `i` covers the
-/// columns `first(i) ..= last(i)` of `band` (cells `i` and `n + i`, strictly increasing in `i`
-/// as the bounding paths are), and its cell in column `k` is
-/// `D_i(k) = |p_i − t_{k mod m}| + Q_{i−1}(k − 1)`, with `Q_i(k)` the least `D_i` of its band up
+/// One band DP over the columns `k` of the unrolled template `t2` (module docs): row `i` covers
+/// the columns `first(i) ..= last(i)` of `band` (cells `i` and `n + i`, strictly increasing in
+/// `i` as the bounding paths are), and its cell in column `k` is
+/// `D_i(k) = |p_i − t2[k]| + Q_{i−1}(k − 1)`, with `Q_i(k)` the least `D_i` of its band up
 /// to column `k` (`Q_{−1} = 0`: row 0 is free). Per column, `Q_i(k) = min(Q_i(k − 1), D_i(k))`
 /// for the run of rows whose band holds `k` ([`column_cells`], `L` rows at a time). `p` is `pc`
 /// (the part values, `PAD` cells more), `q` the column buffer (`n + 1 + PAD` cells).
@@ -1057,7 +1053,7 @@ fn sweep<const BITS: bool, const WIDE: bool, const L: usize>(
     band: &[f32],
     n: usize,
     pc: &[f32],
-    template: &[f32],
+    t2: &[f32],
     q: &mut [f32],
     bits: &mut [f32],
     chunks: usize,
@@ -1067,7 +1063,6 @@ fn sweep<const BITS: bool, const WIDE: bool, const L: usize>(
     best: f32,
     cells: &mut usize,
 ) -> Option<f32> {
-    let m = template.len();
     let q = q.get_mut(..n + 1 + PAD)?;
     q.fill(f32::NEG_INFINITY);
     if let Some(c) = q.first_mut() {
@@ -1109,10 +1104,7 @@ fn sweep<const BITS: bool, const WIDE: bool, const L: usize>(
         if cfg!(test) {
             *cells += active;
         }
-        let t = template
-            .get(if k >= m { k - m } else { k })
-            .copied()
-            .unwrap_or(f32::NAN);
+        let t = t2.get(k).copied().unwrap_or(f32::NAN);
         // `div_ceil` tests the remainder apart, one more branch a column.
         #[allow(clippy::manual_div_ceil)]
         let groups = (active + L - 1) / L;
@@ -1825,33 +1817,22 @@ mod tests {
                 let want = spec::band_table(&part, &template, &band, abandon, best)
                     .map(|t| t[n - 1].iter().copied().fold(f32::INFINITY, lesser));
                 let chunks = w.div_ceil(BITS_PER_CELL);
+                let t2: Vec<f32> = template.iter().chain(&template).copied().collect();
                 let mut pc = part.clone();
                 pc.extend([0.0; PAD]);
                 let mut q = vec![0.0f32; n + 1 + PAD];
                 let mut bits = vec![pack(0xA5A5); (n + w - 1) * chunks + 3];
                 let mut count = 0;
-                let plain = sweep::<false, false, L>(
-                    &cells,
-                    n,
-                    &pc,
-                    &template,
-                    &mut q,
-                    &mut [],
-                    0,
-                    0,
-                    0,
-                    abandon,
-                    best,
-                    &mut count,
-                );
+                let plain =
+                    sweep::<false, false, L>(&cells, n, &pc, &t2, &mut q, &mut [], 0, 0, 0, abandon, best, &mut count);
                 let (base, col0) = (s + top, s);
                 let recorded = if chunks <= 64 / BITS_PER_CELL {
                     sweep::<true, false, L>(
-                        &cells, n, &pc, &template, &mut q, &mut bits, chunks, base, col0, abandon, best, &mut count,
+                        &cells, n, &pc, &t2, &mut q, &mut bits, chunks, base, col0, abandon, best, &mut count,
                     )
                 } else {
                     sweep::<true, true, L>(
-                        &cells, n, &pc, &template, &mut q, &mut bits, chunks, base, col0, abandon, best, &mut count,
+                        &cells, n, &pc, &t2, &mut q, &mut bits, chunks, base, col0, abandon, best, &mut count,
                     )
                 };
                 let label = std::format!("L {L} n {n} m {m} kind {kind} abandon {abandon} best {best}");
