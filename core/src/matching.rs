@@ -923,7 +923,7 @@ impl<const L: usize> Search<'_, L> {
         });
         let (pc, t2, best, cells) = (self.pc, self.t2, self.best, &mut self.cells);
         let (cols, band) = (&mut *self.cols, &*self.band);
-        sweep::<false, false, L>(band, n, pc, t2, cols, &mut [], 0, 0, 0, true, best, cells).unwrap_or(f32::INFINITY)
+        sweep::<false, false, L>(band, n, pc, t2, cols, &mut [], 0, 0, 0, best, cells).unwrap_or(f32::INFINITY)
     }
 
     /// Start `s`'s DP inside the band: records the path in slot `keep`, and the winner when it
@@ -951,14 +951,16 @@ impl<const L: usize> Search<'_, L> {
         });
         // The path is read back only to keep it or to report a winner: without either, no bits.
         let record = keep.is_some() || !self.out.is_empty();
-        let (pc, t2, best, cells) = (self.pc, self.t2, self.best, &mut self.cells);
+        // A middle start runs to the end: no least value reaches NaN.
+        let drop_at = if abandon { self.best } else { f32::NAN };
+        let (pc, t2, cells) = (self.pc, self.t2, &mut self.cells);
         let (cols, band, bits) = (&mut *self.cols, &*self.band, &mut *self.bits);
         let total = if !record {
-            sweep::<false, false, L>(band, n, pc, t2, cols, &mut [], 0, 0, 0, abandon, best, cells)
+            sweep::<false, false, L>(band, n, pc, t2, cols, &mut [], 0, 0, 0, drop_at, cells)
         } else if chunks <= 64 / BITS_PER_CELL {
-            sweep::<true, false, L>(band, n, pc, t2, cols, bits, chunks, s + top, s, abandon, best, cells)
+            sweep::<true, false, L>(band, n, pc, t2, cols, bits, chunks, s + top, s, drop_at, cells)
         } else {
-            sweep::<true, true, L>(band, n, pc, t2, cols, bits, chunks, s + top, s, abandon, best, cells)
+            sweep::<true, true, L>(band, n, pc, t2, cols, bits, chunks, s + top, s, drop_at, cells)
         };
         let Some(total) = total else {
             return false;
@@ -1045,8 +1047,8 @@ fn fill_band(
 /// With `BITS`, column `k`'s record (`chunks` cells of `bits` from `(k − col0)·chunks`) holds
 /// bit `i + base − k` for each row `i` whose `Q_i` strictly decreases at `k` (`WIDE`: records
 /// of more than 64 bits); [`read_path`] backtracks through them. Returns the last row's least
-/// value, or `None` once a row's least value reaches `best` (with `abandon`: the row by row
-/// DP's test after every row; row minima never decrease, so the same DPs are abandoned).
+/// value, or `None` once a row's least value reaches `best` (the row by row DP's test after
+/// every row; row minima never decrease, so the same DPs are abandoned; `best = NaN`: never).
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
 fn sweep<const BITS: bool, const WIDE: bool, const L: usize>(
@@ -1059,7 +1061,6 @@ fn sweep<const BITS: bool, const WIDE: bool, const L: usize>(
     chunks: usize,
     base: usize,
     col0: usize,
-    abandon: bool,
     best: f32,
     cells: &mut usize,
 ) -> Option<f32> {
@@ -1088,13 +1089,49 @@ fn sweep<const BITS: bool, const WIDE: bool, const L: usize>(
             enter = first(hi);
         }
         while leave < k {
-            if abandon && q.get(lo + 1).is_some_and(|&v| v >= best) {
+            if q.get(lo + 1).is_some_and(|&v| v >= best) {
                 return None;
             }
             lo += 1;
             leave = last(lo);
         }
         let active = hi.saturating_sub(lo);
+        if active == 1 && first(lo) == leave {
+            // Rows one column wide, each alone in its column (the deep levels' narrow bands):
+            // a chain, `Q_i = D_i = |p_i − t2[k_i]| + Q_{i−1}` (the cell against `+∞`, as in
+            // `column_cells`) with the row below ended. Their columns need no record: a path's
+            // row there can only lie in its band's one column, and no other row reads them.
+            let mut below = q.get(lo).copied().unwrap_or(f32::NAN);
+            let mut r = lo;
+            loop {
+                let kr = first(r);
+                let d = match (pc.get(r), t2.get(kr)) {
+                    (Some(&p), Some(&t)) => (p - t).abs() + below,
+                    _ => f32::NAN,
+                };
+                let v = if d < f32::INFINITY { d } else { f32::INFINITY };
+                if let Some(c) = q.get_mut(r + 1) {
+                    *c = v;
+                }
+                if cfg!(test) {
+                    *cells += 1;
+                }
+                // Row `r` has ended.
+                if v >= best {
+                    return None;
+                }
+                below = v;
+                r += 1;
+                if r >= n || first(r) != last(r) {
+                    break;
+                }
+            }
+            (lo, hi) = (r, r);
+            (enter, leave) = (first(r), last(r));
+            k = enter;
+            at = k.wrapping_sub(col0).wrapping_mul(chunks);
+            continue;
+        }
         if active == 0 {
             // No row meets this column: on to the next row's first.
             k = enter;
@@ -1122,7 +1159,12 @@ fn sweep<const BITS: bool, const WIDE: bool, const L: usize>(
                 to = from;
             }
         } else {
-            let mask = column_cells::<L>(q, pc, lo, groups, t);
+            // A column of one row (a third of them on the bench set) without the group's lanes.
+            let mask = if L > 1 && active == 1 {
+                column_cells::<1>(q, pc, lo, 1, t)
+            } else {
+                column_cells::<L>(q, pc, lo, groups, t)
+            };
             if BITS {
                 // Four cells whatever `chunks` is (at most 4 here): the cells past this
                 // column's record are the next column's, written after it (or never read).
@@ -1136,7 +1178,7 @@ fn sweep<const BITS: bool, const WIDE: bool, const L: usize>(
         at = at.wrapping_add(chunks);
     }
     let total = q.get(n).copied().unwrap_or(f32::INFINITY);
-    if abandon && total >= best {
+    if total >= best {
         return None;
     }
     Some(total)
@@ -1777,7 +1819,8 @@ mod tests {
     }
 
     /// [`sweep`] and [`read_path`] against the band DP by definition ([`spec::band_table`]) on
-    /// random bands of a start (strictly increasing, some with columns that no row meets), with
+    /// random bands of a start (strictly increasing, some with columns that no row meets, some
+    /// with stretches of rows one column wide), with
     /// one lane and four, without records and with them (records of more than 64 bits too),
     /// abandoned or not: the same bits of the last row's minimum, the same abandonment, and each
     /// row's column on the path of first minima. Records start out as garbage.
@@ -1796,10 +1839,16 @@ mod tests {
                 let (mut a, mut b) = (rng.below(w), 0);
                 b = b.max(a + rng.below(w - a));
                 let mut band = vec![(s + a, s + b)];
+                // Some rounds pull every band to one column in stretches (the chains of rows
+                // alone in their columns).
+                let narrow = round % 3 == 0;
                 for i in 1..n {
                     let step = |rng: &mut Rng| if rng.next() % 3 == 0 { rng.below(w) } else { 0 };
                     a = (a + step(rng)).min(top);
                     b = (b + step(rng)).min(top).max(a);
+                    if narrow && (i / 8) % 2 == 0 {
+                        a = b;
+                    }
                     band.push((s + i + a, s + i + b));
                 }
                 let mut cells = vec![0.0f32; 2 * n];
@@ -1814,6 +1863,7 @@ mod tests {
                     _ => total * rng.unit(),
                 };
                 let abandon = rng.next() % 2 == 0;
+                let drop_at = if abandon { best } else { f32::NAN };
                 let want = spec::band_table(&part, &template, &band, abandon, best)
                     .map(|t| t[n - 1].iter().copied().fold(f32::INFINITY, lesser));
                 let chunks = w.div_ceil(BITS_PER_CELL);
@@ -1824,15 +1874,15 @@ mod tests {
                 let mut bits = vec![pack(0xA5A5); (n + w - 1) * chunks + 3];
                 let mut count = 0;
                 let plain =
-                    sweep::<false, false, L>(&cells, n, &pc, &t2, &mut q, &mut [], 0, 0, 0, abandon, best, &mut count);
+                    sweep::<false, false, L>(&cells, n, &pc, &t2, &mut q, &mut [], 0, 0, 0, drop_at, &mut count);
                 let (base, col0) = (s + top, s);
                 let recorded = if chunks <= 64 / BITS_PER_CELL {
                     sweep::<true, false, L>(
-                        &cells, n, &pc, &t2, &mut q, &mut bits, chunks, base, col0, abandon, best, &mut count,
+                        &cells, n, &pc, &t2, &mut q, &mut bits, chunks, base, col0, drop_at, &mut count,
                     )
                 } else {
                     sweep::<true, true, L>(
-                        &cells, n, &pc, &t2, &mut q, &mut bits, chunks, base, col0, abandon, best, &mut count,
+                        &cells, n, &pc, &t2, &mut q, &mut bits, chunks, base, col0, drop_at, &mut count,
                     )
                 };
                 let label = std::format!("L {L} n {n} m {m} kind {kind} abandon {abandon} best {best}");
