@@ -69,9 +69,11 @@
 //! row's running minimum is a chain. The additions and comparisons are those of the row by row
 //! recurrence, so are the results, bit for bit. The rows' bands move on strictly from row to
 //! row, so a column meets a contiguous run of rows that only moves on; one buffer holds every
-//! row's `Q`, updated in place, and a row's least value is known once its band has ended, when
-//! the DP is dropped if it is not below the best (later than row by row, by the rows the band
-//! spans: 3–15 % more cells on the bench set's dropped DPs, each much cheaper).
+//! row's `Q`, updated in place. Rows one column wide, each alone in its column (the deep
+//! levels' narrow bands), go as a plain chain `Q_i = |p_i − t_{k_i}| + Q_{i−1}`. A row's least
+//! value is known once its band has ended, when the DP is dropped if it is not below the best
+//! (later than row by row, by the rows the band spans: 3–15 % more cells on the bench set's
+//! dropped DPs, each much cheaper).
 //!
 //! **Backtracking without a table.** While a column is updated, the rows whose running minimum
 //! strictly decreases there are recorded as bits (16 per `f32` cell, kept as the cell's bit
@@ -84,15 +86,16 @@
 //! bits.
 //!
 //! **Cost.** The 159 searches `vorl detect` runs on the bench set (n = 64, m = 96, the
-//! recognizer's bounds; 102 of them unbounded) take 58.4 M x86_64 instructions (callgrind, the
-//! calls replayed on their own; 80.5 M row by row), the own-template searches of its parts
-//! 0.32 M each (0.44 M row by row), with identical results; on the Cortex-M4 (QEMU, the same
-//! calls) 107.8 M instructions (119.3 M row by row). Row by row, a search was about 180
-//! instructions per band row besides its cells (≈ 1300 band rows a search, the deep levels'
-//! bands a few cells wide); by columns, the host pays about 40–80 instructions a column and
-//! 14–21 for four cells. Before that: 177 M for 269 searches (an older recognizer), 224 M
-//! before the band rows were streamlined and 270 M before paths and records were kept as bit
-//! patterns (the Cortex-M4's counts: `docs/firmware.md`).
+//! recognizer's bounds; 102 of them unbounded) take 51.3 M x86_64 instructions (callgrind;
+//! 80.5 M row by row), 1.71 M of the 7.75 M per frame; a part against its own template costs
+//! 0.27 M (0.44 M row by row), against another template unbounded 0.67 M (0.93 M); the results
+//! are identical. On the Cortex-M4 (QEMU) the same 159 searches take 101.7 M instructions
+//! (119.3 M row by row). Row by row, a search paid about 180 instructions per band row besides
+//! its cells (≈ 1300 band rows a search, the deep levels' bands a few cells wide); by columns
+//! the host pays about 20–45 a column and 13–21 for four cells (with records: more), a chain row
+//! about 15. Before: 177 M for 269 searches (an older recognizer), 224 M before the band rows
+//! were streamlined and 270 M before paths and records were kept as bit patterns (the
+//! Cortex-M4's frame counts: `docs/firmware.md`).
 //!
 //! **Rounding.** The lemma holds in exact arithmetic. Each DP is exact in `f32` too — a rounded
 //! sum is monotone in each term, so a DP returns the least rounded path total of its region —
