@@ -984,7 +984,7 @@ impl<const L: usize> Search<'_, L> {
         let out: &mut [u16] = if report { &mut *self.out } else { &mut [] };
         read_path(self.band, n, self.bits, chunks, s + top, s, |i, k| {
             if let Some(c) = kept.get_mut(i) {
-                *c = pack(k - s - i);
+                *c = pack(k.wrapping_sub(s).wrapping_sub(i));
             }
             if let Some(o) = out.get_mut(i) {
                 *o = (k % m) as u16;
@@ -1045,7 +1045,8 @@ fn fill_band(
 /// Cell `i + 1` of `q` holds `Q_i`, cell 0 `Q_{−1}`. A row that has not begun holds `−∞`,
 /// which no value undercuts, so the rows [`column_cells`] computes past a column's run (to fill
 /// its last group) stay as they are and set no bits; a row is set to `+∞` as it begins, and
-/// keeps its value once it has ended. Columns that meet no row are skipped.
+/// keeps its value once it has ended. Columns that meet no row are skipped; rows one column wide,
+/// each alone in its column, go as a chain (module docs), their columns without records.
 ///
 /// With `BITS`, column `k`'s record (`chunks` cells of `bits` from `(k − col0)·chunks`) holds
 /// bit `i + base − k` for each row `i` whose `Q_i` strictly decreases at `k` (`WIDE`: records
@@ -1187,8 +1188,8 @@ fn sweep<const BITS: bool, const WIDE: bool, const L: usize>(
     Some(total)
 }
 
-/// One column in place: rows `from .. from + groups·LANES` of `q` (row `i` in cell `i + 1`),
-/// at template value `t`, `LANES` rows at a time: `q[i + 1] = min(q[i + 1], |p_i − t| + q[i])`
+/// One column in place: rows `from .. from + groups·L` of `q` (row `i` in cell `i + 1`), at
+/// template value `t`, `L` rows at a time: `q[i + 1] = min(q[i + 1], |p_i − t| + q[i])`
 /// with the comparison of the row by row DP (`q[i + 1]` kept unless the new value is strictly
 /// below it, so a NaN value is ignored), `q[i]` the previous column's value (the row below's
 /// old value is carried from one group to the next); bit `x` of the result is set where row
