@@ -87,7 +87,7 @@
 //!
 //! **Cost.** The 159 searches `vorl detect` runs on the bench set (n = 64, m = 96, the
 //! recognizer's bounds; 102 of them unbounded) take 51.3 M x86_64 instructions (callgrind;
-//! 80.5 M row by row), 1.71 M of the 7.75 M per frame; a part against its own template costs
+//! 80.5 M row by row), 1.71 M of the core's 5.19 M per frame; a part against its own template costs
 //! 0.27 M (0.44 M row by row), against another template unbounded 0.67 M (0.93 M); the results
 //! are identical. On the Cortex-M4 (QEMU) the same 159 searches take 101.7 M instructions
 //! (119.3 M row by row). Row by row, a search paid about 180 instructions per band row besides
