@@ -466,54 +466,62 @@ trait Word:
     fn clear(out: &mut [u8]);
 }
 
-impl Word for u32 {
-    const BYTES: usize = 4;
-    const ZERO: Self = 0;
-    const ONES: Self = u32::MAX;
-    const LOW: Self = 0x0101_0101;
-    const FIRST_HALF: Self = 0x0F0F_0F0F;
-    #[inline(always)]
-    fn load(b: &[u8]) -> Self {
-        b.first_chunk::<4>().map_or(0, |c| u32::from_le_bytes(*c))
-    }
-    #[inline(always)]
-    fn store(self, b: &mut [u8]) {
-        if let Some(c) = b.first_chunk_mut::<4>() {
-            *c = self.to_le_bytes();
+/// The items of [`Word`] that the two word sizes share, written once: the word type, its
+/// bytes, its pixels and the group-bit table of [`Word::pack_simd`].
+macro_rules! shared_word_items {
+    ($t:ty, $bytes:literal, $px:literal, $groups:expr) => {
+        const BYTES: usize = $bytes;
+        const ZERO: Self = 0;
+        const ONES: Self = <$t>::MAX;
+        const LOW: Self = <$t>::from_le_bytes([0x01; $bytes]);
+        const FIRST_HALF: Self = <$t>::from_le_bytes([0x0F; $bytes]);
+        #[inline(always)]
+        fn load(b: &[u8]) -> Self {
+            b.first_chunk::<$bytes>().map_or(0, |c| <$t>::from_le_bytes(*c))
         }
-    }
-    #[inline(always)]
-    fn ones(self) -> usize {
-        self.count_ones() as usize
-    }
-    #[inline(always)]
-    fn add(self, other: Self) -> Self {
-        self.wrapping_add(other)
-    }
-    #[inline(always)]
-    fn sub(self, other: Self) -> Self {
-        self.wrapping_sub(other)
-    }
+        #[inline(always)]
+        fn store(self, b: &mut [u8]) {
+            if let Some(c) = b.first_chunk_mut::<$bytes>() {
+                *c = self.to_le_bytes();
+            }
+        }
+        #[inline(always)]
+        fn ones(self) -> usize {
+            self.count_ones() as usize
+        }
+        #[inline(always)]
+        fn add(self, other: Self) -> Self {
+            self.wrapping_add(other)
+        }
+        #[inline(always)]
+        fn sub(self, other: Self) -> Self {
+            self.wrapping_sub(other)
+        }
+        #[inline(always)]
+        fn pack_simd(f: &[u8], b: &[u8], tau: u8) -> Self {
+            let (Some(f), Some(b)) = (f.first_chunk::<$px>(), b.first_chunk::<$px>()) else {
+                return 0;
+            };
+            let mut m = [0u8; $px];
+            for (((o, &f), &b), &s) in m.iter_mut().zip(f).zip(b).zip(&$groups) {
+                *o = if f.abs_diff(b) > tau { s } else { 0 };
+            }
+            m.chunks_exact($bytes).fold(0, |acc, q| acc | <$t>::load(q))
+        }
+        #[inline(always)]
+        fn clear(out: &mut [u8]) {
+            if let Some(out) = out.first_chunk_mut::<$px>() {
+                *out = [0; $px];
+            }
+        }
+    };
+}
+
+impl Word for u32 {
+    shared_word_items!(u32, 4, 32, GROUP_BIT32);
     #[inline(always)]
     fn lanes(v: u16) -> Self {
         u32::from(v) * 0x0001_0001
-    }
-    #[inline(always)]
-    fn pack_simd(f: &[u8], b: &[u8], tau: u8) -> Self {
-        let (Some(f), Some(b)) = (f.first_chunk::<32>(), b.first_chunk::<32>()) else {
-            return 0;
-        };
-        let mut m = [0u8; 32];
-        for (((o, &f), &b), &s) in m.iter_mut().zip(f).zip(b).zip(&GROUP_BIT32) {
-            *o = if f.abs_diff(b) > tau { s } else { 0 };
-        }
-        m.chunks_exact(4).fold(0, |acc, q| acc | u32::load(q))
-    }
-    #[inline(always)]
-    fn clear(out: &mut [u8]) {
-        if let Some(out) = out.first_chunk_mut::<32>() {
-            *out = [0; 32];
-        }
     }
     #[inline(always)]
     fn expand(self, out: &mut [u8]) {
@@ -526,53 +534,10 @@ impl Word for u32 {
 }
 
 impl Word for u64 {
-    const BYTES: usize = 8;
-    const ZERO: Self = 0;
-    const ONES: Self = u64::MAX;
-    const LOW: Self = 0x0101_0101_0101_0101;
-    const FIRST_HALF: Self = 0x0F0F_0F0F_0F0F_0F0F;
-    #[inline(always)]
-    fn load(b: &[u8]) -> Self {
-        b.first_chunk::<8>().map_or(0, |c| u64::from_le_bytes(*c))
-    }
-    #[inline(always)]
-    fn store(self, b: &mut [u8]) {
-        if let Some(c) = b.first_chunk_mut::<8>() {
-            *c = self.to_le_bytes();
-        }
-    }
-    #[inline(always)]
-    fn ones(self) -> usize {
-        self.count_ones() as usize
-    }
-    #[inline(always)]
-    fn add(self, other: Self) -> Self {
-        self.wrapping_add(other)
-    }
-    #[inline(always)]
-    fn sub(self, other: Self) -> Self {
-        self.wrapping_sub(other)
-    }
+    shared_word_items!(u64, 8, 64, GROUP_BIT64);
     #[inline(always)]
     fn lanes(v: u16) -> Self {
         u64::from(v) * 0x0001_0001_0001_0001
-    }
-    #[inline(always)]
-    fn pack_simd(f: &[u8], b: &[u8], tau: u8) -> Self {
-        let (Some(f), Some(b)) = (f.first_chunk::<64>(), b.first_chunk::<64>()) else {
-            return 0;
-        };
-        let mut m = [0u8; 64];
-        for (((o, &f), &b), &s) in m.iter_mut().zip(f).zip(b).zip(&GROUP_BIT64) {
-            *o = if f.abs_diff(b) > tau { s } else { 0 };
-        }
-        m.chunks_exact(8).fold(0, |acc, q| acc | u64::load(q))
-    }
-    #[inline(always)]
-    fn clear(out: &mut [u8]) {
-        if let Some(out) = out.first_chunk_mut::<64>() {
-            *out = [0; 64];
-        }
     }
     #[inline(always)]
     fn expand(self, out: &mut [u8]) {
