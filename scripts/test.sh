@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# Runs every check of the project, as CI does: set-up (idempotent), formatting, lints, the
-# microcontroller build of the core, the whole test suite (unit, doc, integration, property and
-# the firmware-in-QEMU test), and a build of the benchmarks.
+# Runs every check of the project, as CI does: set-up (idempotent), formatting, lints, the API
+# docs, the microcontroller build of the core, the whole test suite (unit, doc, integration,
+# property and the firmware-in-QEMU test), and a build of the benchmarks.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -15,6 +15,9 @@ cargo fmt --all -- --check
 
 step "lints (cargo clippy -D warnings)"
 cargo clippy --workspace --all-targets -- -D warnings
+
+step "API docs (cargo doc, warnings are errors: broken or private links)"
+RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --quiet
 
 step "vorl-core for the MCU (thumbv7em-none-eabihf, no std, no alloc)"
 cargo build -p vorl-core --target thumbv7em-none-eabihf --release

@@ -248,7 +248,7 @@ pub fn best_cost(part: &[f32], template: &[f32], bound: f32, row: &mut [f32]) ->
 /// cannot enter the best few.
 ///
 /// `row` needs `m − n + 1` cells; with at least `2·(n + 1)` the DP runs column by column
-/// (see [`sorted_columns`], which the compiler vectorises), else row by row. Both perform the
+/// (`sorted_columns`, which the compiler vectorises), else row by row. Both perform the
 /// same additions on the same values and give the same bits.
 ///
 /// ```
