@@ -17,7 +17,7 @@
 //! | templates | `T·size_of::<Template<M>>()` + the vector's length word, `size_of::<Template<M>>() = word + 32·M + 28` rounded up to the word |
 //! | DP table | `4·D` (`D ≥ n·(m − n + 1)`) |
 //! | part buffers | `22·M`: points `8·M`, descriptor `4·M`, correspondence `2·M`, sub-pixel edge `8·M` |
-//! | parameters, candidates, padding | `size_of::<Params>()`, the DP candidate list (`MAX_CANDIDATES` index–cost–start triples) and the rounding of the recognizer to its alignment |
+//! | parameters, padding | `size_of::<Params>()` and the rounding of the recognizer to its alignment |
 //!
 //! The frame itself is not counted: in the firmware example it is in flash; on a camera it is the
 //! sensor's DMA buffer (`w·h` more bytes of RAM, [`Budget::frame`]). The stack is not counted
@@ -40,7 +40,6 @@ use core::mem::{align_of, size_of};
 use crate::contour::Contour;
 use crate::matching::table_cells;
 use crate::params::Params;
-use crate::recognizer::MAX_CANDIDATES;
 
 /// The sizes and alignments that differ from one target to another.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -139,7 +138,7 @@ pub struct Budget {
     /// Resampled points, descriptor, correspondence and sub-pixel edge of the part being
     /// matched, `22·M`.
     pub part_buffers: usize,
-    /// Parameters, the list of DP candidates and alignment padding of the recognizer.
+    /// Parameters and alignment padding of the recognizer.
     pub other: usize,
     /// The whole recognizer, `size_of::<Recognizer<T, M, P, C, D>>()`.
     pub recognizer: usize,
@@ -200,7 +199,6 @@ pub const fn recognizer_bytes(layout: Layout, t: usize, m: usize, p: usize, c: u
     let templates = vec_bytes(layout, template_bytes(layout, m), max(layout.word, 4), t);
     let sum = layout
         .params
-        .saturating_add(candidates_bytes(layout))
         .saturating_add(templates)
         .saturating_add(contour_store_bytes(layout, p, c))
         .saturating_add(m.saturating_mul(PART_BYTES_PER_POINT))
@@ -211,15 +209,6 @@ pub const fn recognizer_bytes(layout: Layout, t: usize, m: usize, p: usize, c: u
 /// Bytes per template point `M` of the part being matched: resampled points (8), descriptor (4),
 /// correspondence (2) and sub-pixel edge points (8).
 pub const PART_BYTES_PER_POINT: usize = 22;
-
-/// The recognizer's list of DP candidates: [`MAX_CANDIDATES`] triples of a template index (a word),
-/// a cost (`f32`) and a start (a word).
-pub const fn candidates_bytes(layout: Layout) -> usize {
-    MAX_CANDIDATES.saturating_mul(round_up(
-        layout.word.saturating_mul(2).saturating_add(4),
-        max(layout.word, 4),
-    ))
-}
 
 /// The budget of a configuration on a target.
 pub const fn budget(layout: Layout, caps: Capacities) -> Budget {
@@ -345,7 +334,7 @@ mod tests {
             assert_eq!(parts, b.recognizer);
             assert_eq!(b.total, b.background + b.labels + b.recognizer);
             assert_eq!(b.frame, 76_800);
-            let fixed = layout.params + candidates_bytes(layout);
+            let fixed = layout.params;
             assert!(b.other >= fixed && b.other < fixed + 16);
         }
         // 32-bit: 8 templates of (4 + 32·96 + 28) bytes and the length word.

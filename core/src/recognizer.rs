@@ -43,9 +43,7 @@ use crate::descriptor::describe;
 use crate::error::{Error, Result};
 use crate::frame::Frame;
 use crate::mask::{foreground_mask_spans, MaskStats, RowSpans};
-use crate::matching::{
-    best_cost, best_match, match_at_start, sorted_lower_bound, sorted_window_bound, table_cells, Match,
-};
+use crate::matching::{best_match, sorted_lower_bound, sorted_window_bound, table_cells, Match};
 use crate::math;
 use crate::params::{AngleEstimator, Params, Position, Refine};
 use crate::partial_volume::{partial_volume_centroid, Rect};
@@ -190,8 +188,6 @@ pub struct Recognizer<const T: usize, const M: usize, const P: usize, const C: u
     assignment: [u16; M],
     table: [f32; D],
     part_edges: [[f32; 2]; M],
-    /// The best DP candidates: template index, cost, winning start.
-    cands: [(usize, f32, usize); MAX_CANDIDATES],
 }
 
 impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: usize> Default
@@ -214,7 +210,6 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             assignment: [0; M],
             table: [0.0; D],
             part_edges: [[0.0; 2]; M],
-            cands: [(0, 0.0, 0); MAX_CANDIDATES],
         }
     }
 
@@ -492,11 +487,8 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         detection: &mut Detection,
     ) -> Option<(usize, Pose)> {
         let params = self.params;
-        if self.candidates(n, 1, params.candidate_ratio) == 0 {
-            return None;
-        }
-        let (ti, _, start) = self.cands.first().copied()?;
-        let (m, signed, paper) = self.correspondence(n, centroid, ti, start)?;
+        let (ti, m) = self.dp_best_match(n)?;
+        let (signed, paper) = self.angles(n, centroid, ti)?;
         detection.best_template = Some(ti as u16);
         detection.score = m.normalized;
         detection.angle_paper_deg = paper;
@@ -512,20 +504,38 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             return None;
         }
         self.part_edge(n, counter_clockwise, diff);
+        let (pose, verify) = self.align_and_verify(n, position, signed, area, ti, diff, &RefineParams::DEFAULT)?;
+        detection.verify = verify;
+        Some((ti, pose))
+    }
+
+    /// Template `ti` aligned on the frame from the DP's pose (the part's `position`, the
+    /// `signed` angle in degrees, the scale of the areas), and its verification score against
+    /// the part's edge (`self.part_edges`).
+    #[allow(clippy::too_many_arguments)]
+    fn align_and_verify<B: AsRef<[u8]>>(
+        &self,
+        n: usize,
+        position: [f32; 2],
+        signed: f32,
+        area: f32,
+        ti: usize,
+        diff: &Difference<'_, B>,
+        refine_params: &RefineParams,
+    ) -> Option<(Pose, f32)> {
         let t = self.templates.get(ti)?;
-        let refine_params = RefineParams::DEFAULT;
         let aligned = align(
             diff,
             t.edge(),
             t.normals(),
             seed_pose(position, signed, area, t),
-            &refine_params,
+            refine_params,
         );
-        detection.verify = verify_score(&aligned, t, self.part_edges.get(..n).unwrap_or(&[]), &refine_params);
-        Some((ti, aligned.pose))
+        let verify = verify_score(&aligned, t, self.part_edges.get(..n).unwrap_or(&[]), refine_params);
+        Some((aligned.pose, verify))
     }
 
-    /// `refine = Verify`: the candidates of [`Self::ordered_candidates`], each aligned on the
+    /// `refine = Verify`: the candidates of [`Self::next_candidate`], each aligned on the
     /// frame from its DP pose and verified. Fills the detection's DP fields and `verify` from
     /// the lowest score; returns its template index and pose (`None` without a candidate).
     #[allow(clippy::too_many_arguments)]
@@ -541,9 +551,10 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         detection: &mut Detection,
     ) -> Option<(usize, Pose)> {
         let params = self.params;
+        let k = params.candidates.clamp(1, MAX_CANDIDATES);
         let mut scan = self.candidate_scan(n);
         let mut best = None;
-        while let Some((ti, m)) = self.next_candidate(&mut scan, n, params.candidates, params.candidate_ratio) {
+        while let Some((ti, m)) = self.next_candidate(&mut scan, n, k, params.candidate_ratio) {
             if scan.found == 1 {
                 self.part_edge(n, counter_clockwise, diff);
             }
@@ -598,8 +609,8 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
     /// templates are taken in ascending order of their sorted-value bound
     /// ([`Self::next_template`]), each searched by the DP bounded by `ratio` times the lowest
     /// cost found before it, and the first that comes in is the candidate (with `ratio = 1`,
-    /// it beats every earlier one's cost). `None` once `k` were found or no later template can
-    /// come in.
+    /// it beats every earlier one's cost). `None` once `k` were found (at least one is always
+    /// sought) or no later template can come in.
     fn next_candidate(
         &mut self,
         scan: &mut CandidateScan<T, M>,
@@ -607,7 +618,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         k: usize,
         ratio: f32,
     ) -> Option<(usize, Match)> {
-        while scan.found < k.clamp(1, MAX_CANDIDATES) {
+        while scan.found < k.max(1) {
             // (An infinite ratio takes every template in turn, even after a cost of 0.)
             let bound = if ratio == f32::INFINITY {
                 f32::INFINITY
@@ -697,36 +708,17 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let Some((signed, paper)) = self.angles(n, centroid, ti) else {
             return;
         };
-        let Some(t) = self.templates.get(ti) else {
+        let Some((pose, verify)) = self.align_and_verify(n, position, signed, area, ti, diff, refine_params) else {
             return;
         };
-        let aligned = align(
-            diff,
-            t.edge(),
-            t.normals(),
-            seed_pose(position, signed, area, t),
-            refine_params,
-        );
-        let verify = verify_score(&aligned, t, self.part_edges.get(..n).unwrap_or(&[]), refine_params);
         if best.is_none() || verify < detection.verify {
-            *best = Some((ti, aligned.pose));
+            *best = Some((ti, pose));
             detection.verify = verify;
             detection.best_template = Some(ti as u16);
             detection.score = m.normalized;
             detection.angle_paper_deg = paper;
             detection.angle_dp_deg = signed;
         }
-    }
-
-    /// The correspondence of template `ti` at `start` (into `self.assignment`): the match, and
-    /// the signed and the paper's angles over it, degrees.
-    fn correspondence(&mut self, n: usize, centroid: [f32; 2], ti: usize, start: usize) -> Option<(Match, f32, f32)> {
-        let t = self.templates.get(ti)?;
-        let part_desc = self.descriptor.get(..n)?;
-        let assignment = self.assignment.get_mut(..n)?;
-        let m = match_at_start(part_desc, t.descriptor(), start, &mut self.table, assignment).ok()?;
-        let (signed, paper) = self.angles(n, centroid, ti)?;
-        Some((m, signed, paper))
     }
 
     /// The signed and the paper's angles (degrees) over the correspondence with template `ti`
@@ -755,72 +747,19 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         }
     }
 
-    /// Fills `self.cands` with the `k` templates of lowest DP cost among those below `ratio`
-    /// times the lowest, best first; returns how many.
-    ///
-    /// Exact early rejection: each template's [`sorted_lower_bound`] is computed first (one
-    /// `n·(m−n+1)` DP on sorted values), the templates are searched in ascending order of it,
-    /// each search bounded by the `k`-th best cost so far and by `ratio` times the best, and the
-    /// rest are skipped once their lower bound reaches that. The result is the same as
-    /// searching every template.
-    fn candidates(&mut self, n: usize, k: usize, ratio: f32) -> usize {
+    /// The paper's path: the template of lowest DP cost and its match, its correspondence in
+    /// `self.assignment` (`None` without a template that can be matched). The scan of
+    /// [`Self::next_candidate`] with ratio 1 and no limit: each template in ascending order of
+    /// its sorted-value bound is searched bounded by the lowest cost so far, until the bound
+    /// rules the rest out; the last that came in is the same template as searching all of them
+    /// (the first in the bound order among equal costs).
+    fn dp_best_match(&mut self, n: usize) -> Option<(usize, Match)> {
         let mut scan = self.candidate_scan(n);
-        let k = k.clamp(1, MAX_CANDIDATES);
-        let mut count = 0usize;
-        loop {
-            let kth = if count == k {
-                self.cands.get(k - 1).map_or(f32::INFINITY, |c| c.1)
-            } else {
-                f32::INFINITY
-            };
-            let near = if count > 0 {
-                self.cands.first().map_or(f32::INFINITY, |c| c.1 * ratio)
-            } else {
-                f32::INFINITY
-            };
-            let Some(ti) = self.next_template(&mut scan, n, kth.min(near)) else {
-                break;
-            };
-            let (Some(t), Some(part)) = (self.templates.get(ti), self.descriptor.get(..n)) else {
-                continue;
-            };
-            let Ok(Some(m)) = best_cost(part, t.descriptor(), kth.min(near), &mut self.table) else {
-                continue;
-            };
-            let m = (ti, m.cost, m.start);
-            // Insert in order of cost (ties: the earlier template first, as in the library).
-            let mut pos = count.min(k);
-            while pos > 0
-                && self
-                    .cands
-                    .get(pos - 1)
-                    .is_some_and(|c| c.1 > m.1 || (c.1 == m.1 && c.0 > ti))
-            {
-                pos -= 1;
-            }
-            if pos >= k {
-                continue;
-            }
-            let mut i = count.min(k - 1);
-            while i > pos {
-                if let Some(prev) = self.cands.get(i - 1).copied() {
-                    if let Some(slot) = self.cands.get_mut(i) {
-                        *slot = prev;
-                    }
-                }
-                i -= 1;
-            }
-            if let Some(slot) = self.cands.get_mut(pos) {
-                *slot = m;
-            }
-            count = (count + 1).min(k);
+        let mut best = None;
+        while let Some(found) = self.next_candidate(&mut scan, n, usize::MAX, 1.0) {
+            best = Some(found);
         }
-        // A better template found later may leave earlier ones beyond the ratio.
-        let near = self.cands.first().map_or(f32::INFINITY, |c| c.1 * ratio);
-        while count > 1 && self.cands.get(count - 1).is_some_and(|c| !(c.1 < near)) {
-            count -= 1;
-        }
-        count
+        best
     }
 }
 
@@ -926,6 +865,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::matching::{best_cost, match_at_start};
     extern crate std;
 
     /// After `process` the label plane holds the 0/1 mask, the same as [`foreground_mask`]'s,
@@ -985,7 +925,7 @@ mod tests {
     }
 
     #[test]
-    fn skipping_by_sorted_bound_keeps_the_best_candidates() {
+    fn skipping_by_sorted_bound_keeps_the_dp_best() {
         const N: usize = 24;
         const MM: usize = 36;
         let params = Params {
@@ -1019,7 +959,8 @@ mod tests {
                 all[ti] = (ti, m.cost);
             }
             all.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
-            // Templates whose sorted bound already rules them out of the best 3.
+            // Templates whose sorted bound already rules them out of the best 3 (the old test of
+            // the three best: the same random libraries).
             let mut sorted = r.descriptor;
             sorted[..N].sort_by(f32::total_cmp);
             for t in r.templates.iter() {
@@ -1027,20 +968,22 @@ mod tests {
                 let lb = sorted_lower_bound(&sorted[..N], t.sorted_descriptor(), f32::INFINITY, &mut row);
                 skippable += lb.unwrap().is_some_and(|lb| lb > all[2].1) as usize;
             }
-            for k in [1usize, 3, 8] {
-                let count = r.candidates(N, k, f32::INFINITY);
-                assert_eq!(count, k);
-                for (c, (&(ti, cost, start), want)) in r.cands.iter().zip(&all).take(k).enumerate() {
-                    assert_eq!(ti, want.0, "seed {seed} k {k} rank {c}");
-                    assert!((cost - want.1).abs() <= 1e-5 * cost.max(1.0));
-                    // The start is the one whose correspondence costs that much.
-                    let mut table = [0.0f32; N * (MM - N + 1)];
-                    let mut asg = [0u16; N];
-                    let t = r.templates[ti].descriptor();
-                    let at = match_at_start(&r.descriptor[..N], t, start, &mut table, &mut asg).unwrap();
-                    assert!((at.cost - cost).abs() <= 1e-5 * cost.max(1.0));
-                }
-            }
+            let (ti, m) = r.dp_best_match(N).unwrap();
+            assert_eq!(ti, all[0].0, "seed {seed}");
+            assert!((m.cost - all[0].1).abs() <= 1e-5 * m.cost.max(1.0));
+            // The start is the one whose correspondence costs that much, and the
+            // correspondence left in `assignment` is that start's and costs as much.
+            let mut table = [0.0f32; N * (MM - N + 1)];
+            let mut asg = [0u16; N];
+            let t = r.templates[ti].descriptor();
+            let at = match_at_start(&r.descriptor[..N], t, m.start, &mut table, &mut asg).unwrap();
+            assert!((at.cost - m.cost).abs() <= 1e-5 * m.cost.max(1.0));
+            let total = r.descriptor[..N]
+                .iter()
+                .zip(&r.assignment[..N])
+                .fold(0.0f32, |acc, (p, &j)| acc + (p - t[j as usize]).abs());
+            assert!((total - m.cost).abs() <= 1e-5 * m.cost.max(1.0));
+            assert_eq!(r.assignment[0] as usize, m.start);
         }
         // The bound must have had something to skip for the test to mean anything.
         assert!(skippable > 40, "only {skippable} of 468 templates were skippable");

@@ -10,7 +10,7 @@
 //! 3. learns the mean background from the empty-platform fixture frames;
 //! 4. runs every QVGA fixture frame through the recognizer, timing each stage, then again with
 //!    `refine = Off` (the paper's path) for the cost of the refine-and-verify stage, and with
-//!    `candidates = 1` (only the DP's best template aligned and verified);
+//!    `candidates = 1` (only the first candidate of the bound order aligned and verified);
 //! 5. prints every line over semihosting in the stable format below and exits with status 0
 //!    (any error: status 1; a panic: its message and status 1).
 //!

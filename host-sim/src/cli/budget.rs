@@ -289,15 +289,7 @@ fn print_detail(r: &Row, layout: Layout) {
             b.part_buffers,
             "22·M (points 8·M, descriptor 4·M, pairs 2·M, part edge 8·M)".into(),
         ),
-        (
-            "params, candidates",
-            b.other,
-            format!(
-                "Params {} bytes, {} DP candidates, alignment",
-                layout.params,
-                vorl_core::recognizer::MAX_CANDIDATES
-            ),
-        ),
+        ("params", b.other, format!("Params {} bytes, alignment", layout.params)),
         (
             "total static RAM",
             b.total,
