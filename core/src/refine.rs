@@ -1825,22 +1825,31 @@ mod tests {
         }
     }
 
+    /// Side of the frames of [`blurred_square`].
+    const SQUARE_W: usize = 64;
+
+    /// A 64×64 frame: an axis-aligned square of half side `half` centred at (`cx`, `cy`), 200
+    /// on a background of 50, its edge blurred over about 1.5 px.
+    fn blurred_square(cx: f32, cy: f32, half: f32) -> [u8; SQUARE_W * SQUARE_W] {
+        let mut frame_px = [0u8; SQUARE_W * SQUARE_W];
+        for (i, px) in frame_px.iter_mut().enumerate() {
+            let (x, y) = ((i % SQUARE_W) as f32 - cx, (i / SQUARE_W) as f32 - cy);
+            let d = x.abs().max(y.abs()) - half;
+            *px = (50.0 + 150.0 * (0.5 - d / 1.5).clamp(0.0, 1.0) + 0.5) as u8;
+        }
+        frame_px
+    }
+
     #[test]
     fn one_step_recovers_a_translation_on_a_large_part() {
         // A 48 px square, edge blurred over about 1.5 px, 0.5 px off the seed. The rotation and
         // scale terms of the normal equations are hundreds of times the translation terms here;
         // damping must not hold the translation back (a common damping of 1e-3 of the mean
         // diagonal recovered only about 70 % of it per step).
-        const W: usize = 64;
         let (cx, cy, half) = (32.3f32, 31.6f32, 24.0f32);
-        let mut frame_px = [0u8; W * W];
-        for (i, px) in frame_px.iter_mut().enumerate() {
-            let (x, y) = ((i % W) as f32 - cx, (i / W) as f32 - cy);
-            let d = x.abs().max(y.abs()) - half;
-            *px = (50.0 + 150.0 * (0.5 - d / 1.5).clamp(0.0, 1.0) + 0.5) as u8;
-        }
-        let bg = [50u8; W * W];
-        let frame = Frame::new_checked(&frame_px[..], W, W).unwrap();
+        let frame_px = blurred_square(cx, cy, half);
+        let bg = [50u8; SQUARE_W * SQUARE_W];
+        let frame = Frame::new_checked(&frame_px[..], SQUARE_W, SQUARE_W).unwrap();
         let diff = Difference::new(&frame, &bg[..], Alpha::ONE);
         let (mut edge, mut normals) = ([[0.0f32; 2]; 72], [[0.0f32; 2]; 72]);
         for k in 0..72 {
@@ -1895,16 +1904,10 @@ mod tests {
         // A 24 px square, edge blurred over about 1.5 px, seen from seeds up to 1 px and 4° off;
         // the right template never gives up (and ends where it would without the rule), a
         // triangle of about the same area gives up with its points far off the edge.
-        const W: usize = 64;
         let (cx, cy, half) = (32.3f32, 31.6f32, 12.0f32);
-        let mut frame_px = [0u8; W * W];
-        for (i, px) in frame_px.iter_mut().enumerate() {
-            let (x, y) = ((i % W) as f32 - cx, (i / W) as f32 - cy);
-            let d = x.abs().max(y.abs()) - half;
-            *px = (50.0 + 150.0 * (0.5 - d / 1.5).clamp(0.0, 1.0) + 0.5) as u8;
-        }
-        let bg = [50u8; W * W];
-        let frame = Frame::new_checked(&frame_px[..], W, W).unwrap();
+        let frame_px = blurred_square(cx, cy, half);
+        let bg = [50u8; SQUARE_W * SQUARE_W];
+        let frame = Frame::new_checked(&frame_px[..], SQUARE_W, SQUARE_W).unwrap();
         let diff = Difference::new(&frame, &bg[..], Alpha::ONE);
         let strict = RefineParams {
             give_up: 1.2,
