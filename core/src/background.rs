@@ -198,6 +198,25 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Background<S> {
         Ok(())
     }
 
+    /// No empty shot: the model becomes the platform estimated from this frame itself
+    /// ([`crate::platform::estimate_platform`]: vignetting, fall-off and exposure are the
+    /// frame's own), with `grid` as storage. Call it for every frame before processing it.
+    ///
+    /// # Errors
+    /// [`Error::FrameSize`]; [`crate::platform::estimate_platform`]'s errors.
+    pub fn estimate_from_frame<B: AsRef<[u8]>, const G: usize>(
+        &mut self,
+        frame: &Frame<B>,
+        alpha: Alpha,
+        grid: &mut crate::platform::PlatformGrid<G>,
+    ) -> Result<crate::platform::PlatformStats> {
+        self.check(frame)?;
+        let stats = crate::platform::estimate_platform(frame, alpha, self.plane.as_mut(), grid)?;
+        self.learned = 0;
+        self.ready = true;
+        Ok(stats)
+    }
+
     /// Slow update: every `2^shift` calls, each pixel whose `labels` entry is 0 (background in
     /// the last mask) moves one grey level towards this frame's `I'`.
     ///

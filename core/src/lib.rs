@@ -11,6 +11,7 @@
 //! frame (u8 gray)                                   frame::Frame
 //!  → edge-enhanced intensity I' = α·I + (1−α)·|∇I|  enhance      (eq. 3.1)
 //!  → difference to the mean background of I'        background   (3.2)
+//!    (or to the platform estimated from the frame)  platform
 //!  → mask |I' − B| > τ (fixed or Otsu), 3×3 clean-up mask
 //!  → ordered borders, Suzuki–Abe                    contour      (3.3)
 //!  → n (part) / m (template) points by arc length   resample     (4.5)
@@ -54,6 +55,7 @@ pub mod matching;
 pub mod math;
 pub mod params;
 pub mod partial_volume;
+pub mod platform;
 pub mod pose;
 pub mod recognizer;
 pub mod refine;

@@ -1,0 +1,782 @@
+//! The platform estimated from the frame itself, for installations without an empty shot.
+//!
+//! Real integrators often have no picture of the empty platform: parts keep arriving, or the
+//! backlight and the exposure change between shots. This stage makes the background model
+//! (paper section 3.2) out of the frame it is used on, so any brighter or dimmer exposure, any
+//! vignetting and any slow fall-off of a backlight are the frame's own:
+//!
+//! 1. **Cells.** The frame is cut into square cells of `s ≥` [`MIN_CELL`] px, about
+//!    [`CELLS_ALONG`] along its longer side (more when the grid's capacity `G` is smaller). Each cell's level is the *mode-trimmed mean* of its `I'`
+//!    values: the peak of its histogram (smoothed over 5 grey levels), then the mean of the
+//!    values within ±[`TRIM`] levels of it, re-centred once. A cell that is more than half
+//!    platform gets the platform's level whatever lies in the rest (a part's edge, a speck),
+//!    because the values of the minority lie more than `TRIM` away or are too few to move the
+//!    peak. A cell whose peak holds less than a quarter of its pixels has no level.
+//! 2. **A smooth surface through the platform's cells.** Parts cover cells too, and their levels
+//!    lie far from the platform's (a part of either polarity: dark on a backlight, bright or
+//!    dark on a belt). A low-order 2-D polynomial (products of Chebyshev polynomials `T_i(u)·T_j(v)`,
+//!    `i + j ≤ 4`, over the frame scaled to `[−1, 1]²`; degree 0 and 2 first) is fitted to the
+//!    cells' levels by least squares, keeping only the cells within a threshold of the last
+//!    fit: `max(`[`MIN_OUTLIER`]`, 4 × 1.4826 × MAD)` of the kept cells' residuals. Vignetting
+//!    and fall-off are smooth, so they are in the surface; the parts are not.
+//! 3. **Fill and spread.** The kept cells keep their own level (so the platform may deviate from
+//!    the polynomial where it really does); the others take the surface plus their kept
+//!    neighbours' mean residual, spread cell by cell from the kept ones.
+//! 4. **Plane.** Each pixel of the model is the bilinear interpolation of the cell levels at
+//!    the cell centres, rounded to `u8` (clamped at the frame's edge).
+//!
+//! The estimate holds while the platform shows in more than half of the cells around a covered
+//! area; a part larger than the frame, or a frame that is all part, is taken as the platform
+//! (no part is found, and [`PlatformStats::kept`] says how many cells looked alike). A uniform
+//! frame gives a flat plane.
+//!
+//! Time: two reads of each pixel (a cell histogram of 256 bins, the plane's interpolation) and
+//! about a thousand operations per cell (histogram scans, up to [`FIT_ROUNDS`] least-squares
+//! accumulations of 15 terms, a 15×15 solve per round). Memory: the caller's
+//! [`PlatformGrid`] (`9·G` bytes) and a 512-byte histogram on the stack.
+
+use crate::enhance::{enhance_span, Alpha};
+use crate::error::{Error, Result};
+use crate::frame::Frame;
+
+/// Smallest cell side, px.
+pub const MIN_CELL: usize = 16;
+/// The cell levels are read from every `SAMPLE`-th pixel of every `SAMPLE`-th row (a cell of
+/// the smallest size still has 64 samples; the platform is smooth over a cell).
+pub const SAMPLE: usize = 2;
+/// Cells along the frame's longer side (at least [`MIN_CELL`] px each): the grid has the same
+/// shape for a camera of any resolution.
+pub const CELLS_ALONG: usize = 20;
+/// Half-width of the window around a cell's histogram peak that its level is the mean of,
+/// grey levels.
+pub const TRIM: i32 = 8;
+/// Least residual (grey levels) that excludes a cell from the surface fit.
+pub const MIN_OUTLIER: f32 = 10.0;
+/// Rounds of the surface fit (degree 0, 2, then 4 for the rest).
+pub const FIT_ROUNDS: usize = 4;
+/// Terms of the degree-4 surface.
+const TERMS: usize = 15;
+
+/// Cell of a [`PlatformGrid`]: what it holds.
+const NO_LEVEL: u8 = 0;
+const LEVEL: u8 = 1;
+const KEPT: u8 = 2;
+const FILLED: u8 = 3;
+
+/// Storage of the platform estimate: up to `G` cells.
+///
+/// ```
+/// use vorl_core::platform::PlatformGrid;
+/// let grid = PlatformGrid::<512>::new();
+/// assert_eq!(PlatformGrid::<512>::BYTES, 9 * 512);
+/// # let _ = grid;
+/// ```
+#[derive(Debug, Clone)]
+pub struct PlatformGrid<const G: usize> {
+    level: [f32; G],
+    value: [f32; G],
+    state: [u8; G],
+}
+
+impl<const G: usize> Default for PlatformGrid<G> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const G: usize> PlatformGrid<G> {
+    /// Bytes of the grid's buffers.
+    pub const BYTES: usize = 9 * G;
+
+    /// An empty grid (`const`, for `static` use).
+    pub const fn new() -> Self {
+        PlatformGrid {
+            level: [0.0; G],
+            value: [0.0; G],
+            state: [NO_LEVEL; G],
+        }
+    }
+}
+
+/// What the estimate found.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct PlatformStats {
+    /// Cell side, px.
+    pub cell: usize,
+    /// Cells across.
+    pub cells_x: usize,
+    /// Cells down.
+    pub cells_y: usize,
+    /// Cells with a level.
+    pub with_level: usize,
+    /// Cells taken as platform (the surface's support).
+    pub kept: usize,
+    /// Degree of the last surface fitted.
+    pub degree: usize,
+    /// Threshold of the last round, grey levels.
+    pub outlier: f32,
+    /// Lowest and highest level of the plane's cells.
+    pub range: [f32; 2],
+}
+
+/// The cell side for a `width`×`height` frame and `cells` cells of capacity: the smallest side
+/// `≥ MIN_CELL` whose grid fits.
+///
+/// # Errors
+/// [`Error::Capacity`] when `cells` is 0 and [`Error::EmptyFrame`] for an empty frame.
+pub fn cell_size(width: usize, height: usize, cells: usize) -> Result<usize> {
+    if width == 0 || height == 0 {
+        return Err(Error::EmptyFrame { width, height });
+    }
+    if cells == 0 {
+        return Err(Error::Capacity {
+            what: "platform grid cells G",
+            capacity: 0,
+            requested: 1,
+        });
+    }
+    let mut s = MIN_CELL.max(width.max(height).div_ceil(CELLS_ALONG));
+    // Grows by at least one a round and ends at the frame's larger side (one cell).
+    loop {
+        let n = width.div_ceil(s).saturating_mul(height.div_ceil(s));
+        if n <= cells || s >= width.max(height) {
+            return Ok(s);
+        }
+        let scale = math_sqrt_ratio(n, cells);
+        s = (s + 1).max((s as f32 * scale) as usize).min(width.max(height));
+    }
+}
+
+/// `sqrt(n / cells)` rounded up a little, ≥ 1.
+fn math_sqrt_ratio(n: usize, cells: usize) -> f32 {
+    let r = crate::math::sqrt(n as f32 / cells.max(1) as f32);
+    if r.is_finite() && r > 1.0 {
+        r * 1.01
+    } else {
+        1.0
+    }
+}
+
+/// Estimates the platform under `frame` (its `I'` for this `alpha`) into `plane`
+/// (`width·height` bytes, row-major), using `grid` as storage. See the module doc.
+///
+/// ```
+/// use vorl_core::{enhance::Alpha, platform::{estimate_platform, PlatformGrid}, Frame};
+/// // A 64×48 backlight falling off from 240 (left) to 200 (right), with a dark 20×12 bar.
+/// let (w, h) = (64, 48);
+/// let mut px = vec![0u8; w * h];
+/// for y in 0..h { for x in 0..w { px[y * w + x] = (240.0 - 40.0 * x as f32 / 63.0) as u8; } }
+/// for y in 18..30 { for x in 22..42 { px[y * w + x] = 30; } }
+/// let mut plane = vec![0u8; w * h];
+/// let mut grid = PlatformGrid::<64>::new();
+/// let frame = Frame::new_checked(&px[..], w, h).unwrap();
+/// estimate_platform(&frame, Alpha::ONE, &mut plane, &mut grid).unwrap();
+/// // Under the bar the platform is the light's, not the bar's.
+/// let under = plane[24 * w + 32] as i32;
+/// assert!((under - 220).abs() <= 3, "{under}");
+/// ```
+///
+/// # Errors
+/// [`Error::BufferTooSmall`] for `plane`; [`cell_size`]'s errors.
+pub fn estimate_platform<B: AsRef<[u8]>, const G: usize>(
+    frame: &Frame<B>,
+    alpha: Alpha,
+    plane: &mut [u8],
+    grid: &mut PlatformGrid<G>,
+) -> Result<PlatformStats> {
+    let (w, h) = (frame.width(), frame.height());
+    let needed = w.saturating_mul(h);
+    if plane.len() < needed {
+        return Err(Error::BufferTooSmall {
+            needed,
+            got: plane.len(),
+        });
+    }
+    let s = cell_size(w, h, G)?;
+    let (cx, cy) = (w.div_ceil(s), h.div_ceil(s));
+    let cells = (cx * cy).min(G);
+    let mut stats = PlatformStats {
+        cell: s,
+        cells_x: cx,
+        cells_y: cy,
+        ..PlatformStats::default()
+    };
+    // 1. Cell levels.
+    for c in 0..cells {
+        let (gx, gy) = (c % cx, c / cx);
+        let level = cell_level(frame, alpha, gx * s, gy * s, s);
+        if let (Some(l), Some(st)) = (grid.level.get_mut(c), grid.state.get_mut(c)) {
+            match level {
+                Some(v) => {
+                    *l = v;
+                    *st = LEVEL;
+                    stats.with_level += 1;
+                }
+                None => {
+                    *l = 0.0;
+                    *st = NO_LEVEL;
+                }
+            }
+        }
+    }
+    // 2. The surface through the platform's cells.
+    let surface = fit_surface(grid, cx, cy, cells, &mut stats);
+    // 3. Fill: kept cells keep their level; the others take the surface plus the residuals
+    //    spread from their kept neighbours.
+    for c in 0..cells {
+        let fit = surface.at(c % cx, c / cx, cx, cy);
+        if let (Some(&st), Some(&l), Some(v)) = (grid.state.get(c), grid.level.get(c), grid.value.get_mut(c)) {
+            *v = if st == KEPT { l - fit } else { f32::NAN };
+        }
+    }
+    spread_residuals(grid, cx, cy, cells);
+    let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+    for c in 0..cells {
+        let fit = surface.at(c % cx, c / cx, cx, cy);
+        if let Some(v) = grid.value.get_mut(c) {
+            let r = if v.is_finite() { *v } else { 0.0 };
+            *v = (fit + r).clamp(0.0, 255.0);
+            lo = lo.min(*v);
+            hi = hi.max(*v);
+        }
+    }
+    stats.range = [lo, hi];
+    // 4. The plane (`level` is free now: one row's values at the cell centres).
+    write_plane(&grid.value, &mut grid.level, cx, cy, s, w, h, plane);
+    Ok(stats)
+}
+
+/// The mode-trimmed mean of the cell at `(x0, y0)`, side `s` (cut by the frame's edge), or
+/// `None` when its peak holds less than a quarter of its pixels.
+fn cell_level<B: AsRef<[u8]>>(frame: &Frame<B>, alpha: Alpha, x0: usize, y0: usize, s: usize) -> Option<f32> {
+    const CHUNK: usize = 64;
+    let (w, h) = (frame.width(), frame.height());
+    let x1 = x0.saturating_add(s).min(w);
+    let y1 = y0.saturating_add(s).min(h);
+    let mut hist = [0u16; 256];
+    let mut count = 0u32;
+    let (mut lo_v, mut hi_v) = (255u8, 0u8);
+    for y in (y0..y1).step_by(SAMPLE) {
+        let mut x = x0;
+        while x < x1 {
+            let len = (x1 - x).min(CHUNK);
+            let mut buf = [0u8; CHUNK];
+            let part = buf.get_mut(..len)?;
+            enhance_span(frame, y, x, alpha, part);
+            for &v in part.iter().step_by(SAMPLE) {
+                if let Some(b) = hist.get_mut(v as usize) {
+                    *b = b.saturating_add(1);
+                }
+                lo_v = lo_v.min(v);
+                hi_v = hi_v.max(v);
+            }
+            count += len.div_ceil(SAMPLE) as u32;
+            x += len;
+        }
+    }
+    if count == 0 {
+        return None;
+    }
+    // Peak of the histogram smoothed over 5 levels (only where the cell has values).
+    let (first, last) = (lo_v as usize, hi_v as usize);
+    let at = |v: usize| hist.get(v).copied().unwrap_or(0) as u32;
+    let mut window: u32 = at(first)
+        + at(first + 1)
+        + at(first + 2)
+        + first.checked_sub(1).map_or(0, at)
+        + first.checked_sub(2).map_or(0, at);
+    let (mut peak, mut peak_sum) = (first, window);
+    for v in first + 1..=last {
+        if v >= 3 {
+            window -= hist.get(v - 3).copied().unwrap_or(0) as u32;
+        }
+        window += hist.get(v + 2).copied().unwrap_or(0) as u32;
+        if window > peak_sum {
+            (peak, peak_sum) = (v, window);
+        }
+    }
+    let mut centre = peak as f32;
+    let mut inside = 0u32;
+    for _ in 0..2 {
+        let c = crate::math::round(centre) as i32;
+        let (lo, hi) = ((c - TRIM).max(0) as usize, (c + TRIM).min(255) as usize);
+        let (mut sum, mut n) = (0u32, 0u32);
+        for v in lo..=hi {
+            let k = hist.get(v).copied().unwrap_or(0) as u32;
+            sum += k * v as u32;
+            n += k;
+        }
+        if n == 0 {
+            return None;
+        }
+        centre = sum as f32 / n as f32;
+        inside = n;
+    }
+    (4 * inside >= count).then_some(centre)
+}
+
+/// A fitted surface: coefficients of `T_i(u)·T_j(v)`, `i + j ≤ degree`.
+#[derive(Debug, Clone, Copy)]
+struct Surface {
+    coef: [f32; TERMS],
+    degree: usize,
+}
+
+impl Surface {
+    /// The surface at the centre of cell `(gx, gy)` of a `cx`×`cy` grid.
+    fn at(&self, gx: usize, gy: usize, cx: usize, cy: usize) -> f32 {
+        let mut basis = [0.0f32; TERMS];
+        let terms = fill_basis(cell_u(gx, cx), cell_u(gy, cy), self.degree, &mut basis);
+        basis
+            .iter()
+            .zip(&self.coef)
+            .take(terms)
+            .fold(0.0, |acc, (b, c)| acc + b * c)
+    }
+}
+
+/// Cell index `g` of `n` scaled into `[−1, 1]` (its centre).
+fn cell_u(g: usize, n: usize) -> f32 {
+    if n <= 1 {
+        0.0
+    } else {
+        2.0 * g as f32 / (n - 1) as f32 - 1.0
+    }
+}
+
+/// `T_i(u)·T_j(v)` for `i + j ≤ degree` into `basis`; returns how many.
+fn fill_basis(u: f32, v: f32, degree: usize, basis: &mut [f32; TERMS]) -> usize {
+    let cheb = |x: f32| {
+        let t2 = 2.0 * x * x - 1.0;
+        let t3 = 2.0 * x * t2 - x;
+        let t4 = 2.0 * x * t3 - t2;
+        [1.0, x, t2, t3, t4]
+    };
+    let (tu, tv) = (cheb(u), cheb(v));
+    let mut k = 0;
+    for total in 0..=degree.min(4) {
+        for i in 0..=total {
+            let j = total - i;
+            if let (Some(slot), Some(a), Some(b)) = (basis.get_mut(k), tu.get(i), tv.get(j)) {
+                *slot = a * b;
+                k += 1;
+            }
+        }
+    }
+    k
+}
+
+/// Rounds of least squares on the cells with a level, each keeping the cells within the
+/// threshold of the previous fit (the first: of the median level). Marks the kept cells.
+fn fit_surface<const G: usize>(
+    grid: &mut PlatformGrid<G>,
+    cx: usize,
+    cy: usize,
+    cells: usize,
+    stats: &mut PlatformStats,
+) -> Surface {
+    // Round 0: a constant, the median level (the platform covers most cells).
+    let median = median_of(grid, cells, |_, l| Some(l)).unwrap_or(0.0);
+    let mut surface = Surface {
+        coef: [0.0; TERMS],
+        degree: 0,
+    };
+    if let Some(c) = surface.coef.get_mut(0) {
+        *c = median;
+    }
+    for round in 0..FIT_ROUNDS {
+        // The threshold from the residuals of the cells within reach of this surface.
+        let mad = median_of(grid, cells, |c, l| {
+            let r = (l - surface.at(c % cx, c / cx, cx, cy)).abs();
+            Some(r)
+        })
+        .unwrap_or(0.0);
+        let outlier = (4.0 * 1.4826 * mad).max(MIN_OUTLIER);
+        // A generous first cut: the median alone does not follow vignetting.
+        let outlier = if round == 0 {
+            outlier.max(4.0 * MIN_OUTLIER)
+        } else {
+            outlier
+        };
+        let mut kept = 0;
+        for c in 0..cells {
+            let fit = surface.at(c % cx, c / cx, cx, cy);
+            if let (Some(st), Some(&l)) = (grid.state.get_mut(c), grid.level.get(c)) {
+                if *st == LEVEL || *st == KEPT {
+                    *st = if (l - fit).abs() <= outlier { KEPT } else { LEVEL };
+                    kept += (*st == KEPT) as usize;
+                }
+            }
+        }
+        stats.kept = kept;
+        stats.outlier = outlier;
+        let degree = match round {
+            0 => 2,
+            _ => 4,
+        };
+        // Enough support for the terms, or a lower degree.
+        let degree = if kept >= 4 * TERMS {
+            degree
+        } else if kept >= 4 * 6 {
+            degree.min(2)
+        } else {
+            0
+        };
+        match least_squares(grid, cx, cy, cells, degree) {
+            Some(s) => surface = s,
+            None => break,
+        }
+        stats.degree = surface.degree;
+    }
+    // Final membership against the last surface.
+    let mut kept = 0;
+    let outlier = stats.outlier;
+    for c in 0..cells {
+        let fit = surface.at(c % cx, c / cx, cx, cy);
+        if let (Some(st), Some(&l)) = (grid.state.get_mut(c), grid.level.get(c)) {
+            if *st == LEVEL || *st == KEPT {
+                *st = if (l - fit).abs() <= outlier { KEPT } else { LEVEL };
+                kept += (*st == KEPT) as usize;
+            }
+        }
+    }
+    stats.kept = kept;
+    surface
+}
+
+/// The median of `f(cell, level)` over the cells with a level (`value` is scratch).
+fn median_of<const G: usize>(
+    grid: &mut PlatformGrid<G>,
+    cells: usize,
+    f: impl Fn(usize, f32) -> Option<f32>,
+) -> Option<f32> {
+    let mut n = 0;
+    for c in 0..cells {
+        let (Some(&st), Some(&l)) = (grid.state.get(c), grid.level.get(c)) else {
+            continue;
+        };
+        if st == NO_LEVEL {
+            continue;
+        }
+        if let Some(v) = f(c, l).filter(|v| v.is_finite()) {
+            if let Some(slot) = grid.value.get_mut(n) {
+                *slot = v;
+                n += 1;
+            }
+        }
+    }
+    let values = grid.value.get_mut(..n)?;
+    if values.is_empty() {
+        return None;
+    }
+    let mid = values.len() / 2;
+    values.select_nth_unstable_by(mid, f32::total_cmp);
+    values.get(mid).copied()
+}
+
+/// Least squares of the kept cells' levels on the degree-`degree` basis (`None` when singular).
+fn least_squares<const G: usize>(
+    grid: &PlatformGrid<G>,
+    cx: usize,
+    cy: usize,
+    cells: usize,
+    degree: usize,
+) -> Option<Surface> {
+    let mut a = [[0.0f32; TERMS]; TERMS];
+    let mut b = [0.0f32; TERMS];
+    let mut basis = [0.0f32; TERMS];
+    let mut terms = 0;
+    for c in 0..cells {
+        if grid.state.get(c) != Some(&KEPT) {
+            continue;
+        }
+        let l = grid.level.get(c).copied().unwrap_or(0.0);
+        terms = fill_basis(cell_u(c % cx, cx), cell_u(c / cx, cy), degree, &mut basis);
+        for (i, row) in a.iter_mut().enumerate().take(terms) {
+            let bi = basis.get(i).copied().unwrap_or(0.0);
+            for (aij, bj) in row.iter_mut().zip(&basis).take(terms) {
+                *aij += bi * bj;
+            }
+            if let Some(v) = b.get_mut(i) {
+                *v += bi * l;
+            }
+        }
+    }
+    if terms == 0 {
+        return None;
+    }
+    let coef = solve(&mut a, &mut b, terms)?;
+    Some(Surface { coef, degree })
+}
+
+/// Gaussian elimination with partial pivoting on the first `n` rows and columns.
+fn solve(a: &mut [[f32; TERMS]; TERMS], b: &mut [f32; TERMS], n: usize) -> Option<[f32; TERMS]> {
+    let n = n.min(TERMS);
+    // A light ridge keeps a grid with few kept cells solvable.
+    let scale = (0..n).map(|i| a[i][i]).fold(0.0f32, f32::max);
+    if !(scale > 0.0) {
+        return None;
+    }
+    for (i, row) in a.iter_mut().enumerate().take(n) {
+        if let Some(v) = row.get_mut(i) {
+            *v += 1e-6 * scale;
+        }
+    }
+    for col in 0..n {
+        let mut pivot = col;
+        for r in col + 1..n {
+            if a[r][col].abs() > a[pivot][col].abs() {
+                pivot = r;
+            }
+        }
+        if !(a[pivot][col].abs() > 1e-12 * scale) {
+            return None;
+        }
+        a.swap(col, pivot);
+        b.swap(col, pivot);
+        let p = a[col][col];
+        for r in col + 1..n {
+            let f = a[r][col] / p;
+            if f == 0.0 {
+                continue;
+            }
+            let pivot_row = a[col];
+            for (x, y) in a[r].iter_mut().zip(pivot_row.iter()).skip(col).take(n - col) {
+                *x -= f * y;
+            }
+            b[r] -= f * b[col];
+        }
+    }
+    let mut x = [0.0f32; TERMS];
+    for i in (0..n).rev() {
+        let mut s = b[i];
+        for j in i + 1..n {
+            s -= a[i][j] * x[j];
+        }
+        x[i] = s / a[i][i];
+    }
+    x.iter().all(|v| v.is_finite()).then_some(x)
+}
+
+/// Gives every cell without a residual (NaN in `value`) the mean of its 8 neighbours' that
+/// have one, a ring at a time from the kept cells; cells no kept cell reaches keep NaN.
+fn spread_residuals<const G: usize>(grid: &mut PlatformGrid<G>, cx: usize, cy: usize, cells: usize) {
+    // Each pass reaches one ring further; `level` holds the pass's new values.
+    for _ in 0..cx.max(cy) {
+        let mut changed = false;
+        for c in 0..cells {
+            if grid.value.get(c).is_none_or(|v| v.is_finite()) {
+                continue;
+            }
+            let (gx, gy) = ((c % cx) as isize, (c / cx) as isize);
+            let (mut sum, mut n) = (0.0f32, 0u32);
+            for dy in -1..=1isize {
+                for dx in -1..=1isize {
+                    let (x, y) = (gx + dx, gy + dy);
+                    if (dx, dy) == (0, 0) || x < 0 || y < 0 || x >= cx as isize || y >= cy as isize {
+                        continue;
+                    }
+                    let k = y as usize * cx + x as usize;
+                    // Only cells filled before this pass (not FILLED in it).
+                    if grid.state.get(k) == Some(&FILLED) {
+                        continue;
+                    }
+                    if let Some(v) = grid.value.get(k).filter(|v| v.is_finite()) {
+                        sum += v;
+                        n += 1;
+                    }
+                }
+            }
+            if n > 0 {
+                if let (Some(l), Some(st)) = (grid.level.get_mut(c), grid.state.get_mut(c)) {
+                    *l = sum / n as f32;
+                    *st = FILLED;
+                    changed = true;
+                }
+            }
+        }
+        // Commit the pass.
+        for c in 0..cells {
+            if grid.state.get(c) == Some(&FILLED) {
+                let l = grid.level.get(c).copied().unwrap_or(0.0);
+                if let (Some(v), Some(st)) = (grid.value.get_mut(c), grid.state.get_mut(c)) {
+                    *v = l;
+                    *st = NO_LEVEL;
+                }
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
+}
+
+/// The centre of cell `g` of side `s` along an axis of `len` px (the last cell may be cut).
+fn cell_centre(g: usize, s: usize, len: usize) -> f32 {
+    let first = g.saturating_mul(s);
+    let last = first.saturating_add(s).min(len).saturating_sub(1).max(first);
+    (first + last) as f32 * 0.5
+}
+
+/// The two cells whose centres bracket row `x` along an axis of `n` cells (the outer pair
+/// beyond the outermost centres, so the plane extrapolates there) and the weight of the second.
+fn bracket(x: usize, s: usize, len: usize, n: usize) -> (usize, usize, f32) {
+    if n <= 1 {
+        return (0, 0, 0.0);
+    }
+    let mut g = (x / s.max(1)).min(n - 1);
+    if g > 0 && (x as f32) < cell_centre(g, s, len) {
+        g -= 1;
+    }
+    let g = g.min(n - 2);
+    let (c0, c1) = (cell_centre(g, s, len), cell_centre(g + 1, s, len));
+    let t = if c1 > c0 { (x as f32 - c0) / (c1 - c0) } else { 0.0 };
+    (g, g + 1, t)
+}
+
+/// The plane: the cell values (at the cell centres) bilinearly interpolated, extrapolated
+/// linearly beyond the outermost centres, rounded. `row` (at least `cx` values) is scratch for
+/// one row's values at the cell centres; along the row the value then grows by a constant step
+/// between two centres, so a pixel costs an addition.
+#[allow(clippy::too_many_arguments)]
+fn write_plane(values: &[f32], row: &mut [f32], cx: usize, cy: usize, s: usize, w: usize, h: usize, plane: &mut [u8]) {
+    let cell = |gx: usize, gy: usize| values.get(gy * cx + gx).copied().unwrap_or(0.0);
+    for (y, out) in plane.chunks_exact_mut(w.max(1)).take(h).enumerate() {
+        let (gy0, gy1, ty) = bracket(y, s, h, cy);
+        for (gx, r) in row.iter_mut().enumerate().take(cx) {
+            *r = cell(gx, gy0) * (1.0 - ty) + cell(gx, gy1) * ty;
+        }
+        if cx <= 1 {
+            let v = row.first().copied().unwrap_or(0.0);
+            out.iter_mut().for_each(|p| *p = (v + 0.5).clamp(0.0, 255.0) as u8);
+            continue;
+        }
+        // Segment g runs from the centre of cell g to that of g + 1 (the first from x = 0, the
+        // last to the row's end).
+        let mut x = 0usize;
+        for g in 0..cx - 1 {
+            let (c0, c1) = (cell_centre(g, s, w), cell_centre(g + 1, s, w));
+            let (v0, v1) = (
+                row.get(g).copied().unwrap_or(0.0),
+                row.get(g + 1).copied().unwrap_or(0.0),
+            );
+            let slope = if c1 > c0 { (v1 - v0) / (c1 - c0) } else { 0.0 };
+            let end = if g + 2 == cx { w } else { (c1 as usize + 1).min(w) };
+            // In 1/65536 of a level (values and steps well inside i32), rounded at the end.
+            let fixed = |f: f32| (f * 65536.0).clamp(-2.0e9, 2.0e9) as i32;
+            let v = fixed(v0 + (x as f32 - c0) * slope + 0.5);
+            let dv = fixed(slope);
+            for (k, p) in out.get_mut(x..end).unwrap_or(&mut []).iter_mut().enumerate() {
+                let at = v.wrapping_add((k as i32).wrapping_mul(dv));
+                *p = (at >> 16).clamp(0, 255) as u8;
+            }
+            x = end.max(x);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    extern crate std;
+    use std::vec;
+
+    fn run(px: &[u8], w: usize, h: usize) -> (std::vec::Vec<u8>, PlatformStats) {
+        let mut plane = vec![0u8; w * h];
+        let mut grid: std::boxed::Box<PlatformGrid<4096>> = std::boxed::Box::default();
+        let frame = Frame::new_checked(px, w, h).unwrap();
+        let st = estimate_platform(&frame, Alpha::ONE, &mut plane, &mut grid).unwrap();
+        (plane, st)
+    }
+
+    /// A vignetted backlight (centre 250, corners about 150) with dark parts and a hole: the
+    /// estimate follows the light under the parts within 4 levels (the frame's noise is ±2,
+    /// and the corners are extrapolated).
+    #[test]
+    fn follows_vignetting_under_dark_parts() {
+        let (w, h) = (256usize, 240usize);
+        let light = |x: usize, y: usize| {
+            let (u, v) = ((x as f32 - 128.0) / 128.0, (y as f32 - 120.0) / 120.0);
+            250.0 - 50.0 * (u * u + v * v)
+        };
+        let mut px = vec![0u8; w * h];
+        for y in 0..h {
+            for x in 0..w {
+                let mut v = light(x, y);
+                let in_bar = (40..200).contains(&x) && (100..130).contains(&y);
+                let in_ring = ((x as f32 - 60.0).powi(2) + (y as f32 - 50.0).powi(2)).sqrt();
+                if in_bar || (12.0..26.0).contains(&in_ring) {
+                    v = 25.0;
+                }
+                // A little deterministic noise.
+                v += ((x * 7 + y * 13) % 5) as f32 - 2.0;
+                px[y * w + x] = v.clamp(0.0, 255.0) as u8;
+            }
+        }
+        let (plane, st) = run(&px, w, h);
+        assert!(st.kept > st.cells_x * st.cells_y / 2, "{st:?}");
+        let mut worst = 0.0f32;
+        for y in 0..h {
+            for x in 0..w {
+                worst = worst.max((plane[y * w + x] as f32 - light(x, y)).abs());
+            }
+        }
+        assert!(worst <= 4.0, "worst {worst} {st:?}");
+    }
+
+    /// Parts of both polarities on a flat belt: both are found as not platform.
+    #[test]
+    fn both_polarities_are_parts() {
+        let (w, h) = (160usize, 120usize);
+        let mut px = vec![120u8; w * h];
+        for y in 20..60 {
+            for x in 20..70 {
+                px[y * w + x] = 60;
+            }
+        }
+        for y in 60..110 {
+            for x in 90..150 {
+                px[y * w + x] = 200;
+            }
+        }
+        let (plane, _) = run(&px, w, h);
+        assert!(plane.iter().all(|&p| (p as i32 - 120).abs() <= 1));
+    }
+
+    /// A uniform frame gives a flat plane; a one-pixel frame and a frame of one cell work.
+    #[test]
+    fn uniform_and_tiny_frames() {
+        let (plane, st) = run(&[77u8; 50 * 30], 50, 30);
+        assert!(plane.iter().all(|&p| p == 77), "{st:?}");
+        let (plane, _) = run(&[9u8], 1, 1);
+        assert_eq!(plane, [9]);
+    }
+
+    /// Errors: a short plane, an empty grid.
+    #[test]
+    fn errors() {
+        let px = [1u8; 20];
+        let frame = Frame::new_checked(&px[..], 5, 4).unwrap();
+        let mut grid = PlatformGrid::<4>::new();
+        let mut plane = [0u8; 19];
+        assert!(matches!(
+            estimate_platform(&frame, Alpha::ONE, &mut plane, &mut grid),
+            Err(Error::BufferTooSmall { needed: 20, got: 19 })
+        ));
+        let mut grid = PlatformGrid::<0>::new();
+        let mut plane = [0u8; 20];
+        assert!(matches!(
+            estimate_platform(&frame, Alpha::ONE, &mut plane, &mut grid),
+            Err(Error::Capacity { .. })
+        ));
+    }
+
+    /// The cell side grows until the grid fits.
+    #[test]
+    fn cell_sizes() {
+        assert_eq!(cell_size(320, 240, 512).unwrap(), 16);
+        let s = cell_size(640, 480, 512).unwrap();
+        assert!(640usize.div_ceil(s) * 480usize.div_ceil(s) <= 512 && s > 16);
+        assert_eq!(cell_size(10_000, 3, 1).unwrap(), 10_000);
+    }
+}
