@@ -62,7 +62,7 @@ impl Layout {
     pub const CORTEX_M: Layout = Layout {
         name: "Cortex-M (32-bit)",
         word: 4,
-        params: 52,
+        params: 68,
         contour: 32,
         contour_align: 8,
     };
@@ -177,10 +177,10 @@ const fn vec_bytes(layout: Layout, size: usize, align: usize, cap: usize) -> usi
 /// `size_of::<Template<M>>()`: `m` (a word); `8·M` points, `4·M` descriptor, `4·M` sorted
 /// descriptor, `8·M` sub-pixel
 /// edge points and `8·M` normals; centroid (8), area centroid (8), area (4) and position offset
-/// (8); rounded up to the word.
+/// (8), half-turn distance (4); rounded up to the word.
 pub const fn template_bytes(layout: Layout, m: usize) -> usize {
     round_up(
-        layout.word.saturating_add(m.saturating_mul(32)).saturating_add(28),
+        layout.word.saturating_add(m.saturating_mul(32)).saturating_add(32),
         max(layout.word, 4),
     )
 }
@@ -337,8 +337,8 @@ mod tests {
             let fixed = layout.params;
             assert!(b.other >= fixed && b.other < fixed + 16);
         }
-        // 32-bit: 8 templates of (4 + 32·96 + 28) bytes and the length word.
-        assert_eq!(budget(Layout::CORTEX_M, caps).templates, 4 + 8 * 3104);
+        // 32-bit: 8 templates of (4 + 32·96 + 32) bytes and the length word.
+        assert_eq!(budget(Layout::CORTEX_M, caps).templates, 4 + 8 * 3108);
     }
 
     #[test]

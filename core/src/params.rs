@@ -87,8 +87,24 @@ pub struct Params {
     /// ones steps towards the DP's best, and the search of every other template stops as soon
     /// as it cannot beat that cost.
     pub candidate_ratio: f32,
-    /// Verification threshold, px: a part whose best score is at or above it is unknown.
+    /// Verification threshold, px: a part whose best score is at or above the larger of this
+    /// and [`Self::verify_relative`] times the part's size is unknown.
     pub verify_threshold: f32,
+    /// Verification threshold relative to the part's size (the matched template's
+    /// [`crate::Template::size`] times the aligned scale), so that the score means the same for
+    /// a small part and a large one, and for a camera of any resolution (blur, noise and the
+    /// variation between parts of one type all grow with the part's image).
+    pub verify_relative: f32,
+    /// Largest uniform offset of the part's outline from its template's, along the normals,
+    /// that the alignment fits, relative to the part's size (as [`Self::verify_relative`]):
+    /// the walls of a thick part seen by a close lens, or an edge moved by blur and exposure,
+    /// widen or narrow the whole outline. 0 fits none.
+    pub offset_relative: f32,
+    /// Smallest accepted scale of a part over its template (camera height, lens, part-to-part
+    /// variation); an alignment below it is not verified.
+    pub scale_min: f32,
+    /// Largest accepted scale of a part over its template.
+    pub scale_max: f32,
     /// How the position is measured.
     pub position: Position,
 }
@@ -111,6 +127,10 @@ impl Params {
         candidates: 3,
         candidate_ratio: 1.0,
         verify_threshold: 0.6,
+        verify_relative: 0.04,
+        offset_relative: 0.05,
+        scale_min: 0.9,
+        scale_max: 1.1,
         position: Position::PartialVolume,
     };
 
@@ -162,6 +182,30 @@ impl Params {
                 value: self.verify_threshold,
             });
         }
+        if !(self.verify_relative >= 0.0) || !self.verify_relative.is_finite() {
+            return Err(Error::Parameter {
+                name: "verify_relative",
+                value: self.verify_relative,
+            });
+        }
+        if !(self.offset_relative >= 0.0) || !(self.offset_relative < 1.0) {
+            return Err(Error::Parameter {
+                name: "offset_relative",
+                value: self.offset_relative,
+            });
+        }
+        if !(self.scale_min > 0.0) || !self.scale_min.is_finite() || self.scale_min > 1.0 {
+            return Err(Error::Parameter {
+                name: "scale_min",
+                value: self.scale_min,
+            });
+        }
+        if !(self.scale_max >= 1.0) || !self.scale_max.is_finite() {
+            return Err(Error::Parameter {
+                name: "scale_max",
+                value: self.scale_max,
+            });
+        }
         if self.n < 8 {
             return Err(Error::Parameter {
                 name: "n",
@@ -180,6 +224,17 @@ impl Params {
     /// `α` as checked type (1.0 when out of range; [`Self::validate`] reports that).
     pub fn alpha(&self) -> Alpha {
         Alpha::new(self.alpha).unwrap_or(Alpha::ONE)
+    }
+
+    /// The verification threshold for a part of `size` px ([`crate::Template::size`] times the
+    /// scale): the larger of [`Self::verify_threshold`] and [`Self::verify_relative`]` × size`.
+    pub fn verify_limit(&self, size: f32) -> f32 {
+        let rel = self.verify_relative * size;
+        if rel.is_finite() && rel > self.verify_threshold {
+            rel
+        } else {
+            self.verify_threshold
+        }
     }
 
     /// The border size filter.

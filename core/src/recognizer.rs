@@ -48,7 +48,7 @@ use crate::math;
 use crate::params::{AngleEstimator, Params, Position, Refine};
 use crate::partial_volume::{partial_volume_centroid, Rect};
 use crate::pose::{angle_paper, angle_signed_refined, area_centroid};
-use crate::refine::{align, outward_normal, Alignment, Difference, Outline, Pose, RefineParams};
+use crate::refine::{align, edge_distances, outward_normal, Alignment, Difference, Outline, Pose, RefineParams};
 use crate::resample::resample;
 use crate::template::Template;
 
@@ -83,8 +83,14 @@ pub struct Detection {
     pub angle_dp_deg: f32,
     /// Verification score of the chosen template, px (infinite when not verified).
     pub verify: f32,
+    /// The limit the score was held to, px ([`Params::verify_limit`] for the aligned part's
+    /// size): the part is known when `verify < verify_limit`.
+    pub verify_limit: f32,
     /// Scale of the part against its template (1 when not aligned).
     pub scale: f32,
+    /// The aligned pose of [`Self::best_template`] (`None` when not aligned): where its
+    /// outline lies in the frame ([`Pose::apply`] on [`Template::edge`]).
+    pub pose: Option<Pose>,
     /// Index of the part's border in the recognizer's contour store.
     pub contour: u16,
     /// Polygon area of the border, px².
@@ -408,7 +414,9 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             angle_paper_deg: 0.0,
             angle_dp_deg: 0.0,
             verify: f32::INFINITY,
+            verify_limit: params.verify_threshold,
             scale: 1.0,
+            pose: None,
             contour: index as u16,
             area: contour.area(),
             touches_edge: contour.touches_edge,
@@ -450,8 +458,9 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         if let Some((ti, pose)) = best_pose {
             detection.angle_deg = math::wrap_degrees(math::degrees(pose.angle));
             detection.scale = pose.scale;
+            detection.pose = Some(pose);
             if params.refine == Refine::Verify {
-                detection.template = (detection.verify < params.verify_threshold).then_some(ti as u16);
+                detection.template = (detection.verify < detection.verify_limit).then_some(ti as u16);
             }
             if params.position == Position::Pose {
                 if let Some(t) = self.templates.get(ti) {
@@ -504,14 +513,18 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             return None;
         }
         self.part_edge(n, counter_clockwise, diff);
-        let (pose, verify) = self.align_and_verify(n, position, signed, area, ti, diff, &RefineParams::DEFAULT)?;
+        let (pose, verify, limit) =
+            self.align_and_verify(n, position, signed, area, ti, diff, &RefineParams::DEFAULT)?;
         detection.verify = verify;
+        detection.verify_limit = limit;
         Some((ti, pose))
     }
 
     /// Template `ti` aligned on the frame from the DP's pose (the part's `position`, the
     /// `signed` angle in degrees, the scale of the areas), and its verification score against
-    /// the part's edge (`self.part_edges`).
+    /// the part's edge (`self.part_edges`) with the score's limit for the aligned part's size.
+    /// A template whose outline is nearly 2-fold ([`Template::half_turn`] below
+    /// [`HALF_TURN_AMBIGUOUS`]) is aligned half a turn on too, and the better of the two kept.
     #[allow(clippy::too_many_arguments)]
     fn align_and_verify<B: AsRef<[u8]>>(
         &self,
@@ -522,17 +535,62 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         ti: usize,
         diff: &Difference<'_, B>,
         refine_params: &RefineParams,
-    ) -> Option<(Pose, f32)> {
+    ) -> Option<(Pose, f32, f32)> {
         let t = self.templates.get(ti)?;
-        let aligned = align(
-            diff,
-            t.edge(),
-            t.normals(),
-            seed_pose(position, signed, area, t),
-            refine_params,
-        );
-        let verify = verify_score(&aligned, t, self.part_edges.get(..n).unwrap_or(&[]), refine_params);
-        Some((aligned.pose, verify))
+        let params = &self.params;
+        let part_edges = self.part_edges.get(..n).unwrap_or(&[]);
+        let seed = seed_pose(position, signed, area, t);
+        let limit_at = |scale: f32| params.verify_limit(t.size() * scale);
+        // The alignment gives up at twice the limit for the seed's size (unless the caller
+        // never gives up).
+        // The distance cap grows with the limit (a large part's edge may lie farther from its
+        // template's than a small one's and still be the same part); the profiles keep their
+        // length, which thin rings and slots need.
+        let limit = limit_at(seed.scale);
+        let reach = limit / params.verify_threshold.max(f32::MIN_POSITIVE);
+        let reach = if reach.is_finite() { reach.max(1.0) } else { 1.0 };
+        let rp = RefineParams {
+            give_up: if refine_params.give_up.is_finite() {
+                refine_params.give_up.max(2.0 * limit)
+            } else {
+                f32::INFINITY
+            },
+            cap: refine_params.cap * reach,
+            ..*refine_params
+        };
+        // Without an outline offset first; a fit that is not CONFIDENT is aligned again from
+        // where it ended with the offset free (walls, blur), and the better kept.
+        let with_offset = RefineParams {
+            offset_max: params.offset_relative * t.size() * seed.scale,
+            ..rp
+        };
+        let once = |angle_deg: f32| {
+            let s = seed_pose(position, angle_deg, area, t);
+            let aligned = align(diff, t.edge(), t.normals(), s, &rp);
+            let verify = verify_score(&aligned, t, part_edges, diff, &rp, params);
+            let first = (aligned.pose, verify, limit_at(aligned.pose.scale));
+            if verify < CONFIDENT * first.2 || !(with_offset.offset_max > 0.0) || aligned.gave_up {
+                return first;
+            }
+            let again = align(diff, t.edge(), t.normals(), aligned.pose, &with_offset);
+            let verify = verify_score(&again, t, part_edges, diff, &with_offset, params);
+            let second = (again.pose, verify, limit_at(again.pose.scale));
+            if second.1 / second.2 < first.1 / first.2 {
+                second
+            } else {
+                first
+            }
+        };
+        let first = once(signed);
+        if !(t.half_turn() < HALF_TURN_AMBIGUOUS) {
+            return Some(first);
+        }
+        let second = once(signed + 180.0);
+        Some(if second.1 / second.2 < first.1 / first.2 {
+            second
+        } else {
+            first
+        })
     }
 
     /// `refine = Verify`: the candidates of [`Self::next_candidate`], each aligned on the
@@ -554,7 +612,32 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let k = params.candidates.clamp(1, MAX_CANDIDATES);
         let mut scan = self.candidate_scan(n);
         let mut best = None;
-        while let Some((ti, m)) = self.next_candidate(&mut scan, n, k, params.candidate_ratio) {
+        // The cost records of the bound order first; unless one of them verified with a score
+        // below CONFIDENT times its limit, the next templates of that order within
+        // FALLBACK_RATIO of the lowest cost (a real part's descriptor may rank its template
+        // behind a near-alike one, which then verifies, but less well).
+        let mut ratio = params.candidate_ratio;
+        loop {
+            let Some((ti, m)) = self.next_candidate(&mut scan, n, k, ratio) else {
+                if ratio < FALLBACK_RATIO && scan.found < k && !(detection.verify < CONFIDENT * detection.verify_limit)
+                {
+                    // Again from the start of the bound order, without the candidates tried.
+                    ratio = FALLBACK_RATIO;
+                    let (found, lowest, tried) = (scan.found, scan.lowest, scan.tried);
+                    scan = self.candidate_scan(n);
+                    for (ti, state) in scan.state.iter_mut().enumerate() {
+                        if tried.get(ti).copied().unwrap_or(false) {
+                            *state = Listing::Out;
+                        }
+                    }
+                    (scan.found, scan.lowest, scan.tried) = (found, lowest, tried);
+                    continue;
+                }
+                break;
+            };
+            if let Some(t) = scan.tried.get_mut(ti) {
+                *t = true;
+            }
             if scan.found == 1 {
                 self.part_edge(n, counter_clockwise, diff);
             }
@@ -585,6 +668,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             state: [Listing::Out; T],
             lowest: f32::INFINITY,
             found: 0,
+            tried: [false; T],
         };
         let (Some(part), Some(sorted)) = (self.descriptor.get(..n), scan.sorted.get_mut(..n)) else {
             return scan;
@@ -708,12 +792,15 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let Some((signed, paper)) = self.angles(n, centroid, ti) else {
             return;
         };
-        let Some((pose, verify)) = self.align_and_verify(n, position, signed, area, ti, diff, refine_params) else {
+        let Some((pose, verify, limit)) = self.align_and_verify(n, position, signed, area, ti, diff, refine_params)
+        else {
             return;
         };
-        if best.is_none() || verify < detection.verify {
+        // Candidates compete by their score over its limit (the same meaning for every size).
+        if best.is_none() || verify / limit < detection.verify / detection.verify_limit {
             *best = Some((ti, pose));
             detection.verify = verify;
+            detection.verify_limit = limit;
             detection.best_template = Some(ti as u16);
             detection.score = m.normalized;
             detection.angle_paper_deg = paper;
@@ -788,6 +875,8 @@ struct CandidateScan<const T: usize, const M: usize> {
     lowest: f32,
     /// Candidates found so far.
     found: usize,
+    /// Templates that were candidates.
+    tried: [bool; T],
 }
 
 impl<const T: usize, const M: usize> CandidateScan<T, M> {
@@ -830,10 +919,29 @@ fn seed_pose<const M: usize>(position: [f32; 2], angle_deg: f32, area: f32, t: &
 }
 
 /// Verification score of an alignment, px: the mean of the template → part and part → template
-/// distances (capped) plus a penalty for a scale far from 1.
-fn verify_score<const M: usize>(a: &Alignment, t: &Template<M>, part_edges: &[[f32; 2]], params: &RefineParams) -> f32 {
+/// distances (capped), each over the nearest [`VERIFY_KEPT`] of its points (a part of one type
+/// may differ from its template over a stretch of its outline: a head, a burr, the walls a
+/// close lens sees); infinite for a scale outside `[scale_min, scale_max]`.
+#[allow(clippy::too_many_arguments)]
+fn verify_score<const M: usize, B: AsRef<[u8]>>(
+    a: &Alignment,
+    t: &Template<M>,
+    part_edges: &[[f32; 2]],
+    diff: &Difference<'_, B>,
+    params: &RefineParams,
+    limits: &Params,
+) -> f32 {
     let edge = t.edge();
     let pose = a.pose;
+    if !(pose.scale >= limits.scale_min && pose.scale <= limits.scale_max) {
+        return f32::INFINITY;
+    }
+    let mut dist = [0.0f32; M];
+    let there = {
+        let d = dist.get_mut(..edge.len()).unwrap_or(&mut []);
+        edge_distances(diff, edge, t.normals(), a, params, d);
+        trimmed_mean(d, VERIFY_KEPT, params.cap)
+    };
     let valid = part_edges.iter().filter(|e| e[0].is_finite()).count();
     let back = if valid == 0 {
         params.cap
@@ -842,20 +950,62 @@ fn verify_score<const M: usize>(a: &Alignment, t: &Template<M>, part_edges: &[[f
         // pose) and scaled back, so the template outline needs no mapping.
         let scale = pose.scale;
         let cap = params.cap / scale;
+        // The template's outline moved by the fitted offset (in its own frame: over the scale).
+        let mut moved = [[0.0f32; 2]; M];
+        let edge = if a.offset == 0.0 {
+            edge
+        } else {
+            let o = a.offset / scale;
+            for ((slot, e), nrm) in moved.iter_mut().zip(edge).zip(t.normals()) {
+                *slot = [e[0] + o * nrm[0], e[1] + o * nrm[1]];
+            }
+            moved.get(..edge.len()).unwrap_or(edge)
+        };
         let outline = Outline::new(edge);
         let sc = math::sin_cos(pose.angle);
-        let mut sum = 0.0f32;
-        for e in part_edges {
-            match pose.invert_sc(sc, *e).filter(|_| e[0].is_finite() && cap.is_finite()) {
-                Some(q) => sum += scale * outline.capped_distance(q, cap),
-                None => sum += params.cap,
-            }
+        for (e, d) in part_edges.iter().zip(dist.iter_mut()) {
+            *d = match pose.invert_sc(sc, *e).filter(|_| e[0].is_finite() && cap.is_finite()) {
+                Some(q) => scale * outline.capped_distance(q, cap),
+                None => params.cap,
+            };
         }
-        sum / part_edges.len().max(1) as f32
+        trimmed_mean(
+            dist.get_mut(..part_edges.len()).unwrap_or(&mut []),
+            VERIFY_KEPT,
+            params.cap,
+        )
     };
-    let log_scale = if pose.scale > 0.0 { libm::logf(pose.scale) } else { 10.0 };
-    0.5 * (a.distance + back) + params.scale_penalty * log_scale.abs()
+    0.5 * (there + back)
 }
+
+/// The mean of the smallest `kept` fraction of `values` (at least one; `empty` for none).
+fn trimmed_mean(values: &mut [f32], kept: f32, empty: f32) -> f32 {
+    let len = values.len();
+    if len == 0 {
+        return empty;
+    }
+    let keep = ((len as f32 * kept) as usize).clamp(1, len);
+    if keep < len {
+        values.select_nth_unstable_by(keep - 1, f32::total_cmp);
+    }
+    let sum: f32 = values.get(..keep).unwrap_or(&[]).iter().sum();
+    sum / keep as f32
+}
+
+/// The fraction of each side's points that the verification score averages (the nearest).
+pub const VERIFY_KEPT: f32 = 0.8;
+
+/// [`Template::half_turn`] below which the outline counts as nearly 2-fold: the DP's
+/// correspondence may then be half a turn off, and both are aligned.
+pub const HALF_TURN_AMBIGUOUS: f32 = 0.1;
+
+/// The bound ratio of the candidate scan once no candidate so far has verified well.
+pub const FALLBACK_RATIO: f32 = 3.0;
+
+/// A candidate whose score is below this fraction of its limit ends the candidate scan at the
+/// cost records (the right template of a generated set's part scores 0.1–0.4 of it); above,
+/// the scan goes on within [`FALLBACK_RATIO`].
+pub const CONFIDENT: f32 = 0.5;
 
 impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: usize> Recognizer<T, M, P, C, D> {
     /// Candidates kept per part (capacity of the list).

@@ -167,6 +167,12 @@ pub struct RefineParams {
     /// does; `f32::INFINITY` never gives up. The recognizer sets twice its verification
     /// threshold, which half of the distance alone then exceeds.
     pub give_up: f32,
+    /// Largest uniform offset of the outline along its normals that the alignment may fit,
+    /// px (a fifth parameter beside translation, rotation and scale): the walls of a thick part
+    /// under a close lens, or an edge that blur and exposure move, make the whole outline
+    /// lie farther out or in than the template's, which a scale cannot take up without
+    /// stretching the part's length. 0 (the default) fits no offset.
+    pub offset_max: f32,
 }
 
 impl RefineParams {
@@ -179,6 +185,7 @@ impl RefineParams {
         cap: 2.0,
         scale_penalty: 4.0,
         give_up: f32::INFINITY,
+        offset_max: 0.0,
     };
 }
 
@@ -914,6 +921,9 @@ pub struct Alignment {
     /// Whether the alignment gave up ([`RefineParams::give_up`]): then `pose` is where its last
     /// step measured, and `distance` and `coverage` are that step's (on its points only).
     pub gave_up: bool,
+    /// The uniform outline offset fitted, px along the outward normals (0 unless
+    /// [`RefineParams::offset_max`] allows one).
+    pub offset: f32,
 }
 
 /// Aligns the template's edge points (offsets from its area centroid, with unit outward
@@ -928,6 +938,7 @@ pub fn align<B: AsRef<[u8]>>(
     let coarse_stride = if edge.len() >= 4 * COARSE_POINTS { 4 } else { 1 };
     let points = edge.len().min(normals.len());
     let mut pose = seed;
+    let mut offset = 0.0f32;
     let mut left = params.iterations;
     // Coarse: every 4th point, profiles sampled half as densely, until the pose settles; fine:
     // every point until it converges. A pose that has not settled when the steps run out is not
@@ -950,7 +961,7 @@ pub fn align<B: AsRef<[u8]>>(
         while left > 0 {
             left -= 1;
             let profiles = points.div_ceil(stride).max(1) as f32;
-            let step = match gauss_newton_step(diff, edge, normals, pose, stride, prm) {
+            let step = match gauss_newton_step(diff, edge, normals, pose, offset, stride, prm) {
                 Ok(step) => step,
                 // Too few edges for a step: the alignment ends here, and when those profiles
                 // already lie beyond `give_up` they stand for the final distances.
@@ -961,6 +972,7 @@ pub fn align<B: AsRef<[u8]>>(
                         coverage: found as f32 / profiles,
                         settled: settled_once,
                         gave_up: true,
+                        offset,
                     };
                 }
                 Err(_) => break 'stages,
@@ -974,9 +986,11 @@ pub fn align<B: AsRef<[u8]>>(
                     coverage: step.found as f32 / profiles,
                     settled: settled_once,
                     gave_up: true,
+                    offset,
                 };
             }
             pose = step.next;
+            offset = step.offset;
             // Settled: the update is small, or (coarse stage) the points already sit on the edge
             // and only a direction the edge cannot fix moves (a round part's rotation).
             if step.moved < settled || (coarse_stage && step.fit < FIT_SETTLED) {
@@ -994,7 +1008,8 @@ pub fn align<B: AsRef<[u8]>>(
         left = left.max(FINE_ITERATIONS.min(params.iterations));
     }
     // Final distances at the converged pose (those of the last step when it converged).
-    let (sum, found) = converged_distances.unwrap_or_else(|| capped_distances(diff, edge, normals, pose, params));
+    let (sum, found) =
+        converged_distances.unwrap_or_else(|| capped_distances(diff, edge, normals, pose, offset, params));
     let count = points.max(1) as f32;
     Alignment {
         pose,
@@ -1002,6 +1017,31 @@ pub fn align<B: AsRef<[u8]>>(
         coverage: found as f32 / count,
         settled: settled_once,
         gave_up: false,
+        offset,
+    }
+}
+
+/// The capped distance of every edge point at the alignment's final pose (and offset) to the
+/// part's edge, into `out` (profiles without an edge count the cap; `out` beyond the edge
+/// points is left alone): what a robust verification score sorts.
+pub fn edge_distances<B: AsRef<[u8]>>(
+    diff: &Difference<'_, B>,
+    edge: &[[f32; 2]],
+    normals: &[[f32; 2]],
+    alignment: &Alignment,
+    params: &RefineParams,
+    out: &mut [f32],
+) {
+    let pose = alignment.pose;
+    let sc = math::sin_cos(pose.angle);
+    let finder = diff.edge_finder(params);
+    for ((t, n), d) in edge.iter().zip(normals).zip(out.iter_mut()) {
+        let nf = rotate_sc(sc, *n);
+        let p = offset_point(pose.apply_sc(sc, *t), nf, alignment.offset);
+        *d = match finder.offset(p, nf) {
+            Some(r) => r.abs().min(params.cap),
+            None => params.cap,
+        };
     }
 }
 
@@ -1012,14 +1052,15 @@ fn capped_distances<B: AsRef<[u8]>>(
     edge: &[[f32; 2]],
     normals: &[[f32; 2]],
     pose: Pose,
+    offset: f32,
     params: &RefineParams,
 ) -> (f32, usize) {
     let (mut sum, mut found) = (0.0f32, 0usize);
     let sc = math::sin_cos(pose.angle);
     let finder = diff.edge_finder(params);
     for (t, n) in edge.iter().zip(normals) {
-        let p = pose.apply_sc(sc, *t);
         let nf = rotate_sc(sc, *n);
+        let p = offset_point(pose.apply_sc(sc, *t), nf, offset);
         match finder.offset(p, nf) {
             Some(r) => {
                 sum += r.abs().min(params.cap);
@@ -1036,6 +1077,8 @@ fn capped_distances<B: AsRef<[u8]>>(
 struct Step {
     /// The updated pose.
     next: Pose,
+    /// The updated outline offset, px.
+    offset: f32,
     /// How far the update moves the points along their normals (root mean square, px).
     moved: f32,
     /// How far the points were from the edge before the update (root mean square, px).
@@ -1086,12 +1129,42 @@ fn gauss_newton_step<B: AsRef<[u8]>>(
     edge: &[[f32; 2]],
     normals: &[[f32; 2]],
     pose: Pose,
+    offset: f32,
     stride: usize,
     params: &RefineParams,
 ) -> Result<Step, Option<(f32, usize)>> {
-    // Normal equations for δ = (δx, δy, δθ, δs) of Σ (n·δp − r)².
-    let mut ata = [[0.0f32; 4]; 4];
-    let mut atb = [0.0f32; 4];
+    if params.offset_max > 0.0 {
+        gauss_newton_step_n::<B, 5>(diff, edge, normals, pose, offset, stride, params)
+    } else {
+        gauss_newton_step_n::<B, 4>(diff, edge, normals, pose, 0.0, stride, params)
+    }
+}
+
+/// A template point `p` moved by the outline offset along its (frame) normal `nf`; the point
+/// itself without an offset.
+#[inline(always)]
+fn offset_point(p: [f32; 2], nf: [f32; 2], offset: f32) -> [f32; 2] {
+    if offset == 0.0 {
+        p
+    } else {
+        [p[0] + offset * nf[0], p[1] + offset * nf[1]]
+    }
+}
+
+/// [`gauss_newton_step`] with `N` parameters: translation, rotation and scale (`N = 4`), and
+/// the outline offset (`N = 5`).
+fn gauss_newton_step_n<B: AsRef<[u8]>, const N: usize>(
+    diff: &Difference<'_, B>,
+    edge: &[[f32; 2]],
+    normals: &[[f32; 2]],
+    pose: Pose,
+    offset: f32,
+    stride: usize,
+    params: &RefineParams,
+) -> Result<Step, Option<(f32, usize)>> {
+    // Normal equations for δ = (δx, δy, δθ, δs[, δo]) of Σ (n·δp + δo − r)².
+    let mut ata = [[0.0f32; N]; N];
+    let mut atb = [0.0f32; N];
     let mut used = 0usize;
     let mut residual2 = 0.0f32;
     let mut lever2 = 0.0f32;
@@ -1100,8 +1173,8 @@ fn gauss_newton_step<B: AsRef<[u8]>>(
     let (s, c) = sc;
     let finder = diff.edge_finder(params);
     for (t, n) in edge.iter().zip(normals).step_by(stride.max(1)) {
-        let p = pose.apply_sc(sc, *t);
         let nf = rotate_sc(sc, *n);
+        let p = offset_point(pose.apply_sc(sc, *t), nf, offset);
         let Some(r) = finder.offset_inline(p, nf) else {
             capped_sum += params.cap;
             continue;
@@ -1111,14 +1184,18 @@ fn gauss_newton_step<B: AsRef<[u8]>>(
         let dth = [pose.scale * (-t[0] * s + t[1] * c), pose.scale * (-t[0] * c - t[1] * s)];
         // ∂p/∂s = R(θ)·t.
         let ds = [t[0] * c + t[1] * s, -t[0] * s + t[1] * c];
-        let j = [
+        // ∂p/∂o = n (a unit normal: 1 along itself).
+        let mut j = [1.0f32; N];
+        for (slot, v) in j.iter_mut().zip([
             nf[0],
             nf[1],
             nf[0] * dth[0] + nf[1] * dth[1],
             nf[0] * ds[0] + nf[1] * ds[1],
-        ];
-        for a in 0..4 {
-            for b in a..4 {
+        ]) {
+            *slot = v;
+        }
+        for a in 0..N {
+            for b in a..N {
                 ata[a][b] += j[a] * j[b];
             }
             atb[a] += j[a] * r;
@@ -1127,14 +1204,16 @@ fn gauss_newton_step<B: AsRef<[u8]>>(
         lever2 += t[0] * t[0] + t[1] * t[1];
         used += 1;
     }
-    if used < 4 {
+    if used < N {
         return Err(Some((capped_sum, used)));
     }
     // The lower triangle mirrors the upper one.
-    for (a, b) in [(1, 0), (2, 0), (2, 1), (3, 0), (3, 1), (3, 2)] {
-        if let Some(v) = ata.get(b).and_then(|row| row.get(a)).copied() {
-            if let Some(cell) = ata.get_mut(a).and_then(|row| row.get_mut(b)) {
-                *cell = v;
+    for a in 1..N {
+        for b in 0..a {
+            if let Some(v) = ata.get(b).and_then(|row| row.get(a)).copied() {
+                if let Some(cell) = ata.get_mut(a).and_then(|row| row.get_mut(b)) {
+                    *cell = v;
+                }
             }
         }
     }
@@ -1142,26 +1221,36 @@ fn gauss_newton_step<B: AsRef<[u8]>>(
     // from making the system singular; it then gets no update instead of noise. Each direction
     // is damped in proportion to how far it moves the points at all, Σ |∂p/∂δ|² (half of it:
     // what Σ (n·∂p/∂δ)² comes to for normals of every direction) — translation `m`, rotation
-    // `s²·Σ|t|²`, scale `Σ|t|²` — so the damping is equally light in every direction that the
-    // edge does fix (one common value, set by the large rotation and scale terms, held
-    // translation back to about half a step per iteration).
+    // `s²·Σ|t|²`, scale `Σ|t|²`, offset `m` (twice: it moves every point by all of itself) — so
+    // the damping is equally light in every direction that the edge does fix (one common
+    // value, set by the large rotation and scale terms, held translation back to about half a
+    // step per iteration).
     let undamped = ata;
     let half = 0.5 * used as f32;
     let lever = 0.5 * lever2;
-    let damping = [half, half, lever * pose.scale * pose.scale, lever];
+    let damping = [half, half, lever * pose.scale * pose.scale, lever, 2.0 * half];
     for ((d, row), amount) in ata.iter_mut().enumerate().zip(damping) {
         if let Some(v) = row.get_mut(d) {
             *v += DAMPING * amount + 1e-12;
         }
     }
-    let delta = solve4(ata, atb).ok_or(None)?;
+    let delta = solve_n(ata, atb).ok_or(None)?;
     let next = Pose {
         x: pose.x + delta[0],
         y: pose.y + delta[1],
         angle: pose.angle + delta[2],
         scale: pose.scale + delta[3],
     };
-    if !(next.x.is_finite() && next.y.is_finite() && next.angle.is_finite() && (0.5..=2.0).contains(&next.scale)) {
+    let next_offset = match delta.get(4) {
+        Some(d) => (offset + d).clamp(-params.offset_max, params.offset_max),
+        None => offset,
+    };
+    if !(next.x.is_finite()
+        && next.y.is_finite()
+        && next.angle.is_finite()
+        && next_offset.is_finite()
+        && (0.5..=2.0).contains(&next.scale))
+    {
         return Err(None);
     }
     // How far the update moves the edge points along their normals (root mean square, from the
@@ -1175,6 +1264,7 @@ fn gauss_newton_step<B: AsRef<[u8]>>(
     let moved = math::sqrt(quad.max(0.0) / used as f32);
     Ok(Step {
         next,
+        offset: next_offset,
         moved,
         fit: math::sqrt(residual2 / used as f32),
         capped_sum,
@@ -1182,12 +1272,12 @@ fn gauss_newton_step<B: AsRef<[u8]>>(
     })
 }
 
-/// Solves a symmetric positive-definite 4×4 system by Gaussian elimination with partial pivoting;
-/// `None` when singular.
-fn solve4(mut a: [[f32; 4]; 4], mut b: [f32; 4]) -> Option<[f32; 4]> {
-    for col in 0..4 {
+/// Solves a symmetric positive-definite `N`×`N` system by Gaussian elimination with partial
+/// pivoting; `None` when singular.
+fn solve_n<const N: usize>(mut a: [[f32; N]; N], mut b: [f32; N]) -> Option<[f32; N]> {
+    for col in 0..N {
         let mut piv = col;
-        for r in col + 1..4 {
+        for r in col + 1..N {
             if a[r][col].abs() > a[piv][col].abs() {
                 piv = r;
             }
@@ -1198,7 +1288,7 @@ fn solve4(mut a: [[f32; 4]; 4], mut b: [f32; 4]) -> Option<[f32; 4]> {
         a.swap(col, piv);
         b.swap(col, piv);
         let pivot_row = a[col];
-        for r in col + 1..4 {
+        for r in col + 1..N {
             let f = a[r][col] / pivot_row[col];
             for (x, p) in a[r].iter_mut().zip(pivot_row.iter()).skip(col) {
                 *x -= f * p;
@@ -1206,10 +1296,10 @@ fn solve4(mut a: [[f32; 4]; 4], mut b: [f32; 4]) -> Option<[f32; 4]> {
             b[r] -= f * b[col];
         }
     }
-    let mut x = [0.0f32; 4];
-    for r in (0..4).rev() {
+    let mut x = [0.0f32; N];
+    for r in (0..N).rev() {
         let mut v = b[r];
-        for k in r + 1..4 {
+        for k in r + 1..N {
             v -= a[r][k] * x[k];
         }
         x[r] = v / a[r][r];
@@ -1798,7 +1888,7 @@ mod tests {
         let a = align(&diff, &edge, &normals, seed, &params);
         // The distances come from the last step's profiles when it converged; they must stand
         // for those at the final pose.
-        let (sum, found) = capped_distances(&diff, &edge, &normals, a.pose, &params);
+        let (sum, found) = capped_distances(&diff, &edge, &normals, a.pose, a.offset, &params);
         assert!((a.distance - sum / 72.0).abs() < 2e-3, "{a:?}: {}", sum / 72.0);
         assert_eq!(a.coverage, found as f32 / 72.0, "{a:?}");
         a
@@ -1868,7 +1958,7 @@ mod tests {
                 angle: 0.0,
                 scale: 1.0,
             };
-            let step = gauss_newton_step(&diff, &edge, &normals, seed, 1, &RefineParams::DEFAULT).unwrap();
+            let step = gauss_newton_step(&diff, &edge, &normals, seed, 0.0, 1, &RefineParams::DEFAULT).unwrap();
             let (ex, ey) = (step.next.x - cx, step.next.y - cy);
             assert!(
                 math::hypot(ex, ey) < 0.1 * math::hypot(ox, oy),

@@ -35,6 +35,9 @@ pub struct Template<const M: usize> {
     /// The silhouette's own centroid (mean of its pixels) as an offset from `area_centroid`:
     /// where the part's position is, in template coordinates.
     position: [f32; 2],
+    /// Mean distance of the edge turned by 180° about the area centroid to the edge itself,
+    /// over [`Self::size`] (0 for a 2-fold symmetric part).
+    half_turn: f32,
 }
 
 impl<const M: usize> Template<M> {
@@ -51,6 +54,7 @@ impl<const M: usize> Template<M> {
             edge: [[0.0; 2]; M],
             normals: [[0.0; 2]; M],
             position: [0.0; 2],
+            half_turn: f32::INFINITY,
         }
     }
 
@@ -102,6 +106,35 @@ impl<const M: usize> Template<M> {
                 *nn = n;
             }
         }
+        self.measure_half_turn();
+    }
+
+    /// [`Self::half_turn`] from the edge.
+    fn measure_half_turn(&mut self) {
+        let edge = self.edge.get(..self.m).unwrap_or(&[]);
+        let size = self.size();
+        if edge.is_empty() || !(size > 0.0) {
+            self.half_turn = f32::INFINITY;
+            return;
+        }
+        let outline = crate::refine::Outline::new(edge);
+        let cap = size;
+        let sum: f32 = edge.iter().map(|e| outline.capped_distance([-e[0], -e[1]], cap)).sum();
+        self.half_turn = sum / edge.len() as f32 / size;
+    }
+
+    /// How far the outline is from 2-fold symmetric: the mean distance of its edge turned by
+    /// 180° to the edge itself, over [`Self::size`]. Near 0 (elongated parts such as rods,
+    /// 2-fold parts) the DP's correspondence may be half a turn off, and the recognizer aligns
+    /// both ways.
+    pub fn half_turn(&self) -> f32 {
+        self.half_turn
+    }
+
+    /// The template's size, px: the radius of the disc of its area, `√(area/π)`. Tolerances
+    /// relative to a part's size ([`crate::Params::verify_relative`]) are fractions of it.
+    pub fn size(&self) -> f32 {
+        crate::math::sqrt(self.area.max(0.0) / core::f32::consts::PI)
     }
 
     /// A template from a silhouette image (part > 127): its largest outer border.
@@ -287,6 +320,7 @@ impl<const M: usize> Template<M> {
             *d = *s;
         }
         self.position = position;
+        self.measure_half_turn();
         Ok(())
     }
 
