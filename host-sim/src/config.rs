@@ -40,8 +40,19 @@ pub struct Config {
     /// only if its DP cost is below this multiple of the lowest cost before it (≥ 1; inf: the
     /// first `candidates` of that order).
     pub candidate_ratio: f32,
-    /// Verification threshold in px: unknown at or above it.
+    /// Verification threshold in px: unknown at or above the larger of it and
+    /// verify_relative × the part's size.
     pub verify_threshold: f32,
+    /// Verification threshold relative to the part's size (√(area/π) of its template times the
+    /// aligned scale): the same meaning for small and large parts and any camera resolution.
+    pub verify_relative: f32,
+    /// Largest uniform offset of the outline along its normals that the alignment fits, relative
+    /// to the part's size (thick parts under a close lens, blur, exposure); 0: none.
+    pub offset_relative: f32,
+    /// Smallest accepted part size over template size (camera height, lens, part variation).
+    pub scale_min: f32,
+    /// Largest accepted part size over template size.
+    pub scale_max: f32,
     /// Position: "polygon" (the paper's border centroid), "partial-volume", or "pose".
     pub position: PositionSetting,
 }
@@ -149,6 +160,10 @@ impl Config {
             candidates: p.candidates,
             candidate_ratio: p.candidate_ratio,
             verify_threshold: p.verify_threshold,
+            verify_relative: p.verify_relative,
+            offset_relative: p.offset_relative,
+            scale_min: p.scale_min,
+            scale_max: p.scale_max,
             position: match p.position {
                 Position::Polygon => PositionSetting::Polygon,
                 Position::PartialVolume => PositionSetting::PartialVolume,
@@ -192,6 +207,10 @@ impl Config {
             candidates: self.candidates,
             candidate_ratio: self.candidate_ratio,
             verify_threshold: self.verify_threshold,
+            verify_relative: self.verify_relative,
+            offset_relative: self.offset_relative,
+            scale_min: self.scale_min,
+            scale_max: self.scale_max,
             position: match self.position {
                 PositionSetting::Polygon => Position::Polygon,
                 PositionSetting::PartialVolume => Position::PartialVolume,
@@ -210,6 +229,23 @@ impl Config {
         let text =
             std::fs::read_to_string(path).map_err(|e| format!("{}: {}", path.display(), crate::io::io_problem(&e)))?;
         toml::from_str(&text).map_err(|e| format!("{}: not a valid vorl config: {}", path.display(), e.message()))
+    }
+
+    /// This config with the keys of another file on top (a set's `vorl.toml` under `--config`).
+    ///
+    /// # Errors
+    /// The file cannot be read, or holds an unknown key or a bad value.
+    pub fn overlay(&self, path: &std::path::Path) -> Result<Self, String> {
+        let text =
+            std::fs::read_to_string(path).map_err(|e| format!("{}: {}", path.display(), crate::io::io_problem(&e)))?;
+        let top: toml::Table = toml::from_str(&text)
+            .map_err(|e| format!("{}: not a valid vorl config: {}", path.display(), e.message()))?;
+        let mut base = toml::Table::try_from(self).map_err(|e| e.to_string())?;
+        for (k, v) in top {
+            base.insert(k, v);
+        }
+        base.try_into()
+            .map_err(|e: toml::de::Error| format!("{}: not a valid vorl config: {}", path.display(), e.message()))
     }
 
     /// Every parameter with its default and meaning, as a commented TOML file.
@@ -255,12 +291,20 @@ impl Config {
              # Templates are searched in ascending order of their sorted-value bound; one is a candidate only if its DP cost is below\n\
              # this multiple of the lowest cost before it (≥ 1; 1: each candidate beats every earlier one; inf: the first `candidates`).\n\
              candidate_ratio = {}\n\
-             # Verification threshold, px (mean distance between the aligned outlines, both ways, plus a scale penalty).\n\
+             # Verification threshold, px (mean distance between the aligned outlines, both ways): unknown at or above the larger\n\
+             # of verify_threshold and verify_relative × the part's size (√(area/π) of its template times the aligned scale).\n\
              verify_threshold = {:?}\n\
+             verify_relative = {:?}\n\
+             # Largest uniform offset of the outline (along its normals) the alignment fits, relative to the part's size.\n\
+             offset_relative = {:?}\n\
+             # Accepted range of part size over template size (camera height, lens, part-to-part variation).\n\
+             scale_min = {:?}\n\
+             scale_max = {:?}\n\
              # Position: \"polygon\" (the paper's border centroid), \"partial-volume\" (edge pixels by coverage), \"pose\" (template centroid through the aligned pose).\n\
              position = \"{}\"\n",
             d.alpha, thr, setting_name(&d.cleanup), d.min_points, d.min_area, d.n, d.m, d.k, d.omega, d.epsilon, angle,
-            setting_name(&d.refine), d.candidates, toml_float(d.candidate_ratio), d.verify_threshold, setting_name(&d.position)
+            setting_name(&d.refine), d.candidates, toml_float(d.candidate_ratio), d.verify_threshold,
+            d.verify_relative, d.offset_relative, d.scale_min, d.scale_max, setting_name(&d.position)
         )
     }
 }

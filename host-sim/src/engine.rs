@@ -6,6 +6,7 @@ use std::path::Path;
 use image::GrayImage;
 use vorl_core::background::Background;
 use vorl_core::contour::{trace_borders, BorderFilter, BorderKind, ContourStore, Point};
+use vorl_core::platform::{PlatformGrid, PlatformStats};
 use vorl_core::recognizer::{Report, Skip, SkipReason};
 use vorl_core::{Frame, Params, Recognizer, Template};
 
@@ -21,6 +22,8 @@ pub const HOST_POINTS: usize = 1 << 16;
 pub const HOST_CONTOURS: usize = 512;
 /// DP table cells.
 pub const HOST_CELLS: usize = 1 << 16;
+/// Cells of the platform estimate (frames without an empty shot).
+pub const HOST_PLATFORM_CELLS: usize = 4096;
 
 /// The core recognizer with the host's capacities.
 pub type HostRecognizer = Recognizer<HOST_TEMPLATES, HOST_M, HOST_POINTS, HOST_CONTOURS, HOST_CELLS>;
@@ -49,6 +52,9 @@ pub struct HostDetection {
     pub best_class: Option<String>,
     /// The part's border points.
     pub border: Vec<(u16, u16)>,
+    /// The best template's outline at its aligned pose, frame coordinates (empty when not
+    /// aligned).
+    pub outline: Vec<[f32; 2]>,
 }
 
 /// What one frame gave.
@@ -62,6 +68,8 @@ pub struct FrameResult {
     pub report: Report,
     /// Time spent in the core, seconds.
     pub seconds: f64,
+    /// The platform estimate, when the frame had no empty shot.
+    pub platform: Option<PlatformStats>,
 }
 
 /// Loads every silhouette (`*.png`, `*.gif`, `*.bmp`) in a folder; names are file stems.
@@ -124,6 +132,9 @@ pub struct Engine {
     names: Vec<String>,
     background: Option<Background<Vec<u8>>>,
     labels: Vec<u8>,
+    /// Estimate the platform from each frame (no empty shot).
+    auto: bool,
+    grid: Box<PlatformGrid<HOST_PLATFORM_CELLS>>,
 }
 
 impl Engine {
@@ -139,6 +150,8 @@ impl Engine {
             names: Vec::new(),
             background: None,
             labels: Vec::new(),
+            auto: false,
+            grid: Box::default(),
         })
     }
 
@@ -200,6 +213,18 @@ impl Engine {
         Ok(())
     }
 
+    /// No empty shot: the platform is estimated from each frame itself
+    /// ([`vorl_core::platform`]), in the core, before the frame is processed.
+    pub fn set_auto_background(&mut self) {
+        self.auto = true;
+        self.background = None;
+    }
+
+    /// Whether the platform is estimated from each frame.
+    pub fn auto_background(&self) -> bool {
+        self.auto
+    }
+
     /// The label plane of the last frame (0 = background; row-major, background's size).
     pub fn labels(&self) -> &[u8] {
         &self.labels
@@ -215,10 +240,29 @@ impl Engine {
     /// # Errors
     /// No background, or the frame's size differs from the background's.
     pub fn detect(&mut self, img: &GrayImage) -> Result<FrameResult, String> {
-        let bg = self.background.as_ref().ok_or("no background set")?;
         let frame = Frame::new_checked(img.as_raw().as_slice(), img.width() as usize, img.height() as usize)
             .map_err(|e| e.to_string())?;
         let t0 = std::time::Instant::now();
+        let mut platform = None;
+        if self.auto {
+            let (w, h) = (frame.width(), frame.height());
+            let fits = self
+                .background
+                .as_ref()
+                .is_some_and(|b| (b.width(), b.height()) == (w, h));
+            if !fits {
+                self.background = Some(Background::new(vec![0u8; w * h], w, h).map_err(|e| e.to_string())?);
+                self.labels = vec![0u8; w * h];
+            }
+            let alpha = self.rec.params().alpha();
+            if let Some(bg) = self.background.as_mut() {
+                platform = Some(
+                    bg.estimate_from_frame(&frame, alpha, &mut self.grid)
+                        .map_err(|e| e.to_string())?,
+                );
+            }
+        }
+        let bg = self.background.as_ref().ok_or("no background set")?;
         let report = self
             .rec
             .process(&frame, bg, &mut self.labels)
@@ -238,6 +282,13 @@ impl Engine {
                     .iter()
                     .map(|p: &Point| (p.x, p.y))
                     .collect(),
+                outline: match (
+                    d.pose,
+                    d.best_template.and_then(|i| self.rec.templates().get(i as usize)),
+                ) {
+                    (Some(pose), Some(t)) => t.edge().iter().map(|e| pose.apply(*e)).collect(),
+                    _ => Vec::new(),
+                },
             })
             .collect();
         Ok(FrameResult {
@@ -245,6 +296,7 @@ impl Engine {
             skips: report.skips.to_vec(),
             report,
             seconds,
+            platform,
         })
     }
 }

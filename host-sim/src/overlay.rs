@@ -16,6 +16,8 @@ const KNOWN: Rgb<u8> = Rgb([40, 220, 60]);
 const UNKNOWN: Rgb<u8> = Rgb([250, 60, 40]);
 const EDGE: Rgb<u8> = Rgb([250, 210, 40]);
 const WHITE: Rgb<u8> = Rgb([255, 255, 255]);
+/// The best template's outline at its aligned pose.
+const ALIGNED: Rgb<u8> = Rgb([40, 200, 250]);
 const SHADOW: Rgb<u8> = Rgb([0, 0, 0]);
 
 /// The frame in colour with the detections drawn on it.
@@ -27,7 +29,19 @@ pub fn draw(frame: &GrayImage, result: &FrameResult) -> RgbImage {
     for d in &result.detections {
         draw_detection(&mut img, d);
     }
-    let caption = format!("{} part(s), {:.1} ms", result.detections.len(), result.seconds * 1e3);
+    let platform = match &result.platform {
+        Some(p) => format!(
+            ", platform estimated from the frame ({} of {} cells)",
+            p.kept,
+            p.cells_x * p.cells_y
+        ),
+        None => String::new(),
+    };
+    let caption = format!(
+        "{} part(s), {:.1} ms{platform}",
+        result.detections.len(),
+        result.seconds * 1e3
+    );
     draw_label(&mut img, 4, 4, &caption, WHITE);
     img
 }
@@ -50,6 +64,12 @@ pub fn draw_detection(img: &mut RgbImage, d: &HostDetection) {
         let (a, b) = (d.border[i], d.border[(i + 1) % n]);
         draw_line_segment_mut(img, (a.0 as f32, a.1 as f32), (b.0 as f32, b.1 as f32), c);
     }
+    // The best template's outline where the alignment put it (cyan), over the border.
+    let m = d.outline.len();
+    for i in 0..m {
+        let (a, b) = (d.outline[i], d.outline[(i + 1) % m]);
+        draw_line_segment_mut(img, (a[0], a[1]), (b[0], b[1]), ALIGNED);
+    }
     let (x, y) = (d.core.x, d.core.y);
     draw_cross_mut(img, WHITE, x.round() as i32, y.round() as i32);
     let len = (d.core.area.max(1.0).sqrt() * 0.6).clamp(12.0, 120.0);
@@ -65,8 +85,8 @@ pub fn draw_detection(img: &mut RgbImage, d: &HostDetection) {
     let name = d.class.as_deref().unwrap_or("unknown");
     let text = if d.core.verify.is_finite() {
         format!(
-            "{name} f'={:.3} v={:.2}px {:.1}deg",
-            d.core.score, d.core.verify, d.core.angle_deg
+            "{name} f'={:.3} v={:.2}/{:.2}px {:.1}deg",
+            d.core.score, d.core.verify, d.core.verify_limit, d.core.angle_deg
         )
     } else if d.core.score.is_finite() {
         format!("{name} f'={:.3} {:.1}deg", d.core.score, d.core.angle_deg)
@@ -75,6 +95,12 @@ pub fn draw_detection(img: &mut RgbImage, d: &HostDetection) {
     };
     let (bx, by) = bbox_top_left(&d.border);
     draw_label(img, bx as i32, by as i32 - 11, &text, c);
+}
+
+/// Writes a part number at (x, y) (for `vorl teach --list`).
+pub fn draw_number(img: &mut RgbImage, x: f32, y: f32, number: usize) {
+    let text = format!("#{number}");
+    draw_label(img, x.round() as i32 + 6, y.round() as i32 - 4, &text, WHITE);
 }
 
 fn bbox_top_left(border: &[(u16, u16)]) -> (u16, u16) {

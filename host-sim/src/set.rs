@@ -12,8 +12,9 @@ use crate::io::{list_files, load_gray, InputError};
 pub struct FixtureSet {
     /// The set's folder.
     pub root: PathBuf,
-    /// `background.png`.
-    pub background: PathBuf,
+    /// `background.png`, when the set has an empty shot (otherwise the platform is estimated
+    /// from each frame).
+    pub background: Option<PathBuf>,
     /// Extra captures of the empty platform (`backgrounds/*.png`), learned with the background.
     pub backgrounds: Vec<PathBuf>,
     /// `templates/`.
@@ -39,15 +40,9 @@ impl FixtureSet {
         if !root.is_dir() {
             return Err(InputError::new(root, "not a fixture set folder (no such folder)"));
         }
-        let background = root.join("background.png");
-        if !background.is_file() {
-            return Err(InputError::new(
-                &background,
-                "no such file (every fixture set needs its empty platform)",
-            ));
-        }
+        let background = Some(root.join("background.png")).filter(|p| p.is_file());
         let bg_dir = root.join("backgrounds");
-        let backgrounds = if bg_dir.is_dir() {
+        let backgrounds = if bg_dir.is_dir() && background.is_some() {
             list_files(&bg_dir, &["png"])?
         } else {
             Vec::new()
@@ -64,12 +59,18 @@ impl FixtureSet {
         })
     }
 
-    /// The background frames: `background.png` then `backgrounds/*.png`.
+    /// The background frames: `background.png` then `backgrounds/*.png` (none without an
+    /// empty shot).
     ///
     /// # Errors
     /// One cannot be read, or they differ in size.
     pub fn load_backgrounds(&self) -> Result<Vec<GrayImage>, InputError> {
-        load_background_frames(std::iter::once(&self.background).chain(&self.backgrounds))
+        load_background_frames(self.background.iter().chain(&self.backgrounds))
+    }
+
+    /// `vorl.toml`: the set's own parameters, when present.
+    pub fn config(&self) -> Option<PathBuf> {
+        Some(self.root.join("vorl.toml")).filter(|p| p.is_file())
     }
 
     /// The template silhouettes.

@@ -1093,3 +1093,209 @@ fn candidate_ratio_is_checked() {
     ])
     .success();
 }
+
+// ---------------------------------------------------------------------------------------------
+// No empty shot: the platform estimated from each frame
+// ---------------------------------------------------------------------------------------------
+
+/// The prediction nearest to a truth part, within 5 px.
+fn paired<'a>(truth: &Part, pred: &'a [Part]) -> Option<&'a Part> {
+    nearest(pred, truth.x, truth.y)
+        .filter(|(_, d)| *d < 5.0)
+        .map(|(p, _)| p)
+}
+
+/// Angle difference modulo 360/symmetry; 0 for round parts (symmetry 0: no angle).
+fn angle_gap(a: f64, b: f64, symmetry: u32) -> f64 {
+    if symmetry == 0 {
+        0.0
+    } else {
+        angle_diff(a, b, symmetry)
+    }
+}
+
+/// A set without background.png (and backgrounds/): every frame's platform is estimated from
+/// the frame itself, and the known parts are still named right, at the truth's pose.
+#[test]
+fn set_without_empty_shot_estimates_the_platform() {
+    let set = default_set();
+    let scratch = Scratch::new("noshot");
+    let root = scratch.join("set");
+    copy_tree(&set.root(), &root, &["backgrounds", "background.png"]);
+    let debug = scratch.join("debug");
+    let pred = vorl([
+        OsStr::new("detect"),
+        root.as_os_str(),
+        OsStr::new("--json"),
+        OsStr::new("--debug"),
+        debug.as_os_str(),
+    ])
+    .success()
+    .json();
+    let (mut known, mut right) = (0, 0);
+    for frame in png_names(&root.join("frames")) {
+        let got = parts_of(&pred, &frame);
+        for t in set.truth_parts(&frame).iter().filter(|t| t.class.is_some()) {
+            known += 1;
+            let Some(p) = paired(t, &got) else { continue };
+            if p.class == t.class {
+                right += 1;
+                assert!(angle_gap(p.angle, t.angle, t.symmetry) < 0.5, "{frame}: {t:?} vs {p:?}");
+                assert!(
+                    ((p.x - t.x).powi(2) + (p.y - t.y).powi(2)).sqrt() < 0.5,
+                    "{frame}: {t:?} vs {p:?}"
+                );
+            }
+        }
+        // The estimate and the mask of every frame are written for a look.
+        let stem = frame.trim_end_matches(".png");
+        assert!(debug.join(format!("{stem}_platform.png")).is_file());
+        assert!(debug.join(format!("{stem}_mask.png")).is_file());
+    }
+    assert!(known >= 10, "{known}");
+    assert!(right * 100 >= known * 99, "{right} of {known} known parts named right");
+}
+
+/// The same scene at a dimmer exposure (every pixel 0.7·v + 6, as a smaller aperture and a
+/// black-level shift give), with the platform estimated: the same classes, poses within 0.1°
+/// and 0.3 px.
+#[test]
+fn exposure_change_keeps_the_poses() {
+    let set = default_set();
+    let scratch = Scratch::new("exposure");
+    let frames = png_names(&set.root().join("frames"));
+    let mut args: Vec<std::ffi::OsString> = vec![
+        "detect".into(),
+        "--json".into(),
+        "--background".into(),
+        "auto".into(),
+        "--templates".into(),
+        set.root().join("templates").into(),
+    ];
+    let mut pairs = Vec::new();
+    for (i, f) in frames.iter().take(3).enumerate() {
+        let img = image::open(set.root().join("frames").join(f))
+            .expect("frame")
+            .to_luma8();
+        let dim = GrayImage::from_fn(img.width(), img.height(), |x, y| {
+            Luma([(0.7 * img.get_pixel(x, y).0[0] as f64 + 6.0).round() as u8])
+        });
+        let (a, b) = (
+            scratch.join(format!("bright{i}.png")),
+            scratch.join(format!("dim{i}.png")),
+        );
+        img.save(&a).expect("save");
+        dim.save(&b).expect("save");
+        args.push(a.into());
+        args.push(b.into());
+        pairs.push((format!("bright{i}.png"), format!("dim{i}.png"), f.clone()));
+    }
+    let pred = vorl(args).success().json();
+    let mut compared = 0;
+    for (a, b, f) in &pairs {
+        let (pa, pb) = (parts_of(&pred, a), parts_of(&pred, b));
+        for t in set.truth_parts(f).iter().filter(|t| t.class.is_some()) {
+            let (Some(x), Some(y)) = (paired(t, &pa), paired(t, &pb)) else {
+                panic!("{f}: {t:?} not found in both exposures");
+            };
+            assert_eq!(x.class, y.class, "{f}: {t:?}");
+            assert!(angle_gap(x.angle, y.angle, t.symmetry) < 0.1, "{f}: {x:?} vs {y:?}");
+            assert!(
+                ((x.x - y.x).powi(2) + (x.y - y.y).powi(2)).sqrt() < 0.3,
+                "{f}: {x:?} vs {y:?}"
+            );
+            compared += 1;
+        }
+    }
+    assert!(compared >= 5, "{compared}");
+}
+
+/// A set's vorl.toml is read by detect and eval; an unknown key or a bad value is a one-line
+/// error naming the file.
+#[test]
+fn set_config_is_read_and_checked() {
+    let set = small_set();
+    let scratch = Scratch::new("settoml");
+    let root = scratch.join("set");
+    copy_tree(&set.root(), &root, &[]);
+    std::fs::write(root.join("vorl.toml"), "scale_min = 0.85\nscale_max = 1.4\n").expect("write");
+    vorl([OsStr::new("eval"), root.as_os_str()]).success();
+    std::fs::write(root.join("vorl.toml"), "scale_minimum = 0.85\n").expect("write");
+    let out = vorl([OsStr::new("detect"), root.as_os_str()]).failure();
+    let err = out.errors().join("\n");
+    assert!(
+        err.contains("vorl.toml") && err.contains("scale_minimum"),
+        "{}",
+        out.dump()
+    );
+    std::fs::write(root.join("vorl.toml"), "scale_max = 0.5\n").expect("write");
+    let out = vorl([OsStr::new("detect"), root.as_os_str()]).failure();
+    assert!(out.errors().join("\n").contains("scale_max"), "{}", out.dump());
+}
+
+/// `vorl teach --list` numbers the parts of a frame (no empty shot needed) and writes the
+/// numbered overlay; `--part N` and `--at X,Y` take the listed part (its silhouette is one
+/// blob of about the listed area); a part number out of range and a point off every part are
+/// one-line errors.
+#[test]
+fn teach_lists_and_takes_one_part_without_an_empty_shot() {
+    let set = default_set();
+    let truth = set.truth();
+    let frame = set
+        .frame_names()
+        .into_iter()
+        .find(|n| parts_of(&truth, n).len() >= 2)
+        .expect("a frame with several parts");
+    let scratch = Scratch::new("teachlist");
+    let overlay = scratch.join("parts.png");
+    let out = vorl([
+        OsStr::new("teach"),
+        OsStr::new("--list"),
+        set.frame(&frame).as_os_str(),
+        OsStr::new("--overlay"),
+        overlay.as_os_str(),
+    ])
+    .success();
+    let listed: Vec<(f64, f64, f64)> = out
+        .stdout
+        .lines()
+        .filter_map(|l| {
+            let w: Vec<&str> = l.split_whitespace().collect();
+            (w.len() >= 8 && w[1] == "x" && w[3] == "y" && w[5] == "area")
+                .then(|| (w[2].parse().unwrap(), w[4].parse().unwrap(), w[6].parse().unwrap()))
+        })
+        .collect();
+    assert_eq!(listed.len(), parts_of(&truth, &frame).len(), "{}", out.dump());
+    assert!(overlay.is_file());
+    // Every listed centre is a truth part's.
+    for &(x, y, _) in &listed {
+        assert!(
+            nearest(&parts_of(&truth, &frame), x, y).is_some_and(|(_, d)| d < 1.0),
+            "{x},{y}"
+        );
+    }
+    let teach = |how: &[&str], name: &str| {
+        let mut args: Vec<std::ffi::OsString> = vec!["teach".into(), set.frame(&frame).into()];
+        args.extend(how.iter().map(Into::into));
+        args.extend(["--name".into(), name.into(), "--out".into(), scratch.join("t").into()]);
+        vorl(args)
+    };
+    // --part N and --at (its listed centre) take the same part; parts 1 and 2 differ.
+    for (i, &(x, y, _)) in listed.iter().enumerate().take(2) {
+        teach(&["--part", &(i + 1).to_string()], &format!("p{i}")).success();
+        teach(&["--at", &format!("{x:.0},{y:.0}")], &format!("a{i}")).success();
+        let (p, a) = (
+            gray(&scratch.join("t").join(format!("p{i}.png"))),
+            gray(&scratch.join("t").join(format!("a{i}.png"))),
+        );
+        assert_eq!(blobs(&p), 1);
+        assert!(p == a, "part {} by number and by point differ", i + 1);
+    }
+    assert!(gray(&scratch.join("t/p0.png")) != gray(&scratch.join("t/p1.png")));
+    let err = teach(&["--part", "99"], "x").failure();
+    assert!(err.errors().join(" ").contains("--part 99"), "{}", err.dump());
+    let err = teach(&["--at", "-50,-50"], "x").failure();
+    assert!(err.errors().join(" ").contains("--at"), "{}", err.dump());
+    let err = teach(&["--at", "twelve"], "x").failure();
+    assert!(err.errors().join(" ").contains("X,Y"), "{}", err.dump());
+}

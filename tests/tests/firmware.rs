@@ -480,11 +480,11 @@ fn fixtures_are_current() {
     // The export through the command line writes the same bytes.
     let out = root().join("target").join("firmware-fixture-set").join("templates.vtl");
     let args = TemplatesArgs {
-        action: TemplatesAction::Export(ExportArgs {
+        action: TemplatesAction::Export(Box::new(ExportArgs {
             dir: fixtures.join("templates"),
             out: out.clone(),
             params: ParamArgs::default(),
-        }),
+        })),
     };
     templates::run(args).unwrap();
     assert!(

@@ -281,7 +281,7 @@ fn print_detail(r: &Row, layout: Layout) {
         (
             "templates",
             b.templates,
-            format!("T·{tpl} + length word ({tpl} = {} + 32·M + 28)", layout.word),
+            format!("T·{tpl} + length word ({tpl} = {} + 32·M + 32)", layout.word),
         ),
         ("DP table", b.dp_table, "4·D".into()),
         (
@@ -297,7 +297,18 @@ fn print_detail(r: &Row, layout: Layout) {
         ),
     ];
     println!("{:<22} {:>10} {:>9}  formula", "buffer", "bytes", "KiB");
-    for (name, bytes, formula) in lines {
+    // Without an empty shot the platform is estimated per frame into the background plane,
+    // with a grid of cells beside it (not in the total: only installations without an empty
+    // shot need it).
+    let cells = vorl_core::platform::cell_size(c.width, c.height, usize::MAX)
+        .map(|s| c.width.div_ceil(s) * c.height.div_ceil(s))
+        .unwrap_or(0);
+    let grid = 9 * cells;
+    for (name, bytes, formula) in lines.into_iter().chain([(
+        "+ platform grid",
+        grid,
+        format!("9·G, G = {cells} cells of 16 px (only without an empty shot; not in the total)"),
+    )]) {
         println!("{name:<22} {bytes:>10} {:>9}  {formula}", kib(bytes));
     }
     println!();

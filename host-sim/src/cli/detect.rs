@@ -23,8 +23,9 @@ pub struct DetectArgs {
     /// --templates, the frame files to run.
     #[arg(value_name = "SET | FRAME…", required = true)]
     pub inputs: Vec<PathBuf>,
-    /// Background image (then the inputs are frames, not a set).
-    #[arg(long, value_name = "BG", requires = "templates")]
+    /// Background image (then the inputs are frames, not a set), or "auto": the platform is
+    /// estimated from each frame itself (also what a set without background.png does).
+    #[arg(long, value_name = "BG|auto", requires = "templates")]
     pub background: Option<PathBuf>,
     /// Template folder (with --background).
     #[arg(long, value_name = "DIR", requires = "background")]
@@ -35,6 +36,10 @@ pub struct DetectArgs {
     /// Write an overlay PNG per frame into this folder.
     #[arg(long, value_name = "DIR")]
     pub overlay: Option<PathBuf>,
+    /// Write the platform (the empty shot's model or the estimate) and the mask of each frame
+    /// into this folder, as `<frame>_platform.png` and `<frame>_mask.png`.
+    #[arg(long, value_name = "DIR")]
+    pub debug: Option<PathBuf>,
     /// Camera-to-robot calibration from `vorl calibrate`: adds "robot" to each part.
     #[arg(long, value_name = "FILE")]
     pub calibration: Option<PathBuf>,
@@ -62,25 +67,33 @@ pub fn prepare(
     frames: &[PathBuf],
     params: &ParamArgs,
 ) -> Result<Inputs, String> {
-    let mut engine = Engine::new(params.params()?)?;
-    let (bgs, tpls, frames) = match set {
-        Some(root) => {
-            let s = FixtureSet::open(root).map_err(|e| e.to_string())?;
-            (
-                s.load_backgrounds().map_err(|e| e.to_string())?,
-                s.load_templates().map_err(|e| e.to_string())?,
-                s.frames,
-            )
-        }
+    let opened = set.map(FixtureSet::open).transpose().map_err(|e| e.to_string())?;
+    let base = opened.as_ref().and_then(FixtureSet::config);
+    let p = params.params_over(base.as_deref())?;
+    let mut engine = Engine::new(p)?;
+    let (bgs, tpls, frames) = match opened {
+        Some(s) => (
+            s.load_backgrounds().map_err(|e| e.to_string())?,
+            s.load_templates().map_err(|e| e.to_string())?,
+            s.frames,
+        ),
         None => {
             let bg = background.ok_or("--background is needed without a SET")?.to_path_buf();
             let dir = templates.ok_or("--templates is needed without a SET")?;
-            let bgs = load_background_frames([&bg]).map_err(|e| e.to_string())?;
+            let bgs = if is_auto(&bg) {
+                Vec::new()
+            } else {
+                load_background_frames([&bg]).map_err(|e| e.to_string())?
+            };
             let tpls = crate::engine::load_silhouettes(dir).map_err(|e| e.to_string())?;
             (bgs, tpls, frames.to_vec())
         }
     };
-    engine.learn_background(&bgs)?;
+    if bgs.is_empty() {
+        engine.set_auto_background();
+    } else {
+        engine.learn_background(&bgs)?;
+    }
     for t in &tpls {
         if let Some(n) = &t.note {
             eprintln!("note: {n}");
@@ -92,13 +105,47 @@ pub fn prepare(
     Ok(Inputs { engine, frames })
 }
 
+/// Whether a `--background` argument asks for the platform to be estimated from each frame.
+pub fn is_auto(bg: &Path) -> bool {
+    bg.as_os_str().eq_ignore_ascii_case("auto")
+}
+
+/// Writes the platform model and the mask of the last frame into `dir` as
+/// `<stem>_platform.png` and `<stem>_mask.png` (mask 255, rest 0).
+///
+/// # Errors
+/// A file cannot be written.
+pub fn write_debug(dir: &Path, name: &str, engine: &Engine) -> Result<(), String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("{}: cannot create folder: {e}", dir.display()))?;
+    let stem = name.rsplit_once('.').map_or(name, |(s, _)| s).replace(['/', '\\'], "_");
+    if let Some(bg) = engine.background() {
+        let (w, h) = (bg.width() as u32, bg.height() as u32);
+        let plane = image::GrayImage::from_raw(w, h, bg.plane().to_vec()).ok_or("platform plane of the wrong size")?;
+        let p = dir.join(format!("{stem}_platform.png"));
+        plane
+            .save(&p)
+            .map_err(|e| format!("{}: cannot write: {e}", p.display()))?;
+        let mask: Vec<u8> = engine
+            .labels()
+            .iter()
+            .take((w * h) as usize)
+            .map(|&l| if l != 0 { 255 } else { 0 })
+            .collect();
+        let mask = image::GrayImage::from_raw(w, h, mask).ok_or("mask of the wrong size")?;
+        let p = dir.join(format!("{stem}_mask.png"));
+        mask.save(&p)
+            .map_err(|e| format!("{}: cannot write: {e}", p.display()))?;
+    }
+    Ok(())
+}
+
 /// Loads and runs one frame; a one-line error naming the file on failure.
 ///
 /// # Errors
 /// Unreadable frame, or a size that differs from the background's.
 pub fn run_frame(engine: &mut Engine, path: &Path) -> Result<(FrameResult, image::GrayImage, Option<String>), String> {
     let loaded = load_gray(path).map_err(|e| e.to_string())?;
-    if let Some(bg) = engine.background() {
+    if let Some(bg) = engine.background().filter(|_| !engine.auto_background()) {
         let (w, h) = (loaded.image.width() as usize, loaded.image.height() as usize);
         if (w, h) != (bg.width(), bg.height()) {
             return Err(format!(
@@ -141,6 +188,10 @@ pub fn to_json(result: &FrameResult) -> Vec<PartJson> {
             if d.core.verify.is_finite() {
                 extra.insert("verify_px".into(), serde_json::json!(round6(d.core.verify as f64)));
                 extra.insert("scale".into(), serde_json::json!(round6(d.core.scale as f64)));
+                extra.insert(
+                    "verify_limit".into(),
+                    serde_json::json!(round6(d.core.verify_limit as f64)),
+                );
             }
             if let Some(b) = &d.best_class {
                 extra.insert("best_class".into(), serde_json::json!(b));
@@ -207,6 +258,12 @@ pub fn run(args: DetectArgs) -> Result<ExitCode, String> {
             Ok((result, image, note)) => {
                 if let Some(n) = note {
                     eprintln!("note: {n}");
+                }
+                if let Some(dir) = &args.debug {
+                    if let Err(e) = write_debug(dir, &name, &inputs.engine) {
+                        eprintln!("error: {e}");
+                        failed += 1;
+                    }
                 }
                 if let Some(dir) = &args.overlay {
                     let target = dir.join(name.replace(['/', '\\'], "_"));

@@ -54,6 +54,18 @@ pub struct ParamArgs {
     /// Verification threshold, px.
     #[arg(long)]
     pub verify_threshold: Option<f32>,
+    /// Verification threshold relative to the part's size (√(area/π) × scale).
+    #[arg(long)]
+    pub verify_relative: Option<f32>,
+    /// Largest outline offset the alignment fits, relative to the part's size.
+    #[arg(long)]
+    pub offset_relative: Option<f32>,
+    /// Smallest accepted part size over template size.
+    #[arg(long)]
+    pub scale_min: Option<f32>,
+    /// Largest accepted part size over template size.
+    #[arg(long)]
+    pub scale_max: Option<f32>,
     /// Position estimator.
     #[arg(long, value_enum)]
     pub position: Option<PositionSetting>,
@@ -65,9 +77,20 @@ impl ParamArgs {
     /// # Errors
     /// The config file cannot be read, a flag is malformed, or a value is out of range.
     pub fn config(&self) -> Result<Config, String> {
-        let mut c = match &self.config {
-            Some(p) => Config::load(p)?,
-            None => Config::default(),
+        self.config_over(None)
+    }
+
+    /// [`Self::config`] over a set's own `vorl.toml` (`base`): the defaults, then `base`, then
+    /// `--config`'s file, then the flags.
+    ///
+    /// # Errors
+    /// As [`Self::config`]; a `base` that cannot be read or holds an unknown key or bad value.
+    pub fn config_over(&self, base: Option<&std::path::Path>) -> Result<Config, String> {
+        let mut c = match (&self.config, base) {
+            (Some(p), Some(b)) => Config::load(b)?.overlay(p)?,
+            (Some(p), None) => Config::load(p)?,
+            (None, Some(b)) => Config::load(b)?,
+            (None, None) => Config::default(),
         };
         if let Some(t) = &self.threshold {
             c.threshold = if t.eq_ignore_ascii_case("otsu") {
@@ -94,6 +117,10 @@ impl ParamArgs {
             candidates,
             candidate_ratio,
             verify_threshold,
+            verify_relative,
+            offset_relative,
+            scale_min,
+            scale_max,
             position
         );
         Ok(c)
@@ -105,5 +132,13 @@ impl ParamArgs {
     /// As [`Self::config`] and [`Config::to_params`].
     pub fn params(&self) -> Result<Params, String> {
         self.config()?.to_params()
+    }
+
+    /// [`Self::params`] over a set's `vorl.toml`.
+    ///
+    /// # Errors
+    /// As [`Self::config_over`] and [`Config::to_params`].
+    pub fn params_over(&self, base: Option<&std::path::Path>) -> Result<Params, String> {
+        self.config_over(base)?.to_params()
     }
 }

@@ -15,22 +15,40 @@ use crate::set::load_background_frames;
 #[derive(Debug, clap::Args)]
 #[command(
     after_help = "The part's silhouette at its pose in FRAME becomes the template's reference pose \
-    (angle 0). The frame should hold exactly one part, clear of the frame's edge.\n\n\
-    Examples:\n  vorl teach --background set/background.png set/frames/f000.png --name bracket --out set/templates"
+    (angle 0). Without --part or --at the frame should hold one part (the largest is taken), \
+    clear of the frame's edge. Without --background the platform is estimated from the frame \
+    itself (no empty shot needed).\n\n\
+    Examples:\n  vorl teach --list set/frames/f000.png                 (numbered parts, and f000_parts.png)\n  \
+    vorl teach set/frames/f000.png --part 2 --name bracket --out set/templates\n  \
+    vorl teach set/frames/f000.png --at 312,140 --name bracket --out set/templates\n  \
+    vorl teach --background set/background.png set/frames/f000.png --name bracket --out set/templates"
 )]
 pub struct TeachArgs {
-    /// The empty platform.
-    #[arg(long, value_name = "BG")]
-    pub background: PathBuf,
+    /// The empty platform, or "auto" (the default): the platform estimated from the frame.
+    #[arg(long, value_name = "BG|auto")]
+    pub background: Option<PathBuf>,
     /// A frame with the part on the platform.
     #[arg(value_name = "FRAME")]
     pub frame: PathBuf,
+    /// Print the numbered parts of the frame and write a numbered overlay
+    /// (`<frame>_parts.png`, or --overlay FILE); teaches nothing.
+    #[arg(long, conflicts_with_all = ["part", "at", "name", "out"])]
+    pub list: bool,
+    /// With --list: where to write the numbered overlay.
+    #[arg(long, value_name = "FILE", requires = "list")]
+    pub overlay: Option<PathBuf>,
+    /// Teach part N of `--list` (1-based).
+    #[arg(long, value_name = "N", conflicts_with = "at")]
+    pub part: Option<usize>,
+    /// Teach the part at pixel X,Y (inside its outer border, holes included, or within 3 px of it).
+    #[arg(long, value_name = "X,Y", allow_hyphen_values = true)]
+    pub at: Option<String>,
     /// Class name of the new template (the file name in DIR).
-    #[arg(long)]
-    pub name: String,
+    #[arg(long, required_unless_present = "list")]
+    pub name: Option<String>,
     /// Template folder to write `<name>.png` into (created if missing).
-    #[arg(long, value_name = "DIR")]
-    pub out: PathBuf,
+    #[arg(long, value_name = "DIR", required_unless_present = "list")]
+    pub out: Option<PathBuf>,
     /// Overwrite an existing template of that name.
     #[arg(long)]
     pub force: bool,
@@ -42,84 +60,252 @@ pub struct TeachArgs {
 /// Runs `vorl teach`.
 ///
 /// # Errors
-/// Unreadable inputs, no part in the frame, or the template cannot be written.
+/// Unreadable inputs, no part in the frame, a part number or point that names no part, or the
+/// template cannot be written.
 pub fn run(args: TeachArgs) -> Result<ExitCode, String> {
-    if args.name.is_empty() || args.name.contains(['/', '\\']) || args.name.starts_with('.') {
+    let mut engine = Engine::new(args.params.params()?)?;
+    let frame = load_gray(&args.frame).map_err(|e| e.to_string())?;
+    if let Some(n) = &frame.note {
+        eprintln!("note: {}: {n}", args.frame.display());
+    }
+    match args.background.as_deref().filter(|b| !crate::cli::detect::is_auto(b)) {
+        Some(bg) => {
+            let bgs = load_background_frames([&bg.to_path_buf()]).map_err(|e| e.to_string())?;
+            if frame.image.dimensions() != bgs[0].dimensions() {
+                return Err(format!(
+                    "{}: frame is {}×{} but the background is {}×{}",
+                    args.frame.display(),
+                    frame.image.width(),
+                    frame.image.height(),
+                    bgs[0].width(),
+                    bgs[0].height()
+                ));
+            }
+            engine.learn_background(&bgs)?;
+        }
+        None => engine.set_auto_background(),
+    }
+    let result = engine
+        .detect(&frame.image)
+        .map_err(|e| format!("{}: {e}", args.frame.display()))?;
+    if result.detections.is_empty() {
         return Err(format!(
-            "--name {:?}: a class name must be a plain file name",
-            args.name
+            "{}: no part found against the platform (try a lower --threshold)",
+            args.frame.display()
         ));
     }
-    let target = args.out.join(format!("{}.png", args.name));
+    if args.list {
+        return list(&args, &frame.image, &result);
+    }
+    let (Some(name), Some(out)) = (args.name.as_deref(), args.out.as_deref()) else {
+        return Err("--name and --out are needed to teach (or --list to see the parts)".into());
+    };
+    if name.is_empty() || name.contains(['/', '\\']) || name.starts_with('.') {
+        return Err(format!("--name {name:?}: a class name must be a plain file name"));
+    }
+    let target = out.join(format!("{name}.png"));
     if target.exists() && !args.force {
         return Err(format!(
             "{}: template exists already (use --force to replace it)",
             target.display()
         ));
     }
-    let mut engine = Engine::new(args.params.params()?)?;
-    let bgs = load_background_frames([&args.background]).map_err(|e| e.to_string())?;
-    engine.learn_background(&bgs)?;
-    let frame = load_gray(&args.frame).map_err(|e| e.to_string())?;
-    if let Some(n) = &frame.note {
-        eprintln!("note: {}: {n}", args.frame.display());
-    }
-    if frame.image.dimensions() != bgs[0].dimensions() {
-        return Err(format!(
-            "{}: frame is {}×{} but the background is {}×{}",
-            args.frame.display(),
-            frame.image.width(),
-            frame.image.height(),
-            bgs[0].width(),
-            bgs[0].height()
-        ));
-    }
-    let result = engine
-        .detect(&frame.image)
-        .map_err(|e| format!("{}: {e}", args.frame.display()))?;
-    let Some(part) = result
-        .detections
-        .iter()
-        .max_by(|a, b| a.core.area.total_cmp(&b.core.area))
-    else {
-        return Err(format!(
-            "{}: no part found against the background (try a lower --threshold)",
-            args.frame.display()
-        ));
+    let (w, h) = (frame.image.width() as usize, frame.image.height() as usize);
+    let part = match (args.part, args.at.as_deref()) {
+        (Some(n), _) => result.detections.get(n.wrapping_sub(1)).ok_or_else(|| {
+            format!(
+                "--part {n}: {} has {} part(s), numbered 1 to {} (see --list)",
+                args.frame.display(),
+                result.detections.len(),
+                result.detections.len()
+            )
+        })?,
+        (None, Some(at)) => {
+            let (x, y) = parse_point(at)?;
+            part_at(&result, engine.labels(), w, h, x, y).ok_or_else(|| {
+                format!(
+                    "--at {at}: no part of {} lies there (see --list for the parts and their centres)",
+                    args.frame.display()
+                )
+            })?
+        }
+        (None, None) => {
+            let largest = result
+                .detections
+                .iter()
+                .max_by(|a, b| a.core.area.total_cmp(&b.core.area))
+                .ok_or("no part")?;
+            if result.detections.len() > 1 {
+                eprintln!(
+                    "warning: {}: {} parts in the frame; teaching the largest (area {:.0} px²; --list, --part, --at choose another)",
+                    args.frame.display(),
+                    result.detections.len(),
+                    largest.core.area
+                );
+            }
+            largest
+        }
     };
-    if result.detections.len() > 1 {
-        eprintln!(
-            "warning: {}: {} parts in the frame; teaching the largest (area {:.0} px²)",
-            args.frame.display(),
-            result.detections.len(),
-            part.core.area
-        );
-    }
     if part.core.touches_edge {
         eprintln!(
             "warning: {}: the part touches the frame's edge; the template may be cut",
             args.frame.display()
         );
     }
-    let (w, h) = (frame.image.width() as usize, frame.image.height() as usize);
     let Some(&(sx, sy)) = part.border.first() else {
         return Err("the part has no border".into());
     };
     let silhouette = component(engine.labels(), w, h, sx as usize, sy as usize);
-    std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: cannot create folder: {e}", args.out.display()))?;
+    std::fs::create_dir_all(out).map_err(|e| format!("{}: cannot create folder: {e}", out.display()))?;
     silhouette
         .save(&target)
         .map_err(|e| format!("{}: cannot write: {e}", target.display()))?;
     println!(
-        "taught {:?} from {} ({}×{} silhouette, area {:.0} px²) → {}",
-        args.name,
+        "taught {:?} from {} ({}×{} silhouette, area {:.0} px²{}) → {}",
+        name,
         args.frame.display(),
         silhouette.width(),
         silhouette.height(),
         part.core.area,
+        if engine.auto_background() {
+            ", platform estimated from the frame"
+        } else {
+            ""
+        },
         target.display()
     );
     Ok(ExitCode::SUCCESS)
+}
+
+/// `--list`: the numbered parts, and the overlay with their numbers.
+fn list(args: &TeachArgs, image: &GrayImage, result: &crate::engine::FrameResult) -> Result<ExitCode, String> {
+    println!("{}: {} part(s)", args.frame.display(), result.detections.len());
+    for (i, d) in result.detections.iter().enumerate() {
+        let class = d.class.as_deref().unwrap_or("unknown");
+        println!(
+            "  {:>3}  x {:8.2}  y {:8.2}  area {:8.0} px²  {class}{}",
+            i + 1,
+            d.core.x,
+            d.core.y,
+            d.core.area,
+            if d.core.touches_edge { "  [touches edge]" } else { "" }
+        );
+    }
+    let target = match &args.overlay {
+        Some(p) => p.clone(),
+        None => {
+            let stem = args
+                .frame
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            PathBuf::from(format!("{stem}_parts.png"))
+        }
+    };
+    let mut pic = crate::overlay::draw(image, result);
+    for (i, d) in result.detections.iter().enumerate() {
+        crate::overlay::draw_number(&mut pic, d.core.x, d.core.y, i + 1);
+    }
+    pic.save(&target)
+        .map_err(|e| format!("{}: cannot write overlay: {e}", target.display()))?;
+    println!("numbered overlay: {}", target.display());
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `X,Y` as two numbers.
+fn parse_point(text: &str) -> Result<(f64, f64), String> {
+    let bad = || format!("--at {text}: expected X,Y in pixels (for example --at 312,140)");
+    let (x, y) = text.split_once(',').ok_or_else(bad)?;
+    let (x, y): (f64, f64) = (
+        x.trim().parse().map_err(|_| bad())?,
+        y.trim().parse().map_err(|_| bad())?,
+    );
+    if !(x.is_finite() && y.is_finite()) {
+        return Err(bad());
+    }
+    Ok((x, y))
+}
+
+/// The part whose silhouette holds pixel (x, y), or whose outer border encloses it or passes
+/// within 3 px of it.
+fn part_at<'a>(
+    result: &'a crate::engine::FrameResult,
+    labels: &[u8],
+    w: usize,
+    h: usize,
+    x: f64,
+    y: f64,
+) -> Option<&'a crate::engine::HostDetection> {
+    let (px, py) = (x.round(), y.round());
+    if px >= 0.0 && py >= 0.0 && (px as usize) < w && (py as usize) < h && labels[py as usize * w + px as usize] != 0 {
+        // The component holding the pixel: the part whose border's first point lies in it.
+        let comp = component_pixels(labels, w, h, px as usize, py as usize);
+        if let Some(d) = result.detections.iter().find(|d| {
+            d.border
+                .first()
+                .is_some_and(|&(bx, by)| comp.binary_search(&(by as usize * w + bx as usize)).is_ok())
+        }) {
+            return Some(d);
+        }
+    }
+    // Inside a part's outer border (a washer's hole too).
+    if let Some(d) = result.detections.iter().find(|d| inside(&d.border, x, y)) {
+        return Some(d);
+    }
+    result
+        .detections
+        .iter()
+        .map(|d| {
+            let dist = d
+                .border
+                .iter()
+                .map(|&(bx, by)| (bx as f64 - x).hypot(by as f64 - y))
+                .fold(f64::INFINITY, f64::min);
+            (d, dist)
+        })
+        .filter(|(_, dist)| *dist <= 3.0)
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(d, _)| d)
+}
+
+/// Whether (x, y) lies inside the closed polygon through the border's pixel centres (even-odd).
+fn inside(border: &[(u16, u16)], x: f64, y: f64) -> bool {
+    let mut odd = false;
+    let n = border.len();
+    for i in 0..n {
+        let (a, b) = (border[i], border[(i + 1) % n]);
+        let (ax, ay, bx, by) = (a.0 as f64, a.1 as f64, b.0 as f64, b.1 as f64);
+        if (ay > y) != (by > y) && x < ax + (y - ay) * (bx - ax) / (by - ay) {
+            odd = !odd;
+        }
+    }
+    odd
+}
+
+/// The sorted pixel indices of the 8-connected foreground component holding (sx, sy).
+fn component_pixels(labels: &[u8], w: usize, h: usize, sx: usize, sy: usize) -> Vec<usize> {
+    let mut seen = vec![false; w * h];
+    let mut queue = VecDeque::from([(sx, sy)]);
+    let mut out = Vec::new();
+    seen[sy * w + sx] = true;
+    while let Some((x, y)) = queue.pop_front() {
+        out.push(y * w + x);
+        for dy in -1i64..=1 {
+            for dx in -1i64..=1 {
+                let (nx, ny) = (x as i64 + dx, y as i64 + dy);
+                if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
+                    continue;
+                }
+                let i = ny as usize * w + nx as usize;
+                if !seen[i] && labels[i] != 0 {
+                    seen[i] = true;
+                    queue.push_back((nx as usize, ny as usize));
+                }
+            }
+        }
+    }
+    out.sort_unstable();
+    out
 }
 
 /// The 8-connected foreground component containing `(sx, sy)`, cropped with a 10 px margin,

@@ -31,7 +31,7 @@ pub struct TemplatesArgs {
 pub enum TemplatesAction {
     /// Teach every silhouette of a folder and write the templates as one binary library file
     /// (what a camera loads: `vorl_core::library`).
-    Export(ExportArgs),
+    Export(Box<ExportArgs>),
     /// Check a library file (magic, version, size, checksum, counts) and list its templates.
     Info(InfoArgs),
 }
@@ -129,7 +129,7 @@ pub fn export_library(dir: &Path, params: Params) -> Result<(Vec<u8>, Vec<String
 /// Set-up problems of `export`; an unreadable file for `info`.
 pub fn run(args: TemplatesArgs) -> Result<ExitCode, String> {
     match args.action {
-        TemplatesAction::Export(a) => export(a),
+        TemplatesAction::Export(a) => export(*a),
         TemplatesAction::Info(a) => info(a),
     }
 }
