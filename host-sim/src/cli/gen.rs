@@ -12,7 +12,7 @@ use crate::gen::{generate, GenOptions, Variant};
     contrast), small (parts 35–55 px), border (parts cut by the frame's edge, marked partial), stereo \
     (left/right pairs, camera.json, depth in truth). The same seed and options give byte-identical sets.\n\n\
     Examples:\n  vorl gen out/plant --seed 7 --frames 60\n  vorl gen out/noisy --variant noisy --frames 20\n  \
-    vorl gen out/stereo --variant stereo --frames 10"
+    vorl gen out/stereo --variant stereo --frames 10\n  vorl gen out/nobg --frames 20 --no-background"
 )]
 pub struct GenArgs {
     /// Folder to write the set into (created if missing).
@@ -33,6 +33,10 @@ pub struct GenArgs {
     /// Frame height, px.
     #[arg(long, default_value_t = 480)]
     pub height: u32,
+    /// Write no background.png and no backgrounds/ (the platform is then estimated from the
+    /// frames); frames and truth are the same as with them.
+    #[arg(long)]
+    pub no_background: bool,
 }
 
 /// Runs `vorl gen`.
@@ -46,14 +50,16 @@ pub fn run(args: GenArgs) -> Result<ExitCode, String> {
         variant: args.variant,
         width: args.width,
         height: args.height,
+        background: args.no_background.then_some(false),
     };
     let t0 = std::time::Instant::now();
     let s = generate(&args.out, &opts).map_err(|e| e.to_string())?;
     println!(
-        "wrote {} ({} variant, seed {}): {} frames, {} parts ({} known, {} not templates, {} partial), {} classes, in {:.1} s",
+        "wrote {} ({} variant, seed {}{}): {} frames, {} parts ({} known, {} not templates, {} partial), {} classes, in {:.1} s",
         args.out.display(),
         args.variant,
         args.seed,
+        if opts.writes_background() { "" } else { ", no background" },
         s.frames,
         s.parts,
         s.known_parts,

@@ -20,6 +20,10 @@
 //! `camera.json`; truth is keyed by `f000.png`, positions in the left image, plus `z_mm` and
 //! `disparity_px`.
 //!
+//! Without a background ([`GenOptions::background`] `Some(false)`, `vorl gen --no-background`)
+//! no `background*.png` and no `backgrounds*/` are written: the contract allows that, the platform
+//! is then estimated from the frames.
+//!
 //! # Truth
 //!
 //! Parts are polygons in their own millimetre frame (see [`catalogue`]) with the area centroid
@@ -41,6 +45,8 @@ mod render;
 mod rng;
 mod scene;
 mod shapes;
+#[cfg(test)]
+mod variant_tests;
 
 pub use shapes::{catalogue, PartSpec};
 
@@ -140,6 +146,9 @@ pub struct GenOptions {
     pub width: u32,
     /// Frame height, px (32–16384).
     pub height: u32,
+    /// Whether to write `background*.png` and `backgrounds*/`; `None`: the variant's default
+    /// (always). Frames and truth do not depend on it.
+    pub background: Option<bool>,
 }
 
 impl Default for GenOptions {
@@ -150,7 +159,15 @@ impl Default for GenOptions {
             variant: Variant::Default,
             width: 640,
             height: 480,
+            background: None,
         }
+    }
+}
+
+impl GenOptions {
+    /// Whether the set gets its background captures.
+    pub fn writes_background(&self) -> bool {
+        self.background.unwrap_or(true)
     }
 }
 
@@ -400,13 +417,17 @@ pub fn generate(out: &Path, opts: &GenOptions) -> Result<GenSummary, GenError> {
     let cat = catalogue();
     let set = SetPlan::new(opts);
     let stereo = opts.variant == Variant::Stereo;
+    let with_background = opts.writes_background();
     let frames_dir = out.join("frames");
     let templates_dir = out.join("templates");
-    for d in [out, &frames_dir, &templates_dir, &out.join("backgrounds")] {
+    for d in [out, &frames_dir, &templates_dir] {
         output::create_dir(d)?;
     }
-    if stereo {
-        output::create_dir(&out.join("backgrounds_right"))?;
+    if with_background {
+        output::create_dir(&out.join("backgrounds"))?;
+        if stereo {
+            output::create_dir(&out.join("backgrounds_right"))?;
+        }
     }
 
     // Templates and the catalogue.
@@ -433,20 +454,22 @@ pub fn generate(out: &Path, opts: &GenOptions) -> Result<GenSummary, GenError> {
     )?;
 
     // The empty platform.
-    let mut jobs: Vec<(PathBuf, bool, u64)> = vec![(out.join("background.png"), false, 0)];
-    if stereo {
-        jobs.push((out.join("background_left.png"), false, 0));
-        jobs.push((out.join("background_right.png"), true, 0));
-    }
-    for k in 0..BACKGROUND_CAPTURES {
-        let file = format!("bg_{k:02}.png");
-        jobs.push((out.join("backgrounds").join(&file), false, k as u64 + 1));
+    if with_background {
+        let mut jobs: Vec<(PathBuf, bool, u64)> = vec![(out.join("background.png"), false, 0)];
         if stereo {
-            jobs.push((out.join("backgrounds_right").join(&file), true, k as u64 + 1));
+            jobs.push((out.join("background_left.png"), false, 0));
+            jobs.push((out.join("background_right.png"), true, 0));
         }
+        for k in 0..BACKGROUND_CAPTURES {
+            let file = format!("bg_{k:02}.png");
+            jobs.push((out.join("backgrounds").join(&file), false, k as u64 + 1));
+            if stereo {
+                jobs.push((out.join("backgrounds_right").join(&file), true, k as u64 + 1));
+            }
+        }
+        jobs.par_iter()
+            .try_for_each(|(path, right, index)| output::write_png(path, &set.background(*right, *index)))?;
     }
-    jobs.par_iter()
-        .try_for_each(|(path, right, index)| output::write_png(path, &set.background(*right, *index)))?;
 
     // Frames.
     let truths: Vec<Vec<PartJson>> = (0..opts.frames)
@@ -495,14 +518,14 @@ mod tests {
     use super::*;
 
     /// A fresh scratch folder under the system temp folder.
-    fn scratch(name: &str) -> PathBuf {
+    pub(super) fn scratch(name: &str) -> PathBuf {
         let p = std::env::temp_dir().join(format!("vorl-gen-test-{}-{name}", std::process::id()));
         let _ = std::fs::remove_dir_all(&p);
         p
     }
 
     /// All files under `root`, relative, sorted, with their bytes.
-    fn files(root: &Path) -> Vec<(PathBuf, Vec<u8>)> {
+    pub(super) fn files(root: &Path) -> Vec<(PathBuf, Vec<u8>)> {
         let mut out = Vec::new();
         let mut stack = vec![root.to_path_buf()];
         while let Some(d) = stack.pop() {
@@ -651,6 +674,7 @@ mod tests {
             variant: Variant::Small,
             width: 160,
             height: 120,
+            background: None,
         };
         let (a, b, c) = (scratch("det-a"), scratch("det-b"), scratch("det-c"));
         let sa = generate(&a, &opts).expect("generate a");
