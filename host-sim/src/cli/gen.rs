@@ -7,13 +7,18 @@ use crate::gen::{generate, GenOptions, Variant};
 
 /// Arguments of `vorl gen`.
 #[derive(Debug, clap::Args)]
-#[command(
-    after_help = "Variants: default (parts 88–138 px), noisy (stronger noise, lighting drift, lower \
-    contrast), small (parts 35–55 px), border (parts cut by the frame's edge, marked partial), stereo \
-    (left/right pairs, camera.json, depth in truth). The same seed and options give byte-identical sets.\n\n\
+#[command(after_help = "Variants (the ideal camera):\n  \
+    default   parts 88–138 px, σ = 2 noise\n  \
+    noisy     stronger noise, lighting drift, lower contrast\n  \
+    small     parts 35–55 px\n  \
+    border    parts cut by the frame's edge, marked partial\n  \
+    stereo    left/right pairs, camera.json, depth in truth\n\
+    Variants (what real cameras do; each also writes variant.json with its parameters):\n  \
+    sharp     sharp-cornered parts (rectangular-tooth gear, snail cam, square L bracket, …) under\n            \
+              0.7 px blur; crisp templates\n\
+    The same seed and options give byte-identical sets.\n\n\
     Examples:\n  vorl gen out/plant --seed 7 --frames 60\n  vorl gen out/noisy --variant noisy --frames 20\n  \
-    vorl gen out/stereo --variant stereo --frames 10\n  vorl gen out/nobg --frames 20 --no-background"
-)]
+    vorl gen out/stereo --variant stereo --frames 10\n  vorl gen out/sharp --variant sharp --frames 20 --no-background")]
 pub struct GenArgs {
     /// Folder to write the set into (created if missing).
     #[arg(value_name = "OUT")]
@@ -24,7 +29,7 @@ pub struct GenArgs {
     /// Number of frames.
     #[arg(long, default_value_t = 60)]
     pub frames: usize,
-    /// Kind of set.
+    /// Kind of set: default, noisy, small, border, stereo or sharp (see below).
     #[arg(long, default_value = "default")]
     pub variant: Variant,
     /// Frame width, px.

@@ -13,6 +13,8 @@
 //!                             "scale", "contrast", "texture", "shape", …}]}}
 //! parts.json                  the catalogue: class, symmetry, area, template file and where the
 //!                             centroid lies in it, px per mm
+//! variant.json                the real-camera variants only: the variant and its set-wide
+//!                             parameters
 //! ```
 //!
 //! Stereo sets write `frames/left_f000.png` and `frames/right_f000.png`, `background_left.png`
@@ -23,6 +25,16 @@
 //! Without a background ([`GenOptions::background`] `Some(false)`, `vorl gen --no-background`)
 //! no `background*.png` and no `backgrounds*/` are written: the contract allows that, the platform
 //! is then estimated from the frames.
+//!
+//! # Variants
+//!
+//! The ideal camera: `default`, `noisy`, `small`, `border`, `stereo` (see [`Variant`]). The
+//! real-camera variants each add one failure mode a real smart camera shows; all of them draw
+//! σ = 2 noise, lighting drift up to ±1.5 levels, contrast 40–90 levels, parts at 1 px per mm:
+//!
+//! | variant    | what it draws | truth |
+//! |------------|---------------|-------|
+//! | `sharp`    | its own catalogue of sharp-cornered parts ([`sharp_catalogue`]: a 12-tooth gear with rectangular teeth, a snail cam with a step, a square-cornered L bracket, …) under the same 0.7 px optical blur; templates are the crisp silhouettes | as `default` |
 //!
 //! # Truth
 //!
@@ -37,7 +49,9 @@
 //!
 //! Every random choice comes from a stream keyed by (seed, purpose, index) — one per frame for the
 //! layout, one per image for the noise — so frames may be made in parallel and the same options
-//! give byte-identical files. Nothing depends on time or on hash-map order.
+//! give byte-identical files. Nothing depends on time or on hash-map order. The real-camera
+//! variants draw their own choices from streams of their own, so the ideal-camera variants give
+//! the same files as before they existed.
 
 mod output;
 mod raster;
@@ -48,7 +62,7 @@ mod shapes;
 #[cfg(test)]
 mod variant_tests;
 
-pub use shapes::{catalogue, PartSpec};
+pub use shapes::{catalogue, sharp_catalogue, PartSpec};
 
 use std::collections::BTreeMap;
 use std::fmt;
@@ -89,16 +103,19 @@ pub enum Variant {
     Border,
     /// A rectified stereo pair per frame; parts 5–60 mm above the platform.
     Stereo,
+    /// Sharp-cornered parts ([`sharp_catalogue`]) under 0.7 px optical blur; crisp templates.
+    Sharp,
 }
 
 impl Variant {
     /// All variants, in the order of their names.
-    pub const ALL: [Variant; 5] = [
+    pub const ALL: [Variant; 6] = [
         Variant::Default,
         Variant::Noisy,
         Variant::Small,
         Variant::Border,
         Variant::Stereo,
+        Variant::Sharp,
     ];
 
     /// The command-line name.
@@ -109,7 +126,30 @@ impl Variant {
             Variant::Small => "small",
             Variant::Border => "border",
             Variant::Stereo => "stereo",
+            Variant::Sharp => "sharp",
         }
+    }
+
+    /// The parts this variant draws: [`sharp_catalogue`] for `sharp`, [`catalogue`] otherwise.
+    pub fn catalogue(self) -> Vec<PartSpec> {
+        if self == Variant::Sharp {
+            sharp_catalogue()
+        } else {
+            catalogue()
+        }
+    }
+
+    /// Whether the set gets `background.png` and `backgrounds/` unless told otherwise.
+    pub fn writes_background(self) -> bool {
+        true
+    }
+
+    /// One of the variants that model a real camera's failure modes (they write `variant.json`).
+    pub fn is_real_camera(self) -> bool {
+        !matches!(
+            self,
+            Variant::Default | Variant::Noisy | Variant::Small | Variant::Border | Variant::Stereo
+        )
     }
 }
 
@@ -147,7 +187,7 @@ pub struct GenOptions {
     /// Frame height, px (32–16384).
     pub height: u32,
     /// Whether to write `background*.png` and `backgrounds*/`; `None`: the variant's default
-    /// (always). Frames and truth do not depend on it.
+    /// ([`Variant::writes_background`]). Frames and truth do not depend on it.
     pub background: Option<bool>,
 }
 
@@ -167,7 +207,7 @@ impl Default for GenOptions {
 impl GenOptions {
     /// Whether the set gets its background captures.
     pub fn writes_background(&self) -> bool {
-        self.background.unwrap_or(true)
+        self.background.unwrap_or(self.variant.writes_background())
     }
 }
 
@@ -247,6 +287,8 @@ struct SetPlan {
     seed: u64,
     w: usize,
     h: usize,
+    variant: Variant,
+    cat: Vec<PartSpec>,
     scene: SceneConfig,
     noise_sigma: f64,
     drift_max: f64,
@@ -285,6 +327,8 @@ impl SetPlan {
             seed: opts.seed,
             w,
             h,
+            variant: v,
+            cat: v.catalogue(),
             scene: SceneConfig {
                 w,
                 h,
@@ -301,6 +345,16 @@ impl SetPlan {
         }
     }
 
+    /// The set-wide parameters of a real-camera variant, for `variant.json`.
+    fn describe(&self, background: bool) -> serde_json::Value {
+        json!({
+            "variant": self.variant.name(),
+            "background": background,
+            "blur_sigma_px": BLUR_SIGMA,
+            "noise_sigma": self.noise_sigma,
+        })
+    }
+
     /// A capture of the empty platform: lighting, blur, noise from stream `index`.
     fn background(&self, right: bool, index: u64) -> image::GrayImage {
         let mut img = if right {
@@ -315,7 +369,7 @@ impl SetPlan {
 
     /// One camera's view of the placed parts before noise: lighting, drift, parts, blur (the
     /// right view shifts each part by its disparity).
-    fn compose(&self, cat: &[PartSpec], parts: &[Placed], right: bool, drift: &mut Rng) -> Vec<f64> {
+    fn compose(&self, parts: &[Placed], right: bool, drift: &mut Rng) -> Vec<f64> {
         let (w, h) = (self.w, self.h);
         let mut img = if right {
             self.light_right.clone().unwrap_or_default()
@@ -329,15 +383,15 @@ impl SetPlan {
             } else {
                 p.pose
             };
-            draw_part(&mut img, w, h, &cat[p.spec], &pose, &p.look);
+            draw_part(&mut img, w, h, &self.cat[p.spec], &pose, &p.look);
         }
         blur(&mut img, w, h, BLUR_SIGMA);
         img
     }
 
     /// One camera's view with sensor noise from the frame's stream.
-    fn view(&self, cat: &[PartSpec], parts: &[Placed], right: bool, index: u64, drift: &mut Rng) -> image::GrayImage {
-        let img = self.compose(cat, parts, right, drift);
+    fn view(&self, parts: &[Placed], right: bool, index: u64, drift: &mut Rng) -> image::GrayImage {
+        let img = self.compose(parts, right, drift);
         let stream = if right {
             purpose::NOISE_RIGHT
         } else {
@@ -353,19 +407,19 @@ impl SetPlan {
     }
 
     /// Plans, renders and writes frame `index`; its truth.
-    fn frame(&self, cat: &[PartSpec], frames_dir: &Path, index: usize, name: &str) -> Result<Vec<PartJson>, GenError> {
+    fn frame(&self, frames_dir: &Path, index: usize, name: &str) -> Result<Vec<PartJson>, GenError> {
         let mut rng = Rng::stream(self.seed, purpose::LAYOUT, index as u64);
-        let parts = plan(&mut rng, cat, &self.scene);
+        let parts = plan(&mut rng, &self.cat, &self.scene);
         if self.scene.stereo.is_some() {
-            let left = self.view(cat, &parts, false, index as u64, &mut rng);
-            let right = self.view(cat, &parts, true, index as u64, &mut rng);
+            let left = self.view(&parts, false, index as u64, &mut rng);
+            let right = self.view(&parts, true, index as u64, &mut rng);
             output::write_png(&frames_dir.join(format!("left_{name}")), &left)?;
             output::write_png(&frames_dir.join(format!("right_{name}")), &right)?;
         } else {
-            let img = self.view(cat, &parts, false, index as u64, &mut rng);
+            let img = self.view(&parts, false, index as u64, &mut rng);
             output::write_png(&frames_dir.join(name), &img)?;
         }
-        Ok(parts.iter().map(|p| truth_entry(&cat[p.spec], p)).collect())
+        Ok(parts.iter().map(|p| truth_entry(&self.cat[p.spec], p)).collect())
     }
 }
 
@@ -414,8 +468,8 @@ pub fn generate(out: &Path, opts: &GenOptions) -> Result<GenSummary, GenError> {
             return Err(GenError::Options(format!("{what} {v} px is out of range (32–16384)")));
         }
     }
-    let cat = catalogue();
     let set = SetPlan::new(opts);
+    let cat = &set.cat;
     let stereo = opts.variant == Variant::Stereo;
     let with_background = opts.writes_background();
     let frames_dir = out.join("frames");
@@ -432,7 +486,7 @@ pub fn generate(out: &Path, opts: &GenOptions) -> Result<GenSummary, GenError> {
 
     // Templates and the catalogue.
     let mut parts_json = Vec::new();
-    for spec in &cat {
+    for spec in cat {
         let mut entry = json!({
             "class": spec.name,
             "template": spec.is_template,
@@ -452,6 +506,9 @@ pub fn generate(out: &Path, opts: &GenOptions) -> Result<GenSummary, GenError> {
         &out.join("parts.json"),
         &json!({ "px_per_mm": set.scene.px_per_mm, "parts": parts_json }),
     )?;
+    if opts.variant.is_real_camera() {
+        output::write_json(&out.join("variant.json"), &set.describe(with_background))?;
+    }
 
     // The empty platform.
     if with_background {
@@ -474,7 +531,7 @@ pub fn generate(out: &Path, opts: &GenOptions) -> Result<GenSummary, GenError> {
     // Frames.
     let truths: Vec<Vec<PartJson>> = (0..opts.frames)
         .into_par_iter()
-        .map(|i| set.frame(&cat, &frames_dir, i, &frame_name(i, opts.frames)))
+        .map(|i| set.frame(&frames_dir, i, &frame_name(i, opts.frames)))
         .collect::<Result<_, _>>()?;
     let mut summary = GenSummary {
         frames: opts.frames,
@@ -543,15 +600,20 @@ mod tests {
         out
     }
 
-    fn gray(path: &Path) -> image::GrayImage {
+    pub(super) fn gray(path: &Path) -> image::GrayImage {
         image::open(path).expect("open png").to_luma8()
     }
 
     /// Compares each part's silhouette in a frame (|frame − background| over a threshold) with
     /// the part drawn from its truth (shape, x, y, angle, scale) inside its bounding circle + 3 px,
     /// leaving out pixels within ¾ px of the border; the worst share of pixels that disagree.
-    fn worst_disagreement(frame: &image::GrayImage, bg: &image::GrayImage, parts: &[PartJson], right: bool) -> f64 {
-        let cat = catalogue();
+    pub(super) fn worst_disagreement(
+        frame: &image::GrayImage,
+        bg: &image::GrayImage,
+        parts: &[PartJson],
+        right: bool,
+    ) -> f64 {
+        let cat: Vec<PartSpec> = catalogue().into_iter().chain(sharp_catalogue()).collect();
         let mut worst: f64 = 0.0;
         for p in parts {
             let shape = p.extra["shape"].as_str().expect("shape");
@@ -615,14 +677,14 @@ mod tests {
         };
         let mut set = SetPlan::new(&opts);
         set.drift_max = 0.0;
-        let cat = catalogue();
+        let cat = set.cat.clone();
         let mut light = set.light.clone();
         blur(&mut light, set.w, set.h, BLUR_SIGMA);
         let mut checked = 0;
         for index in 0..12 {
             let mut rng = Rng::stream(opts.seed, purpose::LAYOUT, index);
             let parts = plan(&mut rng, &cat, &set.scene);
-            let img = set.compose(&cat, &parts, false, &mut rng);
+            let img = set.compose(&parts, false, &mut rng);
             for p in parts.iter().filter(|p| p.look.texture == render::Texture::Plain) {
                 // Inside the bounding circle + 4 px: all of this part's blurred edge, none of another part.
                 let r = cat[p.spec].radius_mm() * p.pose.k + 4.0;
@@ -663,7 +725,7 @@ mod tests {
             assert_eq!(v.to_string(), v.name());
         }
         let e = "fancy".parse::<Variant>().unwrap_err();
-        assert!(e.contains("default, noisy, small, border, stereo"), "{e}");
+        assert!(e.contains("default, noisy, small, border, stereo, sharp"), "{e}");
     }
 
     #[test]
