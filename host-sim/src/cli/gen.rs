@@ -15,10 +15,16 @@ use crate::gen::{generate, GenOptions, Variant};
     stereo    left/right pairs, camera.json, depth in truth\n\
     Variants (what real cameras do; each also writes variant.json with its parameters):\n  \
     sharp     sharp-cornered parts (rectangular-tooth gear, snail cam, square L bracket, …) under\n            \
-              0.7 px blur; crisp templates\n\
+              0.7 px blur; crisp templates\n  \
+    lens      barrel distortion (frame corners 3–6 px inward); templates undistorted; truth x, y =\n            \
+              the distorted centroid, angle_deg = drawn angle + lens_rotation_deg (best-fit turn of\n            \
+              the border by the lens), plus x_undistorted, y_undistorted, area_x, area_y\n  \
+    thick     close camera over 4–20 mm thick parts: the walls show, parts away from the centre\n            \
+              look stretched outward; truth = the top face's pose (scale included), plus\n            \
+              thickness_mm, top_scale, bottom_x, bottom_y\n\
     The same seed and options give byte-identical sets.\n\n\
     Examples:\n  vorl gen out/plant --seed 7 --frames 60\n  vorl gen out/noisy --variant noisy --frames 20\n  \
-    vorl gen out/stereo --variant stereo --frames 10\n  vorl gen out/sharp --variant sharp --frames 20 --no-background")]
+    vorl gen out/stereo --variant stereo --frames 10\n  vorl gen out/lens --variant lens --frames 20 --no-background")]
 pub struct GenArgs {
     /// Folder to write the set into (created if missing).
     #[arg(value_name = "OUT")]
@@ -29,7 +35,7 @@ pub struct GenArgs {
     /// Number of frames.
     #[arg(long, default_value_t = 60)]
     pub frames: usize,
-    /// Kind of set: default, noisy, small, border, stereo or sharp (see below).
+    /// Kind of set: default, noisy, small, border, stereo, sharp, lens or thick (see below).
     #[arg(long, default_value = "default")]
     pub variant: Variant,
     /// Frame width, px.

@@ -14,7 +14,7 @@
 //! parts.json                  the catalogue: class, symmetry, area, template file and where the
 //!                             centroid lies in it, px per mm
 //! variant.json                the real-camera variants only: the variant and its set-wide
-//!                             parameters
+//!                             parameters (lens, camera height, …)
 //! ```
 //!
 //! Stereo sets write `frames/left_f000.png` and `frames/right_f000.png`, `background_left.png`
@@ -35,6 +35,8 @@
 //! | variant    | what it draws | truth |
 //! |------------|---------------|-------|
 //! | `sharp`    | its own catalogue of sharp-cornered parts ([`sharp_catalogue`]: a 12-tooth gear with rectangular teeth, a snail cam with a step, a square-cornered L bracket, …) under the same 0.7 px optical blur; templates are the crisp silhouettes | as `default` |
+//! | `lens`     | a barrel-distorted lens: `p_d = c + (p − c)(1 + k1·|p − c|²/r²)`, `r` half the frame diagonal, `c` within ±1.5 % of the centre, `k1 < 0` moving the farthest frame corner 3–6 px inward; every ring cut into ≤ 0.5 px pieces and distorted, the platform seen through the lens too; templates undistorted | `x`, `y` = the distorted image of the part's centroid; `angle_deg` = the drawn angle plus `lens_rotation_deg`, the rotation of the least-squares similarity from the undistorted border onto the distorted one (the Jacobian of a radial distortion is symmetric, so its own rotation is 0, but its anisotropic stretch turns an elongated part by up to a few tenths of a degree near the corners); adds `angle_drawn_deg`, `lens_rotation_deg`, `lens_scale`, `x_undistorted`, `y_undistorted` and `area_x`, `area_y` (the area centroid of the distorted silhouette: what a centroid measures in the image, up to about 0.2 px from `x`, `y` for a large part near the frame corners, since the distortion's scale varies over the part) |
+//! | `thick`    | a close pinhole camera (450–600 mm above the platform, principal point at the frame centre) over parts 4–20 mm thick: the bottom face at the platform's scale, the top face magnified by `H/(H − t)` about the principal point, the walls between them (the exact sweep, at 75–100 % of the contrast); parts away from the centre look stretched outward | the top face's pose: `x`, `y` its centroid, `scale` its size over the template's; adds `thickness_mm`, `top_scale` (`H/(H − t)`), `bottom_x`, `bottom_y` (the bottom face's centroid), `wall_contrast` |
 //!
 //! # Truth
 //!
@@ -44,6 +46,7 @@
 //! k = px per mm × scale), so the truth position is exactly the drawn centroid and `angle_deg` is
 //! exactly θ. Each pixel's coverage is exact along x and sampled on 16 lines along y, which puts
 //! the coverage centroid within 0.003 px of the truth for every catalogue part (tested at 0.02).
+//! `lens` and `thick` follow the table above.
 //!
 //! # Determinism
 //!
@@ -53,6 +56,7 @@
 //! variants draw their own choices from streams of their own, so the ideal-camera variants give
 //! the same files as before they existed.
 
+mod effects;
 mod output;
 mod raster;
 mod render;
@@ -73,9 +77,13 @@ use rayon::prelude::*;
 use serde_json::json;
 
 use crate::truth::{FramesJson, PartJson};
-use render::{add_drift, blur, capture, draw_part, template, Lighting, BLUR_SIGMA};
+use effects::{CloseCamera, Lens};
+use raster::coverage_union;
+use render::{
+    add_drift, blur, capture, draw_part, draw_part_through, silhouette, template, Lighting, BLUR_SIGMA, SUBROWS,
+};
 use rng::{purpose, Rng};
-use scene::{plan, Placed, SceneConfig, StereoRig};
+use scene::{plan, Body, CloseFit, Placed, SceneConfig, StereoRig};
 
 /// Nominal scale of parts and templates, px per mm (all variants but `small`).
 pub const PX_PER_MM: f64 = 1.0;
@@ -89,7 +97,10 @@ pub const STEREO_BASELINE_MM: f64 = 60.0;
 pub const STEREO_PLATFORM_Z_MM: f64 = 800.0;
 /// Extra captures of the empty platform in `backgrounds/`.
 pub const BACKGROUND_CAPTURES: usize = 8;
-
+/// Height of the close camera above the platform in `thick` sets, mm (drawn per set).
+pub const THICK_CAMERA_HEIGHT_MM: (f64, f64) = (450.0, 600.0);
+/// Thickness of the parts in `thick` sets, mm.
+pub const THICKNESS_MM: (f64, f64) = (4.0, 20.0);
 /// The kind of set.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Variant {
@@ -105,17 +116,23 @@ pub enum Variant {
     Stereo,
     /// Sharp-cornered parts ([`sharp_catalogue`]) under 0.7 px optical blur; crisp templates.
     Sharp,
+    /// A barrel-distorted lens (frame corners 3–6 px inward); truth at the distorted centroid.
+    Lens,
+    /// A close camera seeing thick parts' walls; truth is the top face's pose.
+    Thick,
 }
 
 impl Variant {
     /// All variants, in the order of their names.
-    pub const ALL: [Variant; 6] = [
+    pub const ALL: [Variant; 8] = [
         Variant::Default,
         Variant::Noisy,
         Variant::Small,
         Variant::Border,
         Variant::Stereo,
         Variant::Sharp,
+        Variant::Lens,
+        Variant::Thick,
     ];
 
     /// The command-line name.
@@ -127,6 +144,8 @@ impl Variant {
             Variant::Border => "border",
             Variant::Stereo => "stereo",
             Variant::Sharp => "sharp",
+            Variant::Lens => "lens",
+            Variant::Thick => "thick",
         }
     }
 
@@ -282,6 +301,17 @@ impl std::error::Error for GenError {
     }
 }
 
+/// What a real-camera variant puts between the scene and the sensor.
+#[derive(Clone, Debug)]
+enum Effect {
+    /// The ideal camera (also `sharp`, whose change is its catalogue).
+    Ideal,
+    /// `lens`: the frame is seen through this lens.
+    Lens(Lens),
+    /// `thick`: a close camera over thick parts.
+    Thick(CloseCamera),
+}
+
 /// Everything a frame needs that is fixed for the set.
 struct SetPlan {
     seed: u64,
@@ -292,10 +322,11 @@ struct SetPlan {
     scene: SceneConfig,
     noise_sigma: f64,
     drift_max: f64,
-    /// Lighting of the (left) camera, before blur.
+    /// The empty platform of the (left) camera, before blur.
     light: Vec<f64>,
     /// Lighting of the right camera (stereo), before blur.
     light_right: Option<Vec<f64>>,
+    effect: Effect,
 }
 
 impl SetPlan {
@@ -323,6 +354,33 @@ impl SetPlan {
         };
         // The right camera sees the platform point that the left one sees at x + f·B/Z0.
         let light_right = stereo.map(|s| lighting.field(w, h, s.f_px * s.baseline_mm / s.platform_z_mm));
+        // The real-camera variants draw from a stream of their own.
+        let mut fx = Rng::stream(opts.seed, purpose::EFFECT_SET, 0);
+        let effect = match v {
+            Variant::Lens => Effect::Lens(Lens::random(&mut fx, w, h)),
+            Variant::Thick => Effect::Thick(CloseCamera {
+                centre: [(w as f64 - 1.0) / 2.0, (h as f64 - 1.0) / 2.0],
+                height_mm: fx.range(THICK_CAMERA_HEIGHT_MM.0, THICK_CAMERA_HEIGHT_MM.1),
+            }),
+            _ => Effect::Ideal,
+        };
+        let light = match &effect {
+            Effect::Lens(lens) => (0..h)
+                .flat_map(|j| (0..w).map(move |i| (i, j)))
+                .map(|(i, j)| {
+                    let p = lens.undistort([i as f64, j as f64]);
+                    lighting.at(p[0], p[1])
+                })
+                .collect(),
+            _ => lighting.field(w, h, 0.0),
+        };
+        let close = match &effect {
+            Effect::Thick(camera) => Some(CloseFit {
+                camera: *camera,
+                s_max: camera.scale(THICKNESS_MM.1),
+            }),
+            _ => None,
+        };
         SetPlan {
             seed: opts.seed,
             w,
@@ -337,22 +395,47 @@ impl SetPlan {
                 min_contrast,
                 border: v == Variant::Border,
                 stereo,
+                close,
             },
             noise_sigma: if v == Variant::Noisy { 5.0 } else { 2.0 },
             drift_max: if v == Variant::Noisy { 8.0 } else { 1.5 },
-            light: lighting.field(w, h, 0.0),
+            light,
             light_right,
+            effect,
         }
     }
 
     /// The set-wide parameters of a real-camera variant, for `variant.json`.
     fn describe(&self, background: bool) -> serde_json::Value {
-        json!({
+        let mut v = json!({
             "variant": self.variant.name(),
             "background": background,
             "blur_sigma_px": BLUR_SIGMA,
             "noise_sigma": self.noise_sigma,
-        })
+        });
+        let params = match &self.effect {
+            Effect::Lens(l) => json!({
+                "model": "p_d = c + (p - c) * (1 + k1 * |p - c|^2 / r_norm^2), p undistorted, c = (cx, cy)",
+                "cx": l.centre[0],
+                "cy": l.centre[1],
+                "k1": l.k1,
+                "r_norm_px": l.r_norm,
+                "corner_shift_px": l.corner_shift(self.w, self.h),
+            }),
+            Effect::Thick(c) => json!({
+                "model": "pinhole looking down; a plane t mm above the platform is imaged at H / (H - t) times the platform's scale about (cx, cy)",
+                "cx": c.centre[0],
+                "cy": c.centre[1],
+                "camera_height_mm": c.height_mm,
+                "f_px": c.height_mm * self.scene.px_per_mm,
+                "thickness_mm": [THICKNESS_MM.0, THICKNESS_MM.1],
+            }),
+            Effect::Ideal => json!({}),
+        };
+        if let (Some(o), Some(p)) = (v.as_object_mut(), params.as_object()) {
+            o.extend(p.clone());
+        }
+        v
     }
 
     /// A capture of the empty platform: lighting, blur, noise from stream `index`.
@@ -383,7 +466,21 @@ impl SetPlan {
             } else {
                 p.pose
             };
-            draw_part(&mut img, w, h, &self.cat[p.spec], &pose, &p.look);
+            let spec = &self.cat[p.spec];
+            match (&self.effect, p.body) {
+                (Effect::Lens(lens), _) => draw_part_through(&mut img, w, h, spec, &pose, &p.look, Some(lens)),
+                (Effect::Thick(cam), Body::Thick { thickness_mm, wall }) => {
+                    // Walls: the sweep less the top face; then the top face with its look.
+                    let s = cam.scale(thickness_mm);
+                    let top = cam.lift(&pose, s);
+                    let sweep = cam.sweep(&pose.rings(spec.rings()), s);
+                    coverage_union(&sweep, Some((w, h)), SUBROWS)
+                        .for_each(|x, y, c| img[y as usize * w + x as usize] += c * wall);
+                    silhouette(spec, &top, w, h).for_each(|x, y, c| img[y as usize * w + x as usize] -= c * wall);
+                    draw_part(&mut img, w, h, spec, &top, &p.look);
+                }
+                _ => draw_part(&mut img, w, h, spec, &pose, &p.look),
+            }
         }
         blur(&mut img, w, h, BLUR_SIGMA);
         img
@@ -406,10 +503,26 @@ impl SetPlan {
         )
     }
 
+    /// What a variant adds to the planned parts of scene `scene` (thickness), from a stream of
+    /// its own.
+    fn finish_parts(&self, parts: &mut [Placed], scene: usize) {
+        let mut rng = Rng::stream(self.seed, purpose::EFFECT_SCENE, scene as u64);
+        for p in parts.iter_mut() {
+            if let Effect::Thick(_) = &self.effect {
+                let thickness_mm = rng.range(THICKNESS_MM.0, THICKNESS_MM.1);
+                let c = p.look.contrast;
+                let wall = c.signum() * (c.abs() * rng.range(0.75, 1.0)).max(self.scene.min_contrast);
+                p.body = Body::Thick { thickness_mm, wall };
+            }
+        }
+    }
+
     /// Plans, renders and writes frame `index`; its truth.
     fn frame(&self, frames_dir: &Path, index: usize, name: &str) -> Result<Vec<PartJson>, GenError> {
-        let mut rng = Rng::stream(self.seed, purpose::LAYOUT, index as u64);
-        let parts = plan(&mut rng, &self.cat, &self.scene);
+        let scene = index;
+        let mut rng = Rng::stream(self.seed, purpose::LAYOUT, scene as u64);
+        let mut parts = plan(&mut rng, &self.cat, &self.scene);
+        self.finish_parts(&mut parts, scene);
         if self.scene.stereo.is_some() {
             let left = self.view(&parts, false, index as u64, &mut rng);
             let right = self.view(&parts, true, index as u64, &mut rng);
@@ -419,11 +532,64 @@ impl SetPlan {
             let img = self.view(&parts, false, index as u64, &mut rng);
             output::write_png(&frames_dir.join(name), &img)?;
         }
-        Ok(parts.iter().map(|p| truth_entry(&self.cat[p.spec], p)).collect())
+        Ok(parts.iter().map(|p| self.truth(p)).collect())
+    }
+
+    /// The truth record of a placed part.
+    fn truth(&self, p: &Placed) -> PartJson {
+        let spec = &self.cat[p.spec];
+        let mut t = truth_entry(spec, p);
+        let mut put = |k: &str, v: serde_json::Value| {
+            t.extra.insert(k.to_string(), v);
+        };
+        match (&self.effect, p.body) {
+            (Effect::Lens(lens), _) => {
+                let c = [p.pose.cx, p.pose.cy];
+                let d = lens.distort(c);
+                let warped = lens.warp(&p.pose.rings(spec.rings()));
+                let (area, ac) = raster::moments(&warped);
+                let (rot, scale) = lens.border_fit(&p.pose.rings(spec.rings()));
+                put("x_undistorted", json!(c[0]));
+                put("y_undistorted", json!(c[1]));
+                put("angle_drawn_deg", json!(p.angle_deg));
+                put("lens_rotation_deg", json!(rot));
+                put("lens_scale", json!(scale));
+                put("area_x", json!(ac[0]));
+                put("area_y", json!(ac[1]));
+                put("area_px", json!(area));
+                t.x = d[0];
+                t.y = d[1];
+                t.angle_deg = wrap_deg(p.angle_deg + rot);
+            }
+            (Effect::Thick(cam), Body::Thick { thickness_mm, wall }) => {
+                let s = cam.scale(thickness_mm);
+                let top = cam.lift(&p.pose, s);
+                put("thickness_mm", json!(thickness_mm));
+                put("top_scale", json!(s));
+                put("bottom_x", json!(p.pose.cx));
+                put("bottom_y", json!(p.pose.cy));
+                put("wall_contrast", json!(wall));
+                put("scale", json!(p.scale * s));
+                t.x = top.cx;
+                t.y = top.cy;
+            }
+            _ => {}
+        }
+        t
     }
 }
 
-/// The truth record of a placed part.
+/// An angle in degrees brought into [0, 360).
+fn wrap_deg(a: f64) -> f64 {
+    let r = a.rem_euclid(360.0);
+    if r >= 360.0 {
+        0.0
+    } else {
+        r
+    }
+}
+
+/// The truth record of a placed part (the ideal camera).
 fn truth_entry(spec: &PartSpec, p: &Placed) -> PartJson {
     let mut extra = BTreeMap::new();
     extra.insert("scale".to_string(), json!(p.scale));
@@ -725,7 +891,10 @@ mod tests {
             assert_eq!(v.to_string(), v.name());
         }
         let e = "fancy".parse::<Variant>().unwrap_err();
-        assert!(e.contains("default, noisy, small, border, stereo, sharp"), "{e}");
+        assert!(
+            e.contains("default, noisy, small, border, stereo, sharp, lens, thick"),
+            "{e}"
+        );
     }
 
     #[test]

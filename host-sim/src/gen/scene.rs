@@ -7,6 +7,7 @@
 
 use std::f64::consts::TAU;
 
+use super::effects::CloseCamera;
 use super::raster::{bounds, clipped_area, Pose};
 use super::render::{Appearance, Texture};
 use super::rng::Rng;
@@ -48,6 +49,26 @@ pub(crate) struct SceneConfig {
     pub(crate) min_contrast: f64,
     pub(crate) border: bool,
     pub(crate) stereo: Option<StereoRig>,
+    /// A close camera (`thick`): parts are placed so that their walls keep the gap and stay inside.
+    pub(crate) close: Option<CloseFit>,
+}
+
+/// Room a part needs under a close camera: its top face is its bottom face magnified by up to
+/// `s_max` about the camera's principal point.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct CloseFit {
+    pub(crate) camera: CloseCamera,
+    pub(crate) s_max: f64,
+}
+
+/// What a part is besides a flat silhouette of one look.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(crate) enum Body {
+    /// A flat part (every variant but `thick`).
+    #[default]
+    Flat,
+    /// A prism of this height under a close camera; its walls at `wall` levels above the platform.
+    Thick { thickness_mm: f64, wall: f64 },
 }
 
 /// One part placed in a frame.
@@ -66,6 +87,8 @@ pub(crate) struct Placed {
     pub(crate) look: Appearance,
     /// Stereo: depth of the top face (mm) and disparity (px).
     pub(crate) depth: Option<(f64, f64)>,
+    /// Set after planning by the variants that need it.
+    pub(crate) body: Body,
 }
 
 /// Plans one frame: 2–5 parts (fewer when they do not fit).
@@ -134,13 +157,26 @@ fn try_place(rng: &mut Rng, cat: &[PartSpec], spec_i: usize, cfg: &SceneConfig, 
     };
     let gap = GAP_PX + if cfg.stereo.is_some() { 5.0 } else { 0.0 };
     let centre: P = [cx, cy];
+    // The circle about the centroid that holds the part, under a close camera its walls too.
+    let reach = |c: P, r: f64| {
+        cfg.close
+            .map_or(r, |f| f.s_max * r + norm(sub(c, f.camera.centre)) * (f.s_max - 1.0))
+    };
     for q in placed {
         let rq = cat[q.spec].radius_mm() * q.pose.k;
-        if norm(sub(centre, [q.pose.cx, q.pose.cy])) < radius + rq + gap {
+        let qc = [q.pose.cx, q.pose.cy];
+        if norm(sub(centre, qc)) < reach(centre, radius) + reach(qc, rq) + gap {
             return None;
         }
     }
     let pose = Pose::new(cx, cy, angle_deg, k);
+    if let Some(f) = cfg.close {
+        // The top face (the highest there may be) inside the frame too; the walls lie between.
+        let t = bounds(&f.camera.lift(&pose, f.s_max).rings(spec.rings()));
+        if t[0] < m || t[1] < m || t[2] > w - 1.0 - m || t[3] > h - 1.0 - m {
+            return None;
+        }
+    }
     let visible = if partial {
         if !(0.0..=w - 1.0).contains(&cx) || !(0.0..=h - 1.0).contains(&cy) {
             return None;
@@ -163,6 +199,7 @@ fn try_place(rng: &mut Rng, cat: &[PartSpec], spec_i: usize, cfg: &SceneConfig, 
         visible,
         look,
         depth,
+        body: Body::Flat,
     })
 }
 
@@ -363,6 +400,7 @@ mod tests {
             min_contrast: 30.0,
             border,
             stereo: None,
+            close: None,
         }
     }
 

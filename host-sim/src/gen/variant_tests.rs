@@ -22,7 +22,8 @@ fn clean_frame(opts: &GenOptions, index: usize) -> (SetPlan, Vec<Placed>, Vec<f6
     let mut set = SetPlan::new(opts);
     set.drift_max = 0.0;
     let mut rng = Rng::stream(opts.seed, purpose::LAYOUT, index as u64);
-    let parts = plan(&mut rng, &set.cat, &set.scene);
+    let mut parts = plan(&mut rng, &set.cat, &set.scene);
+    set.finish_parts(&mut parts, index);
     let img = set.compose(&parts, false, &mut rng);
     let mut light = set.light.clone();
     blur(&mut light, set.w, set.h, BLUR_SIGMA);
@@ -69,7 +70,25 @@ fn variant_json(dir: &Path) -> serde_json::Value {
 
 #[test]
 fn gen_real_variants_are_deterministic_and_write_their_fields() {
-    let fields: [(Variant, &[&str]); 1] = [(Variant::Sharp, &[])];
+    let fields: [(Variant, &[&str]); 3] = [
+        (Variant::Sharp, &[]),
+        (
+            Variant::Lens,
+            &[
+                "x_undistorted",
+                "y_undistorted",
+                "angle_drawn_deg",
+                "lens_rotation_deg",
+                "lens_scale",
+                "area_x",
+                "area_y",
+            ],
+        ),
+        (
+            Variant::Thick,
+            &["thickness_mm", "top_scale", "bottom_x", "bottom_y", "wall_contrast"],
+        ),
+    ];
     for (v, want) in fields {
         let opts = small_opts(v, 4, 3);
         let (a, b, c) = (
@@ -139,7 +158,7 @@ fn gen_sharp_parts_centroids_and_silhouettes_match_truth() {
             let c = centroid(set.w, set.h, [p.pose.cx, p.pose.cy], r, |i| {
                 (img[i] - light[i]) / p.look.contrast
             });
-            let t = truth_entry(&set.cat[p.spec], p);
+            let t = set.truth(p);
             assert!(dist(c, [t.x, t.y]) < 0.02, "{}: {c:?}", set.cat[p.spec].name);
             checked += 1;
         }
@@ -163,8 +182,124 @@ fn gen_sharp_parts_centroids_and_silhouettes_match_truth() {
 }
 
 #[test]
+fn gen_lens_truth_is_the_distorted_centroid() {
+    let opts = GenOptions {
+        seed: 12,
+        frames: 6,
+        variant: Variant::Lens,
+        ..GenOptions::default()
+    };
+    let (mut checked, mut turned) = (0, 0.0_f64);
+    for index in 0..6 {
+        let (set, parts, img, light) = clean_frame(&opts, index);
+        let Effect::Lens(lens) = &set.effect else {
+            panic!("lens variant without a lens");
+        };
+        let shift = lens.corner_shift(set.w, set.h);
+        assert!((3.0..6.0).contains(&shift), "{shift}");
+        for p in &parts {
+            let t = set.truth(p);
+            let spec = &set.cat[p.spec];
+            let area_c = [
+                t.extra["area_x"].as_f64().expect("x"),
+                t.extra["area_y"].as_f64().expect("y"),
+            ];
+            // The distorted image of the centroid is the centroid of the distorted silhouette to
+            // first order (the scale varies over the part: up to about 0.2 px near the corners).
+            let off = dist(area_c, [t.x, t.y]);
+            assert!(off < 0.3, "{}: {area_c:?} vs {} {}", spec.name, t.x, t.y);
+            assert!(
+                off <= 0.01 + 0.002 * dist([t.x, t.y], lens.centre),
+                "{}: {off}",
+                spec.name
+            );
+            let rot = t.extra["lens_rotation_deg"].as_f64().expect("rot");
+            assert!(rot.abs() < 1.0, "{rot}");
+            assert!((wrap_deg(p.angle_deg + rot) - t.angle_deg).abs() < 1e-9);
+            turned = turned.max(rot.abs());
+            if p.look.texture == Texture::Plain {
+                let r = spec.radius_mm() * p.pose.k + 4.0;
+                let c = centroid(set.w, set.h, [t.x, t.y], r, |i| (img[i] - light[i]) / p.look.contrast);
+                assert!(dist(c, area_c) < 0.02, "{}: rendered {c:?} vs {area_c:?}", spec.name);
+                checked += 1;
+            }
+            // Scale a little under 1 (barrel), not the drawn one.
+            let s = t.extra["lens_scale"].as_f64().expect("scale");
+            assert!(s < 1.0 && s > 0.95, "{s}");
+        }
+    }
+    assert!(checked >= 3, "{checked}");
+    assert!(turned > 0.001, "some part is turned by the lens: {turned}");
+}
+
+#[test]
+fn gen_thick_parts_show_their_walls_and_truth_is_the_top_face() {
+    let opts = GenOptions {
+        seed: 6,
+        frames: 6,
+        variant: Variant::Thick,
+        ..GenOptions::default()
+    };
+    let mut outward = 0;
+    for index in 0..6 {
+        let (set, parts, img, light) = clean_frame(&opts, index);
+        let Effect::Thick(cam) = set.effect else {
+            panic!("thick variant without a close camera");
+        };
+        for p in &parts {
+            let t = set.truth(p);
+            let Body::Thick { thickness_mm, wall } = p.body else {
+                panic!("flat part in a thick set");
+            };
+            assert!((THICKNESS_MM.0..THICKNESS_MM.1).contains(&thickness_mm));
+            let s = cam.scale(thickness_mm);
+            assert!((t.extra["top_scale"].as_f64().expect("s") - s).abs() < 1e-12);
+            assert!((t.extra["scale"].as_f64().expect("scale") - p.scale * s).abs() < 1e-12);
+            // The top face's centroid is the bottom's magnified about the principal point.
+            let top = cam.lift_point([p.pose.cx, p.pose.cy], s);
+            assert!(dist(top, [t.x, t.y]) < 1e-9);
+            let spec = &set.cat[p.spec];
+            let top_pose = raster::Pose::new(t.x, t.y, t.angle_deg, t.extra["scale"].as_f64().expect("scale"));
+            let top_cov = silhouette(spec, &top_pose, set.w, set.h);
+            let (top_area, top_c) = top_cov.moments();
+            assert!(dist(top_c, [t.x, t.y]) < 0.02);
+            let sweep = coverage_union(&cam.sweep(&p.pose.rings(spec.rings()), s), None, SUBROWS);
+            let (area, c) = sweep.moments();
+            assert!(area > top_area);
+            // Every pixel of the top face is in the sweep.
+            top_cov.for_each(|x, y, v| assert!(sweep.at(x, y) >= v - 1e-9));
+            // Seen from the principal point, the walls lie on the near side: the part's image
+            // is stretched outward from its top face towards the centre.
+            if dist(top, cam.centre) > 60.0 {
+                let (u, d) = (
+                    [cam.centre[0] - top[0], cam.centre[1] - top[1]],
+                    [c[0] - top[0], c[1] - top[1]],
+                );
+                assert!(u[0] * d[0] + u[1] * d[1] > 0.0);
+                outward += 1;
+            }
+            // The rendered part: the sweep at the wall level plus the top face at its own.
+            if p.look.texture == Texture::Plain {
+                // Within the room the placement kept for the part (its walls included) + 3.5 px.
+                let bottom = [p.pose.cx, p.pose.cy];
+                let r = s * spec.radius_mm() * p.pose.k + dist(bottom, cam.centre) * (s - 1.0) + 3.5;
+                let got = centroid(set.w, set.h, bottom, r, |i| img[i] - light[i]);
+                let want = [
+                    (wall * area * c[0] + (p.look.contrast - wall) * top_area * top_c[0])
+                        / (wall * area + (p.look.contrast - wall) * top_area),
+                    (wall * area * c[1] + (p.look.contrast - wall) * top_area * top_c[1])
+                        / (wall * area + (p.look.contrast - wall) * top_area),
+                ];
+                assert!(dist(got, want) < 0.03, "{}: {got:?} vs {want:?}", spec.name);
+            }
+        }
+    }
+    assert!(outward >= 5);
+}
+
+#[test]
 fn gen_no_background_leaves_out_only_the_platform() {
-    for v in [Variant::Default, Variant::Stereo, Variant::Sharp] {
+    for v in [Variant::Default, Variant::Stereo, Variant::Lens] {
         let (with, without) = (scratch(&format!("bg-{v}")), scratch(&format!("nobg-{v}")));
         generate(&with, &small_opts(v, 3, 2)).expect("generate");
         generate(
