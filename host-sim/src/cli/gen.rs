@@ -21,7 +21,14 @@ use crate::gen::{generate, GenOptions, Variant};
               the border by the lens), plus x_undistorted, y_undistorted, area_x, area_y\n  \
     thick     close camera over 4–20 mm thick parts: the walls show, parts away from the centre\n            \
               look stretched outward; truth = the top face's pose (scale included), plus\n            \
-              thickness_mm, top_scale, bottom_x, bottom_y\n\
+              thickness_mm, top_scale, bottom_x, bottom_y\n  \
+    exposure  gain 0.6–1.4 and offset ±10 per frame, background at gain 1; frames in pairs of one\n            \
+              scene (f000/f001, f002/f003, …); truth adds gain, offset, scene\n  \
+    paper     fine paper/belt texture on the platform (in the background and every frame)\n  \
+    printed   dark print, logo rings and light hole-like patches on parts; truth = the part's own\n            \
+              centroid; texture \"print\", print_marks, print_patches\n  \
+    backlit   dark parts on a vignetted backlight (250 centre, ~150 corners); no background.png\n            \
+              unless --with-background; truth adds level\n\
     The same seed and options give byte-identical sets.\n\n\
     Examples:\n  vorl gen out/plant --seed 7 --frames 60\n  vorl gen out/noisy --variant noisy --frames 20\n  \
     vorl gen out/stereo --variant stereo --frames 10\n  vorl gen out/lens --variant lens --frames 20 --no-background")]
@@ -35,7 +42,8 @@ pub struct GenArgs {
     /// Number of frames.
     #[arg(long, default_value_t = 60)]
     pub frames: usize,
-    /// Kind of set: default, noisy, small, border, stereo, sharp, lens or thick (see below).
+    /// Kind of set: default, noisy, small, border, stereo, sharp, lens, thick, exposure, paper,
+    /// printed or backlit (see below).
     #[arg(long, default_value = "default")]
     pub variant: Variant,
     /// Frame width, px.
@@ -46,8 +54,11 @@ pub struct GenArgs {
     pub height: u32,
     /// Write no background.png and no backgrounds/ (the platform is then estimated from the
     /// frames); frames and truth are the same as with them.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "with_background")]
     pub no_background: bool,
+    /// Write background.png and backgrounds/ even for a variant that leaves them out (backlit).
+    #[arg(long)]
+    pub with_background: bool,
 }
 
 /// Runs `vorl gen`.
@@ -55,13 +66,20 @@ pub struct GenArgs {
 /// # Errors
 /// Bad options or a file that cannot be written.
 pub fn run(args: GenArgs) -> Result<ExitCode, String> {
+    let background = if args.no_background {
+        Some(false)
+    } else if args.with_background {
+        Some(true)
+    } else {
+        None
+    };
     let opts = GenOptions {
         seed: args.seed,
         frames: args.frames,
         variant: args.variant,
         width: args.width,
         height: args.height,
-        background: args.no_background.then_some(false),
+        background,
     };
     let t0 = std::time::Instant::now();
     let s = generate(&args.out, &opts).map_err(|e| e.to_string())?;

@@ -1,11 +1,15 @@
 //! What the real-camera variants put between the ideal scene and the sensor: a barrel-distorted
-//! lens (`lens`) and a close non-telecentric camera that sees a thick part's walls (`thick`).
+//! lens (`lens`), a close non-telecentric camera that sees a thick part's walls (`thick`), a
+//! textured platform (`paper`) and a vignetted backlight (`backlit`).
 //!
-//! All of it is geometry, so the truth stays exact: the lens maps points by a closed formula (its
-//! inverse by Newton's method to 1e-12 px), and the walls are the exact polygonal sweep of the
-//! part between its bottom and top face.
+//! All of it is geometry or a fixed field, so the truth stays exact: the lens maps points by a
+//! closed formula (its inverse by Newton's method to 1e-12 px), the walls are the exact polygonal
+//! sweep of the part between its bottom and top face, and the textures are drawn once per set.
 
-use super::raster::Pose;
+use std::f64::consts::TAU;
+
+use super::raster::{coverage, Pose};
+use super::render::blur;
 use super::rng::Rng;
 use super::shapes::{add, mul, norm, sub, P};
 
@@ -199,6 +203,98 @@ impl CloseCamera {
     }
 }
 
+/// A backlight seen through a lens with natural (cos⁴) vignetting: `level` at the optical centre,
+/// `level / (1 + r²/f²)²` at `r` px from it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Backlight {
+    pub(crate) centre: P,
+    pub(crate) level: f64,
+    pub(crate) f_px: f64,
+}
+
+impl Backlight {
+    /// A random backlight for a `w`×`h` frame: 246–252 at the optical centre (within ±2 % of the
+    /// width of the frame's centre), 145–155 at the farthest frame corner.
+    pub(crate) fn random(rng: &mut Rng, w: usize, h: usize) -> Self {
+        let (wf, hf) = (w as f64, h as f64);
+        let centre = [
+            (wf - 1.0) / 2.0 + rng.range(-0.02, 0.02) * wf,
+            (hf - 1.0) / 2.0 + rng.range(-0.02, 0.02) * wf,
+        ];
+        let level = rng.range(246.0, 252.0);
+        let corner = rng.range(145.0, 155.0);
+        let r = far_corner(centre, w, h);
+        Backlight {
+            centre,
+            level,
+            f_px: r / ((level / corner).sqrt() - 1.0).sqrt(),
+        }
+    }
+
+    /// Brightness at image point `p`.
+    pub(crate) fn at(&self, p: P) -> f64 {
+        let d = sub(p, self.centre);
+        let q = 1.0 + (d[0] * d[0] + d[1] * d[1]) / (self.f_px * self.f_px);
+        self.level / (q * q)
+    }
+
+    /// Brightness at the farthest frame corner.
+    pub(crate) fn corner_level(&self, w: usize, h: usize) -> f64 {
+        let r = far_corner(self.centre, w, h);
+        self.at(add(self.centre, [r, 0.0]))
+    }
+
+    /// The field over a `w`×`h` frame, row-major.
+    pub(crate) fn field(&self, w: usize, h: usize) -> Vec<f64> {
+        (0..h)
+            .flat_map(|j| (0..w).map(move |i| (i, j)))
+            .map(|(i, j)| self.at([i as f64, j as f64]))
+            .collect()
+    }
+}
+
+/// Standard deviation of the paper texture, levels (range drawn per set).
+pub(crate) const PAPER_STD: (f64, f64) = (3.0, 5.0);
+
+/// A fine paper or belt texture over a `w`×`h` frame, zero mean, standard deviation `std`
+/// levels: speckle (white noise blurred to a correlation length of about 2 px) plus fibres (thin
+/// strokes 0.6–1.4 px wide, 6–30 px long, bent once, lighter or darker), lightly blurred.
+pub(crate) fn paper_texture(rng: &mut Rng, w: usize, h: usize, std: f64) -> Vec<f64> {
+    let mut t: Vec<f64> = (0..w * h).map(|_| rng.normal()).collect();
+    blur(&mut t, w, h, 0.9);
+    let speckle = spread(&t).1;
+    t.iter_mut().for_each(|v| *v /= speckle);
+    for _ in 0..w * h / 250 {
+        let mut p = [rng.range(-15.0, w as f64 + 15.0), rng.range(-15.0, h as f64 + 15.0)];
+        let mut a = rng.range(0.0, TAU);
+        let half = rng.range(3.0, 15.0);
+        let width = rng.range(0.6, 1.4);
+        let level = rng.sign() * rng.range(2.0, 5.0);
+        let bend = rng.range(-0.6, 0.6);
+        for _ in 0..2 {
+            let d = [a.cos(), a.sin()];
+            let n = mul([-d[1], d[0]], width / 2.0);
+            let q = add(p, mul(d, half));
+            let quad = vec![vec![add(p, n), add(q, n), sub(q, n), sub(p, n)]];
+            coverage(&quad, Some((w, h)), 4).for_each(|x, y, c| t[y as usize * w + x as usize] += c * level);
+            p = q;
+            a += bend;
+        }
+    }
+    blur(&mut t, w, h, 0.5);
+    let (mean, sd) = spread(&t);
+    t.iter_mut().for_each(|v| *v = (*v - mean) * std / sd);
+    t
+}
+
+/// Mean and standard deviation.
+pub(crate) fn spread(v: &[f64]) -> (f64, f64) {
+    let n = v.len().max(1) as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    let var = v.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / n;
+    (mean, var.sqrt())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -259,5 +355,35 @@ mod tests {
             .abs();
         assert!(want > 392.0 * s * s);
         assert!((area - want).abs() < 0.02, "{area} vs {want}");
+    }
+
+    #[test]
+    fn gen_backlight_vignette_levels() {
+        for seed in 0..10 {
+            let b = Backlight::random(&mut Rng::stream(seed, 2, 0), 640, 480);
+            assert!((145.0..155.0).contains(&b.corner_level(640, 480)));
+            assert!((b.at(b.centre) - b.level).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn gen_paper_texture_is_fine_and_correlated() {
+        let (w, h) = (200, 150);
+        let t = paper_texture(&mut Rng::stream(3, 4, 0), w, h, 4.0);
+        let (mean, sd) = spread(&t);
+        assert!(mean.abs() < 1e-9 && (sd - 4.0).abs() < 1e-9);
+        let corr = |dx: usize| {
+            let (mut s, mut n) = (0.0, 0.0);
+            for y in 0..h {
+                for x in 0..w - dx {
+                    s += t[y * w + x] * t[y * w + x + dx];
+                    n += 1.0;
+                }
+            }
+            s / n / (sd * sd)
+        };
+        // Correlated over 1–3 px, not beyond.
+        assert!(corr(1) > 0.5, "lag 1: {}", corr(1));
+        assert!(corr(6) < 0.25, "lag 6: {}", corr(6));
     }
 }

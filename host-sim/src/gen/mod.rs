@@ -14,7 +14,7 @@
 //! parts.json                  the catalogue: class, symmetry, area, template file and where the
 //!                             centroid lies in it, px per mm
 //! variant.json                the real-camera variants only: the variant and its set-wide
-//!                             parameters (lens, camera height, …)
+//!                             parameters (lens, camera height, texture, vignette, …)
 //! ```
 //!
 //! Stereo sets write `frames/left_f000.png` and `frames/right_f000.png`, `background_left.png`
@@ -22,9 +22,9 @@
 //! `camera.json`; truth is keyed by `f000.png`, positions in the left image, plus `z_mm` and
 //! `disparity_px`.
 //!
-//! Without a background ([`GenOptions::background`] `Some(false)`, `vorl gen --no-background`)
-//! no `background*.png` and no `backgrounds*/` are written: the contract allows that, the platform
-//! is then estimated from the frames.
+//! Without a background ([`GenOptions::background`] `Some(false)`, `vorl gen --no-background`;
+//! the default of `backlit`) no `background*.png` and no `backgrounds*/` are written: the contract
+//! allows that, the platform is then estimated from the frames.
 //!
 //! # Variants
 //!
@@ -37,6 +37,10 @@
 //! | `sharp`    | its own catalogue of sharp-cornered parts ([`sharp_catalogue`]: a 12-tooth gear with rectangular teeth, a snail cam with a step, a square-cornered L bracket, …) under the same 0.7 px optical blur; templates are the crisp silhouettes | as `default` |
 //! | `lens`     | a barrel-distorted lens: `p_d = c + (p − c)(1 + k1·|p − c|²/r²)`, `r` half the frame diagonal, `c` within ±1.5 % of the centre, `k1 < 0` moving the farthest frame corner 3–6 px inward; every ring cut into ≤ 0.5 px pieces and distorted, the platform seen through the lens too; templates undistorted | `x`, `y` = the distorted image of the part's centroid; `angle_deg` = the drawn angle plus `lens_rotation_deg`, the rotation of the least-squares similarity from the undistorted border onto the distorted one (the Jacobian of a radial distortion is symmetric, so its own rotation is 0, but its anisotropic stretch turns an elongated part by up to a few tenths of a degree near the corners); adds `angle_drawn_deg`, `lens_rotation_deg`, `lens_scale`, `x_undistorted`, `y_undistorted` and `area_x`, `area_y` (the area centroid of the distorted silhouette: what a centroid measures in the image, up to about 0.2 px from `x`, `y` for a large part near the frame corners, since the distortion's scale varies over the part) |
 //! | `thick`    | a close pinhole camera (450–600 mm above the platform, principal point at the frame centre) over parts 4–20 mm thick: the bottom face at the platform's scale, the top face magnified by `H/(H − t)` about the principal point, the walls between them (the exact sweep, at 75–100 % of the contrast); parts away from the centre look stretched outward | the top face's pose: `x`, `y` its centroid, `scale` its size over the template's; adds `thickness_mm`, `top_scale` (`H/(H − t)`), `bottom_x`, `bottom_y` (the bottom face's centroid), `wall_contrast` |
+//! | `exposure` | every frame at its own exposure: gain 0.6–1.4 and offset ±10 levels over the whole image (platform and parts; bright parts may clip at 255); `background*.png` at gain 1. Frames come in pairs, one scene at two exposures (f000/f001, f002/f003, …, gains at least 0.2 apart) with fresh noise | adds `gain`, `offset` and `scene` (the pair's index) |
+//! | `paper`    | a textured paper or belt platform: speckle correlated over about 2 px plus fibres, standard deviation 3–5 levels, part of the platform (in `background*.png` and every frame alike, hidden under the parts), plus the usual sensor noise | as `default` |
+//! | `printed`  | 70 % of the parts carry print: rows of dark text-like glyph blobs and a logo ring (on a dark part darker still, on a light part darker than the platform), and on dark parts light patches within 8 levels of the platform that a mask may cut as holes; templates plain | the part's own centroid (print ignored); `texture` `"print"`, adds `print_marks` and `print_patches` |
+//! | `backlit`  | dark opaque parts (gray 8–35) on a bright backlight with cos⁴ vignetting: 246–252 at the optical centre, 145–155 at the farthest corner; no `background.png` unless asked for | as `default`; `contrast` = level − backlight at the centroid, adds `level` |
 //!
 //! # Truth
 //!
@@ -58,6 +62,7 @@
 
 mod effects;
 mod output;
+mod print;
 mod raster;
 mod render;
 mod rng;
@@ -77,10 +82,11 @@ use rayon::prelude::*;
 use serde_json::json;
 
 use crate::truth::{FramesJson, PartJson};
-use effects::{CloseCamera, Lens};
+use effects::{paper_texture, Backlight, CloseCamera, Lens, PAPER_STD};
 use raster::coverage_union;
 use render::{
-    add_drift, blur, capture, draw_part, draw_part_through, silhouette, template, Lighting, BLUR_SIGMA, SUBROWS,
+    add_drift, blur, capture, draw_part, draw_part_through, silhouette, template, Appearance, Lighting, Texture,
+    BLUR_SIGMA, SUBROWS,
 };
 use rng::{purpose, Rng};
 use scene::{plan, Body, CloseFit, Placed, SceneConfig, StereoRig};
@@ -101,6 +107,15 @@ pub const BACKGROUND_CAPTURES: usize = 8;
 pub const THICK_CAMERA_HEIGHT_MM: (f64, f64) = (450.0, 600.0);
 /// Thickness of the parts in `thick` sets, mm.
 pub const THICKNESS_MM: (f64, f64) = (4.0, 20.0);
+/// Exposure gain of a frame in `exposure` sets.
+pub const EXPOSURE_GAIN: (f64, f64) = (0.6, 1.4);
+/// Exposure offset of a frame in `exposure` sets, levels.
+pub const EXPOSURE_OFFSET: (f64, f64) = (-10.0, 10.0);
+/// Least difference of the gains of the two frames of one scene in `exposure` sets.
+pub const EXPOSURE_GAIN_STEP: f64 = 0.2;
+/// Gray level of the opaque parts in `backlit` sets.
+pub const BACKLIT_PART_LEVEL: (f64, f64) = (8.0, 35.0);
+
 /// The kind of set.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Variant {
@@ -120,11 +135,20 @@ pub enum Variant {
     Lens,
     /// A close camera seeing thick parts' walls; truth is the top face's pose.
     Thick,
+    /// Gain 0.6–1.4 and offset ±10 per frame; frames in pairs of one scene at two exposures.
+    Exposure,
+    /// A textured paper or belt platform (speckle and fibres, in the background too).
+    Paper,
+    /// Dark print, a logo ring and light hole-like patches on the parts' faces.
+    Printed,
+    /// Dark parts on a vignetted backlight (250 at the centre, about 150 in the corners); no
+    /// background by default.
+    Backlit,
 }
 
 impl Variant {
     /// All variants, in the order of their names.
-    pub const ALL: [Variant; 8] = [
+    pub const ALL: [Variant; 12] = [
         Variant::Default,
         Variant::Noisy,
         Variant::Small,
@@ -133,6 +157,10 @@ impl Variant {
         Variant::Sharp,
         Variant::Lens,
         Variant::Thick,
+        Variant::Exposure,
+        Variant::Paper,
+        Variant::Printed,
+        Variant::Backlit,
     ];
 
     /// The command-line name.
@@ -146,6 +174,10 @@ impl Variant {
             Variant::Sharp => "sharp",
             Variant::Lens => "lens",
             Variant::Thick => "thick",
+            Variant::Exposure => "exposure",
+            Variant::Paper => "paper",
+            Variant::Printed => "printed",
+            Variant::Backlit => "backlit",
         }
     }
 
@@ -158,9 +190,10 @@ impl Variant {
         }
     }
 
-    /// Whether the set gets `background.png` and `backgrounds/` unless told otherwise.
+    /// Whether the set gets `background.png` and `backgrounds/` unless told otherwise (all but
+    /// `backlit`).
     pub fn writes_background(self) -> bool {
-        true
+        self != Variant::Backlit
     }
 
     /// One of the variants that model a real camera's failure modes (they write `variant.json`).
@@ -310,6 +343,14 @@ enum Effect {
     Lens(Lens),
     /// `thick`: a close camera over thick parts.
     Thick(CloseCamera),
+    /// `exposure`: a gain and offset per frame.
+    Exposure,
+    /// `paper`: this texture (levels, row-major) is part of the platform.
+    Paper { texture: Vec<f64>, std: f64 },
+    /// `printed`: print on the parts.
+    Printed,
+    /// `backlit`: the platform is this backlight.
+    Backlit(Backlight),
 }
 
 /// Everything a frame needs that is fixed for the set.
@@ -362,6 +403,16 @@ impl SetPlan {
                 centre: [(w as f64 - 1.0) / 2.0, (h as f64 - 1.0) / 2.0],
                 height_mm: fx.range(THICK_CAMERA_HEIGHT_MM.0, THICK_CAMERA_HEIGHT_MM.1),
             }),
+            Variant::Paper => {
+                let std = fx.range(PAPER_STD.0, PAPER_STD.1);
+                Effect::Paper {
+                    texture: paper_texture(&mut fx, w, h, std),
+                    std,
+                }
+            }
+            Variant::Backlit => Effect::Backlit(Backlight::random(&mut fx, w, h)),
+            Variant::Exposure => Effect::Exposure,
+            Variant::Printed => Effect::Printed,
             _ => Effect::Ideal,
         };
         let light = match &effect {
@@ -372,6 +423,13 @@ impl SetPlan {
                     lighting.at(p[0], p[1])
                 })
                 .collect(),
+            Effect::Paper { texture, .. } => lighting
+                .field(w, h, 0.0)
+                .iter()
+                .zip(texture)
+                .map(|(l, t)| l + t)
+                .collect(),
+            Effect::Backlit(b) => b.field(w, h),
             _ => lighting.field(w, h, 0.0),
         };
         let close = match &effect {
@@ -430,6 +488,23 @@ impl SetPlan {
                 "f_px": c.height_mm * self.scene.px_per_mm,
                 "thickness_mm": [THICKNESS_MM.0, THICKNESS_MM.1],
             }),
+            Effect::Paper { std, .. } => json!({ "texture_std": std }),
+            Effect::Backlit(b) => json!({
+                "model": "level / (1 + r^2 / f_px^2)^2, r from (cx, cy)",
+                "cx": b.centre[0],
+                "cy": b.centre[1],
+                "level": b.level,
+                "f_px": b.f_px,
+                "corner_level": b.corner_level(self.w, self.h),
+                "part_level": [BACKLIT_PART_LEVEL.0, BACKLIT_PART_LEVEL.1],
+            }),
+            Effect::Exposure => json!({
+                "gain": [EXPOSURE_GAIN.0, EXPOSURE_GAIN.1],
+                "offset": [EXPOSURE_OFFSET.0, EXPOSURE_OFFSET.1],
+                "gain_step": EXPOSURE_GAIN_STEP,
+                "pairs": "frames 2k and 2k+1 show scene k",
+            }),
+            Effect::Printed => json!({ "printed_share": print::PRINTED_SHARE }),
             Effect::Ideal => json!({}),
         };
         if let (Some(o), Some(p)) = (v.as_object_mut(), params.as_object()) {
@@ -479,6 +554,18 @@ impl SetPlan {
                     silhouette(spec, &top, w, h).for_each(|x, y, c| img[y as usize * w + x as usize] -= c * wall);
                     draw_part(&mut img, w, h, spec, &top, &p.look);
                 }
+                (Effect::Paper { texture, .. }, _) => {
+                    // The part hides the platform's texture.
+                    draw_part(&mut img, w, h, spec, &pose, &p.look);
+                    silhouette(spec, &pose, w, h).for_each(|x, y, c| {
+                        let i = y as usize * w + x as usize;
+                        img[i] -= c * texture[i];
+                    });
+                }
+                (_, Body::Opaque { level }) => silhouette(spec, &pose, w, h).for_each(|x, y, c| {
+                    let i = y as usize * w + x as usize;
+                    img[i] += c * (level - img[i]);
+                }),
                 _ => draw_part(&mut img, w, h, spec, &pose, &p.look),
             }
         }
@@ -486,9 +573,13 @@ impl SetPlan {
         img
     }
 
-    /// One camera's view with sensor noise from the frame's stream.
+    /// One camera's view with sensor noise from the frame's stream (`exposure`: after the
+    /// frame's gain and offset).
     fn view(&self, parts: &[Placed], right: bool, index: u64, drift: &mut Rng) -> image::GrayImage {
-        let img = self.compose(parts, right, drift);
+        let mut img = self.compose(parts, right, drift);
+        if let Some((gain, offset)) = self.exposure(index as usize) {
+            img.iter_mut().for_each(|v| *v = gain * *v + offset);
+        }
         let stream = if right {
             purpose::NOISE_RIGHT
         } else {
@@ -503,23 +594,70 @@ impl SetPlan {
         )
     }
 
-    /// What a variant adds to the planned parts of scene `scene` (thickness), from a stream of
-    /// its own.
+    /// The scene frame `index` shows (`exposure`: two frames per scene).
+    fn scene_of(&self, index: usize) -> usize {
+        if matches!(self.effect, Effect::Exposure) {
+            index / 2
+        } else {
+            index
+        }
+    }
+
+    /// Gain and offset of frame `index` (`exposure` sets only): the second frame of a scene
+    /// draws its gain again until it is [`EXPOSURE_GAIN_STEP`] or more from the first's.
+    fn exposure(&self, index: usize) -> Option<(f64, f64)> {
+        if !matches!(self.effect, Effect::Exposure) {
+            return None;
+        }
+        let gain = |r: &mut Rng| r.range(EXPOSURE_GAIN.0, EXPOSURE_GAIN.1);
+        let mut rng = Rng::stream(self.seed, purpose::EXPOSURE, index as u64);
+        let mut g = gain(&mut rng);
+        if index % 2 == 1 {
+            let first = gain(&mut Rng::stream(self.seed, purpose::EXPOSURE, index as u64 - 1));
+            while (g - first).abs() < EXPOSURE_GAIN_STEP {
+                g = gain(&mut rng);
+            }
+        }
+        Some((g, rng.range(EXPOSURE_OFFSET.0, EXPOSURE_OFFSET.1)))
+    }
+
+    /// What a variant adds to the planned parts of scene `scene` (thickness, print, opaque
+    /// level), from a stream of its own.
     fn finish_parts(&self, parts: &mut [Placed], scene: usize) {
         let mut rng = Rng::stream(self.seed, purpose::EFFECT_SCENE, scene as u64);
         for p in parts.iter_mut() {
-            if let Effect::Thick(_) = &self.effect {
-                let thickness_mm = rng.range(THICKNESS_MM.0, THICKNESS_MM.1);
-                let c = p.look.contrast;
-                let wall = c.signum() * (c.abs() * rng.range(0.75, 1.0)).max(self.scene.min_contrast);
-                p.body = Body::Thick { thickness_mm, wall };
+            let spec = &self.cat[p.spec];
+            match &self.effect {
+                Effect::Thick(_) => {
+                    let thickness_mm = rng.range(THICKNESS_MM.0, THICKNESS_MM.1);
+                    let c = p.look.contrast;
+                    let wall = c.signum() * (c.abs() * rng.range(0.75, 1.0)).max(self.scene.min_contrast);
+                    p.body = Body::Thick { thickness_mm, wall };
+                }
+                Effect::Backlit(b) => {
+                    let level = rng.range(BACKLIT_PART_LEVEL.0, BACKLIT_PART_LEVEL.1);
+                    p.look = Appearance {
+                        contrast: level - b.at([p.pose.cx, p.pose.cy]),
+                        texture: Texture::Plain,
+                    };
+                    p.body = Body::Opaque { level };
+                }
+                Effect::Printed => {
+                    let printed = rng
+                        .chance(print::PRINTED_SHARE)
+                        .then(|| print::print(&mut rng, spec, p.pose.k, p.look.contrast));
+                    if let Some(t) = printed.flatten() {
+                        p.look.texture = t;
+                    }
+                }
+                _ => {}
             }
         }
     }
 
     /// Plans, renders and writes frame `index`; its truth.
     fn frame(&self, frames_dir: &Path, index: usize, name: &str) -> Result<Vec<PartJson>, GenError> {
-        let scene = index;
+        let scene = self.scene_of(index);
         let mut rng = Rng::stream(self.seed, purpose::LAYOUT, scene as u64);
         let mut parts = plan(&mut rng, &self.cat, &self.scene);
         self.finish_parts(&mut parts, scene);
@@ -532,11 +670,11 @@ impl SetPlan {
             let img = self.view(&parts, false, index as u64, &mut rng);
             output::write_png(&frames_dir.join(name), &img)?;
         }
-        Ok(parts.iter().map(|p| self.truth(p)).collect())
+        Ok(parts.iter().map(|p| self.truth(p, index)).collect())
     }
 
-    /// The truth record of a placed part.
-    fn truth(&self, p: &Placed) -> PartJson {
+    /// The truth record of a placed part in frame `index`.
+    fn truth(&self, p: &Placed, index: usize) -> PartJson {
         let spec = &self.cat[p.spec];
         let mut t = truth_entry(spec, p);
         let mut put = |k: &str, v: serde_json::Value| {
@@ -546,9 +684,9 @@ impl SetPlan {
             (Effect::Lens(lens), _) => {
                 let c = [p.pose.cx, p.pose.cy];
                 let d = lens.distort(c);
-                let warped = lens.warp(&p.pose.rings(spec.rings()));
-                let (area, ac) = raster::moments(&warped);
-                let (rot, scale) = lens.border_fit(&p.pose.rings(spec.rings()));
+                let rings = p.pose.rings(spec.rings());
+                let (area, ac) = raster::moments(&lens.warp(&rings));
+                let (rot, scale) = lens.border_fit(&rings);
                 put("x_undistorted", json!(c[0]));
                 put("y_undistorted", json!(c[1]));
                 put("angle_drawn_deg", json!(p.angle_deg));
@@ -573,7 +711,18 @@ impl SetPlan {
                 t.x = top.cx;
                 t.y = top.cy;
             }
+            (_, Body::Opaque { level }) => put("level", json!(level)),
             _ => {}
+        }
+        if let Some((gain, offset)) = self.exposure(index) {
+            put("gain", json!(gain));
+            put("offset", json!(offset));
+            put("scene", json!(self.scene_of(index)));
+        }
+        if let Texture::Print { marks } = &p.look.texture {
+            let ink = marks.iter().filter(|m| m.ink).count();
+            put("print_marks", json!(ink));
+            put("print_patches", json!(marks.len() - ink));
         }
         t
     }
@@ -892,7 +1041,7 @@ mod tests {
         }
         let e = "fancy".parse::<Variant>().unwrap_err();
         assert!(
-            e.contains("default, noisy, small, border, stereo, sharp, lens, thick"),
+            e.contains("default, noisy, small, border, stereo, sharp, lens, thick, exposure, paper, printed, backlit"),
             "{e}"
         );
     }

@@ -166,6 +166,20 @@ pub(crate) enum Texture {
     Gradient { dir: P, amplitude: f64 },
     /// A printed label: rectangles (part frame, mm, `[x0, y0, x1, y1]`) of another level.
     Label { bars: Vec<[f64; 4]>, level: f64 },
+    /// Print on the face (`printed` variant): disjoint marks, each rings (part frame, mm,
+    /// even–odd) of its own level (levels above the platform, like the contrast).
+    Print { marks: Vec<Mark> },
+}
+
+/// One mark of a part's print.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct Mark {
+    /// Part frame, mm, even–odd.
+    pub(crate) rings: Vec<Vec<P>>,
+    /// Levels above the platform.
+    pub(crate) level: f64,
+    /// Ink (text, logo) or a patch near the platform's level.
+    pub(crate) ink: bool,
 }
 
 impl Texture {
@@ -176,6 +190,7 @@ impl Texture {
             Texture::Gradient { .. } => "gradient",
             Texture::Label { bars, .. } if bars.len() > 1 => "stripes",
             Texture::Label { .. } => "label",
+            Texture::Print { .. } => "print",
         }
     }
 }
@@ -228,11 +243,19 @@ pub(crate) fn draw_part_through(
             img[y as usize * w + x as usize] += c * (level - look.contrast);
         });
     };
-    if let Texture::Label { bars, level: lab } = &look.texture {
-        for r in bars {
-            let ring = vec![vec![[r[0], r[1]], [r[2], r[1]], [r[2], r[3]], [r[0], r[3]]]];
-            mark(&ring, *lab);
+    match &look.texture {
+        Texture::Label { bars, level: lab } => {
+            for r in bars {
+                let ring = vec![vec![[r[0], r[1]], [r[2], r[1]], [r[2], r[3]], [r[0], r[3]]]];
+                mark(&ring, *lab);
+            }
         }
+        Texture::Print { marks } => {
+            for m in marks {
+                mark(&m.rings, m.level);
+            }
+        }
+        _ => {}
     }
 }
 

@@ -64,11 +64,13 @@ pub(crate) struct CloseFit {
 /// What a part is besides a flat silhouette of one look.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(crate) enum Body {
-    /// A flat part (every variant but `thick`).
+    /// A flat part (every variant but `thick` and `backlit`).
     #[default]
     Flat,
     /// A prism of this height under a close camera; its walls at `wall` levels above the platform.
     Thick { thickness_mm: f64, wall: f64 },
+    /// Opaque in front of a backlight: the silhouette at this gray level.
+    Opaque { level: f64 },
 }
 
 /// One part placed in a frame.
@@ -324,7 +326,7 @@ fn label_texture(
 }
 
 /// Distance from `p` to the nearest border segment.
-fn clearance(rings: &[Vec<P>], p: P) -> f64 {
+pub(crate) fn clearance(rings: &[Vec<P>], p: P) -> f64 {
     rings
         .iter()
         .flat_map(|r| {
@@ -360,7 +362,7 @@ fn segments_cross(a: P, b: P, c: P, d: P) -> bool {
 }
 
 /// True when no border segment of `rings` comes within `margin` of the rectangle.
-fn rect_clear(rings: &[Vec<P>], r: [f64; 4], margin: f64) -> bool {
+pub(crate) fn rect_clear(rings: &[Vec<P>], r: [f64; 4], margin: f64) -> bool {
     let corners = [[r[0], r[1]], [r[2], r[1]], [r[2], r[3]], [r[0], r[3]]];
     for ring in rings {
         for (i, &a) in ring.iter().enumerate() {

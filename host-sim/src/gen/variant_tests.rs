@@ -1,6 +1,5 @@
 //! Tests of the real-camera variants and of sets without a background.
 
-use super::render::Texture;
 use super::tests::{files, gray, scratch, worst_disagreement};
 use super::*;
 
@@ -21,9 +20,10 @@ fn small_opts(variant: Variant, seed: u64, frames: usize) -> GenOptions {
 fn clean_frame(opts: &GenOptions, index: usize) -> (SetPlan, Vec<Placed>, Vec<f64>, Vec<f64>) {
     let mut set = SetPlan::new(opts);
     set.drift_max = 0.0;
-    let mut rng = Rng::stream(opts.seed, purpose::LAYOUT, index as u64);
+    let scene = set.scene_of(index);
+    let mut rng = Rng::stream(opts.seed, purpose::LAYOUT, scene as u64);
     let mut parts = plan(&mut rng, &set.cat, &set.scene);
-    set.finish_parts(&mut parts, index);
+    set.finish_parts(&mut parts, scene);
     let img = set.compose(&parts, false, &mut rng);
     let mut light = set.light.clone();
     blur(&mut light, set.w, set.h, BLUR_SIGMA);
@@ -70,7 +70,7 @@ fn variant_json(dir: &Path) -> serde_json::Value {
 
 #[test]
 fn gen_real_variants_are_deterministic_and_write_their_fields() {
-    let fields: [(Variant, &[&str]); 3] = [
+    let fields: [(Variant, &[&str]); 7] = [
         (Variant::Sharp, &[]),
         (
             Variant::Lens,
@@ -88,6 +88,10 @@ fn gen_real_variants_are_deterministic_and_write_their_fields() {
             Variant::Thick,
             &["thickness_mm", "top_scale", "bottom_x", "bottom_y", "wall_contrast"],
         ),
+        (Variant::Exposure, &["gain", "offset", "scene"]),
+        (Variant::Paper, &[]),
+        (Variant::Printed, &[]),
+        (Variant::Backlit, &["level"]),
     ];
     for (v, want) in fields {
         let opts = small_opts(v, 4, 3);
@@ -116,7 +120,7 @@ fn gen_real_variants_are_deterministic_and_write_their_fields() {
             "{v}"
         );
         assert_eq!(variant_json(&a)["variant"], json!(v.name()));
-        assert!(a.join("background.png").is_file(), "{v}");
+        assert_eq!(a.join("background.png").is_file(), v != Variant::Backlit, "{v}");
         let classes: Vec<String> = v
             .catalogue()
             .iter()
@@ -158,7 +162,7 @@ fn gen_sharp_parts_centroids_and_silhouettes_match_truth() {
             let c = centroid(set.w, set.h, [p.pose.cx, p.pose.cy], r, |i| {
                 (img[i] - light[i]) / p.look.contrast
             });
-            let t = set.truth(p);
+            let t = set.truth(p, index);
             assert!(dist(c, [t.x, t.y]) < 0.02, "{}: {c:?}", set.cat[p.spec].name);
             checked += 1;
         }
@@ -198,7 +202,7 @@ fn gen_lens_truth_is_the_distorted_centroid() {
         let shift = lens.corner_shift(set.w, set.h);
         assert!((3.0..6.0).contains(&shift), "{shift}");
         for p in &parts {
-            let t = set.truth(p);
+            let t = set.truth(p, index);
             let spec = &set.cat[p.spec];
             let area_c = [
                 t.extra["area_x"].as_f64().expect("x"),
@@ -247,7 +251,7 @@ fn gen_thick_parts_show_their_walls_and_truth_is_the_top_face() {
             panic!("thick variant without a close camera");
         };
         for p in &parts {
-            let t = set.truth(p);
+            let t = set.truth(p, index);
             let Body::Thick { thickness_mm, wall } = p.body else {
                 panic!("flat part in a thick set");
             };
@@ -295,6 +299,239 @@ fn gen_thick_parts_show_their_walls_and_truth_is_the_top_face() {
         }
     }
     assert!(outward >= 5);
+}
+
+#[test]
+fn gen_exposure_pairs_show_one_scene_at_two_exposures() {
+    let dir = scratch("exposure");
+    let opts = GenOptions {
+        seed: 2,
+        frames: 5,
+        variant: Variant::Exposure,
+        ..GenOptions::default()
+    };
+    generate(&dir, &opts).expect("generate");
+    let truth = truth_of(&dir);
+    let names: Vec<&String> = truth.frames.keys().collect();
+    let exposure = |n: &str| {
+        let p = &truth.frames[n][0];
+        (
+            p.extra["gain"].as_f64().expect("gain"),
+            p.extra["offset"].as_f64().expect("offset"),
+            p.extra["scene"].as_u64().expect("scene"),
+        )
+    };
+    for (i, n) in names.iter().enumerate() {
+        let (g, o, scene) = exposure(n);
+        assert!((EXPOSURE_GAIN.0..EXPOSURE_GAIN.1).contains(&g) && (EXPOSURE_OFFSET.0..EXPOSURE_OFFSET.1).contains(&o));
+        assert_eq!(scene, i as u64 / 2);
+    }
+    for k in 0..2 {
+        let (a, b) = (names[2 * k], names[2 * k + 1]);
+        let (ga, oa, _) = exposure(a);
+        let (gb, ob, _) = exposure(b);
+        assert!((ga - gb).abs() >= EXPOSURE_GAIN_STEP);
+        // Same parts at the same poses.
+        let pose = |n: &str| -> Vec<(Option<String>, f64, f64, f64)> {
+            truth.frames[n]
+                .iter()
+                .map(|p| (p.class.clone(), p.x, p.y, p.angle_deg))
+                .collect()
+        };
+        assert_eq!(pose(a), pose(b));
+        // Undone, the two exposures agree to the noise (where neither clips).
+        let (fa, fb) = (gray(&dir.join("frames").join(a)), gray(&dir.join("frames").join(b)));
+        let (mut undone, mut raw, mut n) = (0.0, 0.0, 0.0);
+        for (pa, pb) in fa.pixels().zip(fb.pixels()) {
+            let (va, vb) = (f64::from(pa.0[0]), f64::from(pb.0[0]));
+            if (3.0..252.0).contains(&va) && (3.0..252.0).contains(&vb) {
+                undone += ((va - oa) / ga - (vb - ob) / gb).abs();
+                raw += (va - vb).abs();
+                n += 1.0;
+            }
+        }
+        // Mean |difference| of two Gaussian noises of σ = 2/ga and 2/gb, plus rounding.
+        let expected = 2.0 * (1.0 / (ga * ga) + 1.0 / (gb * gb)).sqrt() * (2.0 / std::f64::consts::PI).sqrt();
+        assert!(undone / n < 1.2 * expected + 0.3, "{} vs {expected}", undone / n);
+        assert!(raw / n > undone / n, "{} {}", raw / n, undone / n);
+    }
+    // The background at gain 1.
+    let bg = gray(&dir.join("background.png"));
+    let mean = bg.pixels().map(|p| f64::from(p.0[0])).sum::<f64>() / (640.0 * 480.0);
+    assert!((110.0..=150.0).contains(&mean), "{mean}");
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn gen_paper_texture_is_part_of_the_platform() {
+    let dir = scratch("paper");
+    let opts = small_opts(Variant::Paper, 3, 2);
+    generate(&dir, &opts).expect("generate");
+    let (bg, bg0) = (
+        gray(&dir.join("background.png")),
+        gray(&dir.join("backgrounds").join("bg_00.png")),
+    );
+    let std = variant_json(&dir)["texture_std"].as_f64().expect("std");
+    assert!((PAPER_STD.0..PAPER_STD.1).contains(&std));
+    // Fine detail (less a 7×7 local mean) of two captures of the platform: the same texture
+    // under fresh noise.
+    let detail = |img: &image::GrayImage| -> Vec<f64> {
+        let (w, h) = (img.width() as i64, img.height() as i64);
+        let at = |x: i64, y: i64| f64::from(img.get_pixel(x.clamp(0, w - 1) as u32, y.clamp(0, h - 1) as u32).0[0]);
+        (0..h)
+            .flat_map(|y| (0..w).map(move |x| (x, y)))
+            .map(|(x, y)| {
+                let mut s = 0.0;
+                for dy in -3..=3 {
+                    for dx in -3..=3 {
+                        s += at(x + dx, y + dy);
+                    }
+                }
+                at(x, y) - s / 49.0
+            })
+            .collect()
+    };
+    let (a, b) = (detail(&bg), detail(&bg0));
+    let (sa, sb) = (effects::spread(&a).1, effects::spread(&b).1);
+    let corr = a.iter().zip(&b).map(|(x, y)| x * y).sum::<f64>() / a.len() as f64 / (sa * sb);
+    assert!(corr > 0.5, "texture shared by the captures: {corr}");
+    assert!(sa > 2.0, "texture visible: {sa}");
+    // Inside a plain part the texture is hidden; outside, the frame is the platform.
+    let (set, parts, img, light) = clean_frame(&opts, 0);
+    let Effect::Paper { texture, .. } = &set.effect else {
+        panic!("paper variant without texture");
+    };
+    let mut bare: Vec<f64> = set.light.iter().zip(texture).map(|(l, t)| l - t).collect();
+    blur(&mut bare, set.w, set.h, BLUR_SIGMA);
+    let (mut inside, mut outside) = (Vec::new(), Vec::new());
+    // Pixels within 3 px of a part.
+    let mut near = vec![false; set.w * set.h];
+    for p in &parts {
+        let cov = silhouette(&set.cat[p.spec], &p.pose, set.w, set.h);
+        cov.for_each(|x, y, _| {
+            for dy in -3..=3_i64 {
+                for dx in -3..=3_i64 {
+                    let (xx, yy) = (x + dx, y + dy);
+                    if xx >= 0 && yy >= 0 && (xx as usize) < set.w && (yy as usize) < set.h {
+                        near[yy as usize * set.w + xx as usize] = true;
+                    }
+                }
+            }
+        });
+        if p.look.texture != Texture::Plain {
+            continue;
+        }
+        cov.for_each(|x, y, _| {
+            // Pixels 3 px or more inside the part.
+            let deep = (-3..=3).all(|dy: i64| (-3..=3).all(|dx: i64| cov.at(x + dx, y + dy) == 1.0));
+            if deep {
+                let i = y as usize * set.w + x as usize;
+                inside.push(img[i] - bare[i] - p.look.contrast);
+            }
+        });
+    }
+    for (i, (v, l)) in img.iter().zip(&light).enumerate() {
+        if !near[i] {
+            outside.push(v - l);
+        }
+    }
+    assert!(!inside.is_empty());
+    assert!(effects::spread(&inside).1 < 0.5, "texture hidden under parts");
+    // Away from the parts the frame is the textured platform.
+    let off = effects::spread(&outside);
+    assert!(off.0.abs() < 1e-9 && off.1 < 1e-9, "{off:?}");
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn gen_printed_parts_keep_their_own_centroid() {
+    let opts = GenOptions {
+        seed: 4,
+        frames: 6,
+        variant: Variant::Printed,
+        ..GenOptions::default()
+    };
+    let (mut printed, mut patches) = (0, 0);
+    for index in 0..6 {
+        let (set, parts, img, _) = clean_frame(&opts, index);
+        for p in &parts {
+            let t = set.truth(p, index);
+            let spec = &set.cat[p.spec];
+            let (_, c) = silhouette(spec, &p.pose, set.w, set.h).moments();
+            assert!(dist(c, [t.x, t.y]) < 0.02);
+            let Texture::Print { marks } = &p.look.texture else {
+                continue;
+            };
+            printed += 1;
+            patches += t.extra["print_patches"].as_u64().expect("patches");
+            assert_eq!(t.extra["texture"], json!("print"));
+            assert_eq!(
+                t.extra["print_marks"].as_u64().expect("marks") + t.extra["print_patches"].as_u64().expect("patches"),
+                marks.len() as u64
+            );
+            // The print is there: the part's pixels are far from one level.
+            let mut plain = p.clone();
+            plain.look.texture = Texture::Plain;
+            let mut flat = set.light.clone();
+            draw_part(&mut flat, set.w, set.h, spec, &plain.pose, &plain.look);
+            blur(&mut flat, set.w, set.h, BLUR_SIGMA);
+            let differ = (0..set.w * set.h).filter(|&i| (img[i] - flat[i]).abs() > 15.0).count();
+            assert!(differ > 10, "{}: {differ} printed pixels", spec.name);
+        }
+    }
+    assert!(printed >= 6 && patches >= 1, "{printed} {patches}");
+}
+
+#[test]
+fn gen_backlit_parts_are_dark_on_a_vignetted_backlight() {
+    let opts = GenOptions {
+        seed: 9,
+        frames: 4,
+        variant: Variant::Backlit,
+        ..GenOptions::default()
+    };
+    let mut checked = 0;
+    for index in 0..4 {
+        let (set, parts, img, light) = clean_frame(&opts, index);
+        let Effect::Backlit(b) = &set.effect else {
+            panic!("backlit variant without a backlight");
+        };
+        assert!((244.0..252.0).contains(&light[(set.h / 2) * set.w + set.w / 2]));
+        let corners = [0, set.w - 1, (set.h - 1) * set.w, set.h * set.w - 1];
+        let darkest = corners.iter().map(|&i| set.light[i]).fold(f64::MAX, f64::min);
+        assert!((145.0..155.0).contains(&darkest), "{darkest}");
+        assert!((darkest - b.corner_level(set.w, set.h)).abs() < 1e-9);
+        for p in &parts {
+            let t = set.truth(p, index);
+            let Body::Opaque { level } = p.body else {
+                panic!("a backlit part that is not opaque");
+            };
+            assert_eq!(t.extra["level"], json!(level));
+            // Opaque: the part's share of each pixel is (backlight − image) / (backlight − level).
+            let r = set.cat[p.spec].radius_mm() * p.pose.k + 4.0;
+            let c = centroid(set.w, set.h, [t.x, t.y], r, |i| {
+                (light[i] - img[i]) / (light[i] - level)
+            });
+            assert!(dist(c, [t.x, t.y]) < 0.03, "{c:?} vs {} {}", t.x, t.y);
+            checked += 1;
+        }
+    }
+    assert!(checked >= 6);
+    // No background unless asked for.
+    let dir = scratch("backlit");
+    generate(&dir, &small_opts(Variant::Backlit, 9, 1)).expect("generate");
+    assert!(!dir.join("background.png").exists() && !dir.join("backgrounds").exists());
+    assert_eq!(variant_json(&dir)["background"], json!(false));
+    generate(
+        &dir,
+        &GenOptions {
+            background: Some(true),
+            ..small_opts(Variant::Backlit, 9, 1)
+        },
+    )
+    .expect("generate");
+    assert!(dir.join("background.png").is_file() && dir.join("backgrounds").join("bg_07.png").is_file());
+    let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]
