@@ -7,13 +7,31 @@ use crate::gen::{generate, GenOptions, Variant};
 
 /// Arguments of `vorl gen`.
 #[derive(Debug, clap::Args)]
-#[command(
-    after_help = "Variants: default (parts 88–138 px), noisy (stronger noise, lighting drift, lower \
-    contrast), small (parts 35–55 px), border (parts cut by the frame's edge, marked partial), stereo \
-    (left/right pairs, camera.json, depth in truth). The same seed and options give byte-identical sets.\n\n\
+#[command(after_help = "Variants (the ideal camera):\n  \
+    default   parts 88–138 px, σ = 2 noise\n  \
+    noisy     stronger noise, lighting drift, lower contrast\n  \
+    small     parts 35–55 px\n  \
+    border    parts cut by the frame's edge, marked partial\n  \
+    stereo    left/right pairs, camera.json, depth in truth\n\
+    Variants (what real cameras do; each also writes variant.json with its parameters):\n  \
+    sharp     sharp-cornered parts (rectangular-tooth gear, snail cam, square L bracket, …) under\n            \
+              0.7 px blur; crisp templates\n  \
+    lens      barrel distortion (frame corners 3–6 px inward); templates undistorted; truth x, y =\n            \
+              the distorted centroid, angle_deg = drawn angle + lens_rotation_deg (best-fit turn of\n            \
+              the border by the lens), plus x_undistorted, y_undistorted, area_x, area_y\n  \
+    thick     close camera over 4–20 mm thick parts: the walls show, parts away from the centre\n            \
+              look stretched outward; truth = the top face's pose (scale included), plus\n            \
+              thickness_mm, top_scale, bottom_x, bottom_y\n  \
+    exposure  gain 0.6–1.4 and offset ±10 per frame, background at gain 1; frames in pairs of one\n            \
+              scene (f000/f001, f002/f003, …); truth adds gain, offset, scene\n  \
+    paper     fine paper/belt texture on the platform (in the background and every frame)\n  \
+    printed   dark print, logo rings and light hole-like patches on parts; truth = the part's own\n            \
+              centroid; texture \"print\", print_marks, print_patches\n  \
+    backlit   dark parts on a vignetted backlight (250 centre, ~150 corners); no background.png\n            \
+              unless --with-background; truth adds level\n\
+    The same seed and options give byte-identical sets.\n\n\
     Examples:\n  vorl gen out/plant --seed 7 --frames 60\n  vorl gen out/noisy --variant noisy --frames 20\n  \
-    vorl gen out/stereo --variant stereo --frames 10"
-)]
+    vorl gen out/stereo --variant stereo --frames 10\n  vorl gen out/lens --variant lens --frames 20 --no-background")]
 pub struct GenArgs {
     /// Folder to write the set into (created if missing).
     #[arg(value_name = "OUT")]
@@ -24,7 +42,8 @@ pub struct GenArgs {
     /// Number of frames.
     #[arg(long, default_value_t = 60)]
     pub frames: usize,
-    /// Kind of set.
+    /// Kind of set: default, noisy, small, border, stereo, sharp, lens, thick, exposure, paper,
+    /// printed or backlit (see below).
     #[arg(long, default_value = "default")]
     pub variant: Variant,
     /// Frame width, px.
@@ -33,6 +52,13 @@ pub struct GenArgs {
     /// Frame height, px.
     #[arg(long, default_value_t = 480)]
     pub height: u32,
+    /// Write no background.png and no backgrounds/ (the platform is then estimated from the
+    /// frames); frames and truth are the same as with them.
+    #[arg(long, conflicts_with = "with_background")]
+    pub no_background: bool,
+    /// Write background.png and backgrounds/ even for a variant that leaves them out (backlit).
+    #[arg(long)]
+    pub with_background: bool,
 }
 
 /// Runs `vorl gen`.
@@ -40,20 +66,29 @@ pub struct GenArgs {
 /// # Errors
 /// Bad options or a file that cannot be written.
 pub fn run(args: GenArgs) -> Result<ExitCode, String> {
+    let background = if args.no_background {
+        Some(false)
+    } else if args.with_background {
+        Some(true)
+    } else {
+        None
+    };
     let opts = GenOptions {
         seed: args.seed,
         frames: args.frames,
         variant: args.variant,
         width: args.width,
         height: args.height,
+        background,
     };
     let t0 = std::time::Instant::now();
     let s = generate(&args.out, &opts).map_err(|e| e.to_string())?;
     println!(
-        "wrote {} ({} variant, seed {}): {} frames, {} parts ({} known, {} not templates, {} partial), {} classes, in {:.1} s",
+        "wrote {} ({} variant, seed {}{}): {} frames, {} parts ({} known, {} not templates, {} partial), {} classes, in {:.1} s",
         args.out.display(),
         args.variant,
         args.seed,
+        if opts.writes_background() { "" } else { ", no background" },
         s.frames,
         s.parts,
         s.known_parts,

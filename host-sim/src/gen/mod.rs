@@ -13,12 +13,34 @@
 //!                             "scale", "contrast", "texture", "shape", …}]}}
 //! parts.json                  the catalogue: class, symmetry, area, template file and where the
 //!                             centroid lies in it, px per mm
+//! variant.json                the real-camera variants only: the variant and its set-wide
+//!                             parameters (lens, camera height, texture, vignette, …)
 //! ```
 //!
 //! Stereo sets write `frames/left_f000.png` and `frames/right_f000.png`, `background_left.png`
 //! (the same image as `background.png`), `background_right.png`, `backgrounds_right/`, and
 //! `camera.json`; truth is keyed by `f000.png`, positions in the left image, plus `z_mm` and
 //! `disparity_px`.
+//!
+//! Without a background ([`GenOptions::background`] `Some(false)`, `vorl gen --no-background`;
+//! the default of `backlit`) no `background*.png` and no `backgrounds*/` are written: the contract
+//! allows that, the platform is then estimated from the frames.
+//!
+//! # Variants
+//!
+//! The ideal camera: `default`, `noisy`, `small`, `border`, `stereo` (see [`Variant`]). The
+//! real-camera variants each add one failure mode a real smart camera shows; all of them draw
+//! σ = 2 noise, lighting drift up to ±1.5 levels, contrast 40–90 levels, parts at 1 px per mm:
+//!
+//! | variant    | what it draws | truth |
+//! |------------|---------------|-------|
+//! | `sharp`    | its own catalogue of sharp-cornered parts ([`sharp_catalogue`]: a 12-tooth gear with rectangular teeth, a snail cam with a step, a square-cornered L bracket, …) under the same 0.7 px optical blur; templates are the crisp silhouettes | as `default` |
+//! | `lens`     | a barrel-distorted lens: `p_d = c + (p − c)(1 + k1·|p − c|²/r²)`, `r` half the frame diagonal, `c` within ±1.5 % of the centre, `k1 < 0` moving the farthest frame corner 3–6 px inward; every ring cut into ≤ 0.5 px pieces and distorted, the platform seen through the lens too; templates undistorted | `x`, `y` = the distorted image of the part's centroid; `angle_deg` = the drawn angle plus `lens_rotation_deg`, the rotation of the least-squares similarity from the undistorted border onto the distorted one (the Jacobian of a radial distortion is symmetric, so its own rotation is 0, but its anisotropic stretch turns an elongated part by up to a few tenths of a degree near the corners); adds `angle_drawn_deg`, `lens_rotation_deg`, `lens_scale`, `x_undistorted`, `y_undistorted` and `area_x`, `area_y` (the area centroid of the distorted silhouette: what a centroid measures in the image, up to about 0.2 px from `x`, `y` for a large part near the frame corners, since the distortion's scale varies over the part) |
+//! | `thick`    | a close pinhole camera (450–600 mm above the platform, principal point at the frame centre) over parts 4–20 mm thick: the bottom face at the platform's scale, the top face magnified by `H/(H − t)` about the principal point, the walls between them (the exact sweep, at 75–100 % of the contrast); parts away from the centre look stretched outward | the top face's pose: `x`, `y` its centroid, `scale` its size over the template's; adds `thickness_mm`, `top_scale` (`H/(H − t)`), `bottom_x`, `bottom_y` (the bottom face's centroid), `wall_contrast` |
+//! | `exposure` | every frame at its own exposure: gain 0.6–1.4 and offset ±10 levels over the whole image (platform and parts; bright parts may clip at 255); `background*.png` at gain 1. Frames come in pairs, one scene at two exposures (f000/f001, f002/f003, …, gains at least 0.2 apart) with fresh noise | adds `gain`, `offset` and `scene` (the pair's index) |
+//! | `paper`    | a textured paper or belt platform: speckle correlated over about 2 px plus fibres, standard deviation 3–5 levels, part of the platform (in `background*.png` and every frame alike, hidden under the parts), plus the usual sensor noise | as `default` |
+//! | `printed`  | 70 % of the parts carry print: rows of dark text-like glyph blobs and a logo ring (on a dark part darker still, on a light part darker than the platform), and on dark parts light patches within 8 levels of the platform that a mask may cut as holes; templates plain | the part's own centroid (print ignored); `texture` `"print"`, adds `print_marks` and `print_patches` |
+//! | `backlit`  | dark opaque parts (gray 8–35) on a bright backlight with cos⁴ vignetting: 246–252 at the optical centre, 145–155 at the farthest corner; no `background.png` unless asked for | as `default`; `contrast` = level − backlight at the centroid, adds `level` |
 //!
 //! # Truth
 //!
@@ -28,21 +50,28 @@
 //! k = px per mm × scale), so the truth position is exactly the drawn centroid and `angle_deg` is
 //! exactly θ. Each pixel's coverage is exact along x and sampled on 16 lines along y, which puts
 //! the coverage centroid within 0.003 px of the truth for every catalogue part (tested at 0.02).
+//! `lens` and `thick` follow the table above.
 //!
 //! # Determinism
 //!
 //! Every random choice comes from a stream keyed by (seed, purpose, index) — one per frame for the
 //! layout, one per image for the noise — so frames may be made in parallel and the same options
-//! give byte-identical files. Nothing depends on time or on hash-map order.
+//! give byte-identical files. Nothing depends on time or on hash-map order. The real-camera
+//! variants draw their own choices from streams of their own, so the ideal-camera variants give
+//! the same files as before they existed.
 
+mod effects;
 mod output;
+mod print;
 mod raster;
 mod render;
 mod rng;
 mod scene;
 mod shapes;
+#[cfg(test)]
+mod variant_tests;
 
-pub use shapes::{catalogue, PartSpec};
+pub use shapes::{catalogue, sharp_catalogue, PartSpec};
 
 use std::collections::BTreeMap;
 use std::fmt;
@@ -53,9 +82,14 @@ use rayon::prelude::*;
 use serde_json::json;
 
 use crate::truth::{FramesJson, PartJson};
-use render::{add_drift, blur, capture, draw_part, template, Lighting, BLUR_SIGMA};
+use effects::{paper_texture, Backlight, CloseCamera, Lens, PAPER_STD};
+use raster::coverage_union;
+use render::{
+    add_drift, blur, capture, draw_part, draw_part_through, silhouette, template, Appearance, Lighting, Texture,
+    BLUR_SIGMA, SUBROWS,
+};
 use rng::{purpose, Rng};
-use scene::{plan, Placed, SceneConfig, StereoRig};
+use scene::{plan, Body, CloseFit, Placed, SceneConfig, StereoRig};
 
 /// Nominal scale of parts and templates, px per mm (all variants but `small`).
 pub const PX_PER_MM: f64 = 1.0;
@@ -69,6 +103,18 @@ pub const STEREO_BASELINE_MM: f64 = 60.0;
 pub const STEREO_PLATFORM_Z_MM: f64 = 800.0;
 /// Extra captures of the empty platform in `backgrounds/`.
 pub const BACKGROUND_CAPTURES: usize = 8;
+/// Height of the close camera above the platform in `thick` sets, mm (drawn per set).
+pub const THICK_CAMERA_HEIGHT_MM: (f64, f64) = (450.0, 600.0);
+/// Thickness of the parts in `thick` sets, mm.
+pub const THICKNESS_MM: (f64, f64) = (4.0, 20.0);
+/// Exposure gain of a frame in `exposure` sets.
+pub const EXPOSURE_GAIN: (f64, f64) = (0.6, 1.4);
+/// Exposure offset of a frame in `exposure` sets, levels.
+pub const EXPOSURE_OFFSET: (f64, f64) = (-10.0, 10.0);
+/// Least difference of the gains of the two frames of one scene in `exposure` sets.
+pub const EXPOSURE_GAIN_STEP: f64 = 0.2;
+/// Gray level of the opaque parts in `backlit` sets.
+pub const BACKLIT_PART_LEVEL: (f64, f64) = (8.0, 35.0);
 
 /// The kind of set.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -83,16 +129,38 @@ pub enum Variant {
     Border,
     /// A rectified stereo pair per frame; parts 5–60 mm above the platform.
     Stereo,
+    /// Sharp-cornered parts ([`sharp_catalogue`]) under 0.7 px optical blur; crisp templates.
+    Sharp,
+    /// A barrel-distorted lens (frame corners 3–6 px inward); truth at the distorted centroid.
+    Lens,
+    /// A close camera seeing thick parts' walls; truth is the top face's pose.
+    Thick,
+    /// Gain 0.6–1.4 and offset ±10 per frame; frames in pairs of one scene at two exposures.
+    Exposure,
+    /// A textured paper or belt platform (speckle and fibres, in the background too).
+    Paper,
+    /// Dark print, a logo ring and light hole-like patches on the parts' faces.
+    Printed,
+    /// Dark parts on a vignetted backlight (250 at the centre, about 150 in the corners); no
+    /// background by default.
+    Backlit,
 }
 
 impl Variant {
     /// All variants, in the order of their names.
-    pub const ALL: [Variant; 5] = [
+    pub const ALL: [Variant; 12] = [
         Variant::Default,
         Variant::Noisy,
         Variant::Small,
         Variant::Border,
         Variant::Stereo,
+        Variant::Sharp,
+        Variant::Lens,
+        Variant::Thick,
+        Variant::Exposure,
+        Variant::Paper,
+        Variant::Printed,
+        Variant::Backlit,
     ];
 
     /// The command-line name.
@@ -103,7 +171,37 @@ impl Variant {
             Variant::Small => "small",
             Variant::Border => "border",
             Variant::Stereo => "stereo",
+            Variant::Sharp => "sharp",
+            Variant::Lens => "lens",
+            Variant::Thick => "thick",
+            Variant::Exposure => "exposure",
+            Variant::Paper => "paper",
+            Variant::Printed => "printed",
+            Variant::Backlit => "backlit",
         }
+    }
+
+    /// The parts this variant draws: [`sharp_catalogue`] for `sharp`, [`catalogue`] otherwise.
+    pub fn catalogue(self) -> Vec<PartSpec> {
+        if self == Variant::Sharp {
+            sharp_catalogue()
+        } else {
+            catalogue()
+        }
+    }
+
+    /// Whether the set gets `background.png` and `backgrounds/` unless told otherwise (all but
+    /// `backlit`).
+    pub fn writes_background(self) -> bool {
+        self != Variant::Backlit
+    }
+
+    /// One of the variants that model a real camera's failure modes (they write `variant.json`).
+    pub fn is_real_camera(self) -> bool {
+        !matches!(
+            self,
+            Variant::Default | Variant::Noisy | Variant::Small | Variant::Border | Variant::Stereo
+        )
     }
 }
 
@@ -140,6 +238,9 @@ pub struct GenOptions {
     pub width: u32,
     /// Frame height, px (32–16384).
     pub height: u32,
+    /// Whether to write `background*.png` and `backgrounds*/`; `None`: the variant's default
+    /// ([`Variant::writes_background`]). Frames and truth do not depend on it.
+    pub background: Option<bool>,
 }
 
 impl Default for GenOptions {
@@ -150,7 +251,15 @@ impl Default for GenOptions {
             variant: Variant::Default,
             width: 640,
             height: 480,
+            background: None,
         }
+    }
+}
+
+impl GenOptions {
+    /// Whether the set gets its background captures.
+    pub fn writes_background(&self) -> bool {
+        self.background.unwrap_or(self.variant.writes_background())
     }
 }
 
@@ -225,18 +334,40 @@ impl std::error::Error for GenError {
     }
 }
 
+/// What a real-camera variant puts between the scene and the sensor.
+#[derive(Clone, Debug)]
+enum Effect {
+    /// The ideal camera (also `sharp`, whose change is its catalogue).
+    Ideal,
+    /// `lens`: the frame is seen through this lens.
+    Lens(Lens),
+    /// `thick`: a close camera over thick parts.
+    Thick(CloseCamera),
+    /// `exposure`: a gain and offset per frame.
+    Exposure,
+    /// `paper`: this texture (levels, row-major) is part of the platform.
+    Paper { texture: Vec<f64>, std: f64 },
+    /// `printed`: print on the parts.
+    Printed,
+    /// `backlit`: the platform is this backlight.
+    Backlit(Backlight),
+}
+
 /// Everything a frame needs that is fixed for the set.
 struct SetPlan {
     seed: u64,
     w: usize,
     h: usize,
+    variant: Variant,
+    cat: Vec<PartSpec>,
     scene: SceneConfig,
     noise_sigma: f64,
     drift_max: f64,
-    /// Lighting of the (left) camera, before blur.
+    /// The empty platform of the (left) camera, before blur.
     light: Vec<f64>,
     /// Lighting of the right camera (stereo), before blur.
     light_right: Option<Vec<f64>>,
+    effect: Effect,
 }
 
 impl SetPlan {
@@ -264,10 +395,56 @@ impl SetPlan {
         };
         // The right camera sees the platform point that the left one sees at x + f·B/Z0.
         let light_right = stereo.map(|s| lighting.field(w, h, s.f_px * s.baseline_mm / s.platform_z_mm));
+        // The real-camera variants draw from a stream of their own.
+        let mut fx = Rng::stream(opts.seed, purpose::EFFECT_SET, 0);
+        let effect = match v {
+            Variant::Lens => Effect::Lens(Lens::random(&mut fx, w, h)),
+            Variant::Thick => Effect::Thick(CloseCamera {
+                centre: [(w as f64 - 1.0) / 2.0, (h as f64 - 1.0) / 2.0],
+                height_mm: fx.range(THICK_CAMERA_HEIGHT_MM.0, THICK_CAMERA_HEIGHT_MM.1),
+            }),
+            Variant::Paper => {
+                let std = fx.range(PAPER_STD.0, PAPER_STD.1);
+                Effect::Paper {
+                    texture: paper_texture(&mut fx, w, h, std),
+                    std,
+                }
+            }
+            Variant::Backlit => Effect::Backlit(Backlight::random(&mut fx, w, h)),
+            Variant::Exposure => Effect::Exposure,
+            Variant::Printed => Effect::Printed,
+            _ => Effect::Ideal,
+        };
+        let light = match &effect {
+            Effect::Lens(lens) => (0..h)
+                .flat_map(|j| (0..w).map(move |i| (i, j)))
+                .map(|(i, j)| {
+                    let p = lens.undistort([i as f64, j as f64]);
+                    lighting.at(p[0], p[1])
+                })
+                .collect(),
+            Effect::Paper { texture, .. } => lighting
+                .field(w, h, 0.0)
+                .iter()
+                .zip(texture)
+                .map(|(l, t)| l + t)
+                .collect(),
+            Effect::Backlit(b) => b.field(w, h),
+            _ => lighting.field(w, h, 0.0),
+        };
+        let close = match &effect {
+            Effect::Thick(camera) => Some(CloseFit {
+                camera: *camera,
+                s_max: camera.scale(THICKNESS_MM.1),
+            }),
+            _ => None,
+        };
         SetPlan {
             seed: opts.seed,
             w,
             h,
+            variant: v,
+            cat: v.catalogue(),
             scene: SceneConfig {
                 w,
                 h,
@@ -276,12 +453,64 @@ impl SetPlan {
                 min_contrast,
                 border: v == Variant::Border,
                 stereo,
+                close,
             },
             noise_sigma: if v == Variant::Noisy { 5.0 } else { 2.0 },
             drift_max: if v == Variant::Noisy { 8.0 } else { 1.5 },
-            light: lighting.field(w, h, 0.0),
+            light,
             light_right,
+            effect,
         }
+    }
+
+    /// The set-wide parameters of a real-camera variant, for `variant.json`.
+    fn describe(&self, background: bool) -> serde_json::Value {
+        let mut v = json!({
+            "variant": self.variant.name(),
+            "background": background,
+            "blur_sigma_px": BLUR_SIGMA,
+            "noise_sigma": self.noise_sigma,
+        });
+        let params = match &self.effect {
+            Effect::Lens(l) => json!({
+                "model": "p_d = c + (p - c) * (1 + k1 * |p - c|^2 / r_norm^2), p undistorted, c = (cx, cy)",
+                "cx": l.centre[0],
+                "cy": l.centre[1],
+                "k1": l.k1,
+                "r_norm_px": l.r_norm,
+                "corner_shift_px": l.corner_shift(self.w, self.h),
+            }),
+            Effect::Thick(c) => json!({
+                "model": "pinhole looking down; a plane t mm above the platform is imaged at H / (H - t) times the platform's scale about (cx, cy)",
+                "cx": c.centre[0],
+                "cy": c.centre[1],
+                "camera_height_mm": c.height_mm,
+                "f_px": c.height_mm * self.scene.px_per_mm,
+                "thickness_mm": [THICKNESS_MM.0, THICKNESS_MM.1],
+            }),
+            Effect::Paper { std, .. } => json!({ "texture_std": std }),
+            Effect::Backlit(b) => json!({
+                "model": "level / (1 + r^2 / f_px^2)^2, r from (cx, cy)",
+                "cx": b.centre[0],
+                "cy": b.centre[1],
+                "level": b.level,
+                "f_px": b.f_px,
+                "corner_level": b.corner_level(self.w, self.h),
+                "part_level": [BACKLIT_PART_LEVEL.0, BACKLIT_PART_LEVEL.1],
+            }),
+            Effect::Exposure => json!({
+                "gain": [EXPOSURE_GAIN.0, EXPOSURE_GAIN.1],
+                "offset": [EXPOSURE_OFFSET.0, EXPOSURE_OFFSET.1],
+                "gain_step": EXPOSURE_GAIN_STEP,
+                "pairs": "frames 2k and 2k+1 show scene k",
+            }),
+            Effect::Printed => json!({ "printed_share": print::PRINTED_SHARE }),
+            Effect::Ideal => json!({}),
+        };
+        if let (Some(o), Some(p)) = (v.as_object_mut(), params.as_object()) {
+            o.extend(p.clone());
+        }
+        v
     }
 
     /// A capture of the empty platform: lighting, blur, noise from stream `index`.
@@ -298,7 +527,7 @@ impl SetPlan {
 
     /// One camera's view of the placed parts before noise: lighting, drift, parts, blur (the
     /// right view shifts each part by its disparity).
-    fn compose(&self, cat: &[PartSpec], parts: &[Placed], right: bool, drift: &mut Rng) -> Vec<f64> {
+    fn compose(&self, parts: &[Placed], right: bool, drift: &mut Rng) -> Vec<f64> {
         let (w, h) = (self.w, self.h);
         let mut img = if right {
             self.light_right.clone().unwrap_or_default()
@@ -312,15 +541,45 @@ impl SetPlan {
             } else {
                 p.pose
             };
-            draw_part(&mut img, w, h, &cat[p.spec], &pose, &p.look);
+            let spec = &self.cat[p.spec];
+            match (&self.effect, p.body) {
+                (Effect::Lens(lens), _) => draw_part_through(&mut img, w, h, spec, &pose, &p.look, Some(lens)),
+                (Effect::Thick(cam), Body::Thick { thickness_mm, wall }) => {
+                    // Walls: the sweep less the top face; then the top face with its look.
+                    let s = cam.scale(thickness_mm);
+                    let top = cam.lift(&pose, s);
+                    let sweep = cam.sweep(&pose.rings(spec.rings()), s);
+                    coverage_union(&sweep, Some((w, h)), SUBROWS)
+                        .for_each(|x, y, c| img[y as usize * w + x as usize] += c * wall);
+                    silhouette(spec, &top, w, h).for_each(|x, y, c| img[y as usize * w + x as usize] -= c * wall);
+                    draw_part(&mut img, w, h, spec, &top, &p.look);
+                }
+                (Effect::Paper { texture, .. }, _) => {
+                    // The part hides the platform's texture.
+                    draw_part(&mut img, w, h, spec, &pose, &p.look);
+                    silhouette(spec, &pose, w, h).for_each(|x, y, c| {
+                        let i = y as usize * w + x as usize;
+                        img[i] -= c * texture[i];
+                    });
+                }
+                (_, Body::Opaque { level }) => silhouette(spec, &pose, w, h).for_each(|x, y, c| {
+                    let i = y as usize * w + x as usize;
+                    img[i] += c * (level - img[i]);
+                }),
+                _ => draw_part(&mut img, w, h, spec, &pose, &p.look),
+            }
         }
         blur(&mut img, w, h, BLUR_SIGMA);
         img
     }
 
-    /// One camera's view with sensor noise from the frame's stream.
-    fn view(&self, cat: &[PartSpec], parts: &[Placed], right: bool, index: u64, drift: &mut Rng) -> image::GrayImage {
-        let img = self.compose(cat, parts, right, drift);
+    /// One camera's view with sensor noise from the frame's stream (`exposure`: after the
+    /// frame's gain and offset).
+    fn view(&self, parts: &[Placed], right: bool, index: u64, drift: &mut Rng) -> image::GrayImage {
+        let mut img = self.compose(parts, right, drift);
+        if let Some((gain, offset)) = self.exposure(index as usize) {
+            img.iter_mut().for_each(|v| *v = gain * *v + offset);
+        }
         let stream = if right {
             purpose::NOISE_RIGHT
         } else {
@@ -335,24 +594,151 @@ impl SetPlan {
         )
     }
 
+    /// The scene frame `index` shows (`exposure`: two frames per scene).
+    fn scene_of(&self, index: usize) -> usize {
+        if matches!(self.effect, Effect::Exposure) {
+            index / 2
+        } else {
+            index
+        }
+    }
+
+    /// Gain and offset of frame `index` (`exposure` sets only): the second frame of a scene
+    /// draws its gain again until it is [`EXPOSURE_GAIN_STEP`] or more from the first's.
+    fn exposure(&self, index: usize) -> Option<(f64, f64)> {
+        if !matches!(self.effect, Effect::Exposure) {
+            return None;
+        }
+        let gain = |r: &mut Rng| r.range(EXPOSURE_GAIN.0, EXPOSURE_GAIN.1);
+        let mut rng = Rng::stream(self.seed, purpose::EXPOSURE, index as u64);
+        let mut g = gain(&mut rng);
+        if index % 2 == 1 {
+            let first = gain(&mut Rng::stream(self.seed, purpose::EXPOSURE, index as u64 - 1));
+            while (g - first).abs() < EXPOSURE_GAIN_STEP {
+                g = gain(&mut rng);
+            }
+        }
+        Some((g, rng.range(EXPOSURE_OFFSET.0, EXPOSURE_OFFSET.1)))
+    }
+
+    /// What a variant adds to the planned parts of scene `scene` (thickness, print, opaque
+    /// level), from a stream of its own.
+    fn finish_parts(&self, parts: &mut [Placed], scene: usize) {
+        let mut rng = Rng::stream(self.seed, purpose::EFFECT_SCENE, scene as u64);
+        for p in parts.iter_mut() {
+            let spec = &self.cat[p.spec];
+            match &self.effect {
+                Effect::Thick(_) => {
+                    let thickness_mm = rng.range(THICKNESS_MM.0, THICKNESS_MM.1);
+                    let c = p.look.contrast;
+                    let wall = c.signum() * (c.abs() * rng.range(0.75, 1.0)).max(self.scene.min_contrast);
+                    p.body = Body::Thick { thickness_mm, wall };
+                }
+                Effect::Backlit(b) => {
+                    let level = rng.range(BACKLIT_PART_LEVEL.0, BACKLIT_PART_LEVEL.1);
+                    p.look = Appearance {
+                        contrast: level - b.at([p.pose.cx, p.pose.cy]),
+                        texture: Texture::Plain,
+                    };
+                    p.body = Body::Opaque { level };
+                }
+                Effect::Printed => {
+                    let printed = rng
+                        .chance(print::PRINTED_SHARE)
+                        .then(|| print::print(&mut rng, spec, p.pose.k, p.look.contrast));
+                    if let Some(t) = printed.flatten() {
+                        p.look.texture = t;
+                    }
+                }
+                _ => {}
+            }
+        }
+    }
+
     /// Plans, renders and writes frame `index`; its truth.
-    fn frame(&self, cat: &[PartSpec], frames_dir: &Path, index: usize, name: &str) -> Result<Vec<PartJson>, GenError> {
-        let mut rng = Rng::stream(self.seed, purpose::LAYOUT, index as u64);
-        let parts = plan(&mut rng, cat, &self.scene);
+    fn frame(&self, frames_dir: &Path, index: usize, name: &str) -> Result<Vec<PartJson>, GenError> {
+        let scene = self.scene_of(index);
+        let mut rng = Rng::stream(self.seed, purpose::LAYOUT, scene as u64);
+        let mut parts = plan(&mut rng, &self.cat, &self.scene);
+        self.finish_parts(&mut parts, scene);
         if self.scene.stereo.is_some() {
-            let left = self.view(cat, &parts, false, index as u64, &mut rng);
-            let right = self.view(cat, &parts, true, index as u64, &mut rng);
+            let left = self.view(&parts, false, index as u64, &mut rng);
+            let right = self.view(&parts, true, index as u64, &mut rng);
             output::write_png(&frames_dir.join(format!("left_{name}")), &left)?;
             output::write_png(&frames_dir.join(format!("right_{name}")), &right)?;
         } else {
-            let img = self.view(cat, &parts, false, index as u64, &mut rng);
+            let img = self.view(&parts, false, index as u64, &mut rng);
             output::write_png(&frames_dir.join(name), &img)?;
         }
-        Ok(parts.iter().map(|p| truth_entry(&cat[p.spec], p)).collect())
+        Ok(parts.iter().map(|p| self.truth(p, index)).collect())
+    }
+
+    /// The truth record of a placed part in frame `index`.
+    fn truth(&self, p: &Placed, index: usize) -> PartJson {
+        let spec = &self.cat[p.spec];
+        let mut t = truth_entry(spec, p);
+        let mut put = |k: &str, v: serde_json::Value| {
+            t.extra.insert(k.to_string(), v);
+        };
+        match (&self.effect, p.body) {
+            (Effect::Lens(lens), _) => {
+                let c = [p.pose.cx, p.pose.cy];
+                let d = lens.distort(c);
+                let rings = p.pose.rings(spec.rings());
+                let (area, ac) = raster::moments(&lens.warp(&rings));
+                let (rot, scale) = lens.border_fit(&rings);
+                put("x_undistorted", json!(c[0]));
+                put("y_undistorted", json!(c[1]));
+                put("angle_drawn_deg", json!(p.angle_deg));
+                put("lens_rotation_deg", json!(rot));
+                put("lens_scale", json!(scale));
+                put("area_x", json!(ac[0]));
+                put("area_y", json!(ac[1]));
+                put("area_px", json!(area));
+                t.x = d[0];
+                t.y = d[1];
+                t.angle_deg = wrap_deg(p.angle_deg + rot);
+            }
+            (Effect::Thick(cam), Body::Thick { thickness_mm, wall }) => {
+                let s = cam.scale(thickness_mm);
+                let top = cam.lift(&p.pose, s);
+                put("thickness_mm", json!(thickness_mm));
+                put("top_scale", json!(s));
+                put("bottom_x", json!(p.pose.cx));
+                put("bottom_y", json!(p.pose.cy));
+                put("wall_contrast", json!(wall));
+                put("scale", json!(p.scale * s));
+                t.x = top.cx;
+                t.y = top.cy;
+            }
+            (_, Body::Opaque { level }) => put("level", json!(level)),
+            _ => {}
+        }
+        if let Some((gain, offset)) = self.exposure(index) {
+            put("gain", json!(gain));
+            put("offset", json!(offset));
+            put("scene", json!(self.scene_of(index)));
+        }
+        if let Texture::Print { marks } = &p.look.texture {
+            let ink = marks.iter().filter(|m| m.ink).count();
+            put("print_marks", json!(ink));
+            put("print_patches", json!(marks.len() - ink));
+        }
+        t
     }
 }
 
-/// The truth record of a placed part.
+/// An angle in degrees brought into [0, 360).
+fn wrap_deg(a: f64) -> f64 {
+    let r = a.rem_euclid(360.0);
+    if r >= 360.0 {
+        0.0
+    } else {
+        r
+    }
+}
+
+/// The truth record of a placed part (the ideal camera).
 fn truth_entry(spec: &PartSpec, p: &Placed) -> PartJson {
     let mut extra = BTreeMap::new();
     extra.insert("scale".to_string(), json!(p.scale));
@@ -397,21 +783,25 @@ pub fn generate(out: &Path, opts: &GenOptions) -> Result<GenSummary, GenError> {
             return Err(GenError::Options(format!("{what} {v} px is out of range (32–16384)")));
         }
     }
-    let cat = catalogue();
     let set = SetPlan::new(opts);
+    let cat = &set.cat;
     let stereo = opts.variant == Variant::Stereo;
+    let with_background = opts.writes_background();
     let frames_dir = out.join("frames");
     let templates_dir = out.join("templates");
-    for d in [out, &frames_dir, &templates_dir, &out.join("backgrounds")] {
+    for d in [out, &frames_dir, &templates_dir] {
         output::create_dir(d)?;
     }
-    if stereo {
-        output::create_dir(&out.join("backgrounds_right"))?;
+    if with_background {
+        output::create_dir(&out.join("backgrounds"))?;
+        if stereo {
+            output::create_dir(&out.join("backgrounds_right"))?;
+        }
     }
 
     // Templates and the catalogue.
     let mut parts_json = Vec::new();
-    for spec in &cat {
+    for spec in cat {
         let mut entry = json!({
             "class": spec.name,
             "template": spec.is_template,
@@ -431,27 +821,32 @@ pub fn generate(out: &Path, opts: &GenOptions) -> Result<GenSummary, GenError> {
         &out.join("parts.json"),
         &json!({ "px_per_mm": set.scene.px_per_mm, "parts": parts_json }),
     )?;
+    if opts.variant.is_real_camera() {
+        output::write_json(&out.join("variant.json"), &set.describe(with_background))?;
+    }
 
     // The empty platform.
-    let mut jobs: Vec<(PathBuf, bool, u64)> = vec![(out.join("background.png"), false, 0)];
-    if stereo {
-        jobs.push((out.join("background_left.png"), false, 0));
-        jobs.push((out.join("background_right.png"), true, 0));
-    }
-    for k in 0..BACKGROUND_CAPTURES {
-        let file = format!("bg_{k:02}.png");
-        jobs.push((out.join("backgrounds").join(&file), false, k as u64 + 1));
+    if with_background {
+        let mut jobs: Vec<(PathBuf, bool, u64)> = vec![(out.join("background.png"), false, 0)];
         if stereo {
-            jobs.push((out.join("backgrounds_right").join(&file), true, k as u64 + 1));
+            jobs.push((out.join("background_left.png"), false, 0));
+            jobs.push((out.join("background_right.png"), true, 0));
         }
+        for k in 0..BACKGROUND_CAPTURES {
+            let file = format!("bg_{k:02}.png");
+            jobs.push((out.join("backgrounds").join(&file), false, k as u64 + 1));
+            if stereo {
+                jobs.push((out.join("backgrounds_right").join(&file), true, k as u64 + 1));
+            }
+        }
+        jobs.par_iter()
+            .try_for_each(|(path, right, index)| output::write_png(path, &set.background(*right, *index)))?;
     }
-    jobs.par_iter()
-        .try_for_each(|(path, right, index)| output::write_png(path, &set.background(*right, *index)))?;
 
     // Frames.
     let truths: Vec<Vec<PartJson>> = (0..opts.frames)
         .into_par_iter()
-        .map(|i| set.frame(&cat, &frames_dir, i, &frame_name(i, opts.frames)))
+        .map(|i| set.frame(&frames_dir, i, &frame_name(i, opts.frames)))
         .collect::<Result<_, _>>()?;
     let mut summary = GenSummary {
         frames: opts.frames,
@@ -495,14 +890,14 @@ mod tests {
     use super::*;
 
     /// A fresh scratch folder under the system temp folder.
-    fn scratch(name: &str) -> PathBuf {
+    pub(super) fn scratch(name: &str) -> PathBuf {
         let p = std::env::temp_dir().join(format!("vorl-gen-test-{}-{name}", std::process::id()));
         let _ = std::fs::remove_dir_all(&p);
         p
     }
 
     /// All files under `root`, relative, sorted, with their bytes.
-    fn files(root: &Path) -> Vec<(PathBuf, Vec<u8>)> {
+    pub(super) fn files(root: &Path) -> Vec<(PathBuf, Vec<u8>)> {
         let mut out = Vec::new();
         let mut stack = vec![root.to_path_buf()];
         while let Some(d) = stack.pop() {
@@ -520,15 +915,20 @@ mod tests {
         out
     }
 
-    fn gray(path: &Path) -> image::GrayImage {
+    pub(super) fn gray(path: &Path) -> image::GrayImage {
         image::open(path).expect("open png").to_luma8()
     }
 
     /// Compares each part's silhouette in a frame (|frame − background| over a threshold) with
     /// the part drawn from its truth (shape, x, y, angle, scale) inside its bounding circle + 3 px,
     /// leaving out pixels within ¾ px of the border; the worst share of pixels that disagree.
-    fn worst_disagreement(frame: &image::GrayImage, bg: &image::GrayImage, parts: &[PartJson], right: bool) -> f64 {
-        let cat = catalogue();
+    pub(super) fn worst_disagreement(
+        frame: &image::GrayImage,
+        bg: &image::GrayImage,
+        parts: &[PartJson],
+        right: bool,
+    ) -> f64 {
+        let cat: Vec<PartSpec> = catalogue().into_iter().chain(sharp_catalogue()).collect();
         let mut worst: f64 = 0.0;
         for p in parts {
             let shape = p.extra["shape"].as_str().expect("shape");
@@ -592,14 +992,14 @@ mod tests {
         };
         let mut set = SetPlan::new(&opts);
         set.drift_max = 0.0;
-        let cat = catalogue();
+        let cat = set.cat.clone();
         let mut light = set.light.clone();
         blur(&mut light, set.w, set.h, BLUR_SIGMA);
         let mut checked = 0;
         for index in 0..12 {
             let mut rng = Rng::stream(opts.seed, purpose::LAYOUT, index);
             let parts = plan(&mut rng, &cat, &set.scene);
-            let img = set.compose(&cat, &parts, false, &mut rng);
+            let img = set.compose(&parts, false, &mut rng);
             for p in parts.iter().filter(|p| p.look.texture == render::Texture::Plain) {
                 // Inside the bounding circle + 4 px: all of this part's blurred edge, none of another part.
                 let r = cat[p.spec].radius_mm() * p.pose.k + 4.0;
@@ -640,7 +1040,10 @@ mod tests {
             assert_eq!(v.to_string(), v.name());
         }
         let e = "fancy".parse::<Variant>().unwrap_err();
-        assert!(e.contains("default, noisy, small, border, stereo"), "{e}");
+        assert!(
+            e.contains("default, noisy, small, border, stereo, sharp, lens, thick, exposure, paper, printed, backlit"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -651,6 +1054,7 @@ mod tests {
             variant: Variant::Small,
             width: 160,
             height: 120,
+            background: None,
         };
         let (a, b, c) = (scratch("det-a"), scratch("det-b"), scratch("det-c"));
         let sa = generate(&a, &opts).expect("generate a");

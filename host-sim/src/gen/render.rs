@@ -7,7 +7,8 @@
 
 use image::GrayImage;
 
-use super::raster::{coverage, fill_centres, Pose};
+use super::effects::Lens;
+use super::raster::{coverage, fill_centres, Coverage, Pose};
 use super::rng::Rng;
 use super::shapes::{dot, norm, sub, PartSpec, P};
 
@@ -165,6 +166,20 @@ pub(crate) enum Texture {
     Gradient { dir: P, amplitude: f64 },
     /// A printed label: rectangles (part frame, mm, `[x0, y0, x1, y1]`) of another level.
     Label { bars: Vec<[f64; 4]>, level: f64 },
+    /// Print on the face (`printed` variant): disjoint marks, each rings (part frame, mm,
+    /// even–odd) of its own level (levels above the platform, like the contrast).
+    Print { marks: Vec<Mark> },
+}
+
+/// One mark of a part's print.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct Mark {
+    /// Part frame, mm, even–odd.
+    pub(crate) rings: Vec<Vec<P>>,
+    /// Levels above the platform.
+    pub(crate) level: f64,
+    /// Ink (text, logo) or a patch near the platform's level.
+    pub(crate) ink: bool,
 }
 
 impl Texture {
@@ -175,6 +190,7 @@ impl Texture {
             Texture::Gradient { .. } => "gradient",
             Texture::Label { bars, .. } if bars.len() > 1 => "stripes",
             Texture::Label { .. } => "label",
+            Texture::Print { .. } => "print",
         }
     }
 }
@@ -188,24 +204,64 @@ pub(crate) struct Appearance {
 
 /// Draws a part into a `w`×`h` image (coverage × contrast added to what is there).
 pub(crate) fn draw_part(img: &mut [f64], w: usize, h: usize, spec: &PartSpec, pose: &Pose, look: &Appearance) {
-    let cov = coverage(&pose.rings(spec.rings()), Some((w, h)), SUBROWS);
+    draw_part_through(img, w, h, spec, pose, look, None);
+}
+
+/// [`draw_part`] seen through a distorting `lens` (none: the ideal camera): every ring of the part
+/// and its marks is warped, and an image point takes the level of the part point it shows.
+pub(crate) fn draw_part_through(
+    img: &mut [f64],
+    w: usize,
+    h: usize,
+    spec: &PartSpec,
+    pose: &Pose,
+    look: &Appearance,
+    lens: Option<&Lens>,
+) {
+    let project = |rings: &[Vec<P>]| {
+        let r = pose.rings(rings);
+        match lens {
+            Some(l) => l.warp(&r),
+            None => r,
+        }
+    };
+    let cov = coverage(&project(spec.rings()), Some((w, h)), SUBROWS);
     let radius = spec.radius_mm();
     let level = |p: P| match &look.texture {
-        Texture::Gradient { dir, amplitude } => look.contrast + amplitude * dot(pose.invert(p), *dir) / radius,
+        Texture::Gradient { dir, amplitude } => {
+            let p = lens.map_or(p, |l| l.undistort(p));
+            look.contrast + amplitude * dot(pose.invert(p), *dir) / radius
+        }
         _ => look.contrast,
     };
     cov.for_each(|x, y, c| {
         img[y as usize * w + x as usize] += c * level([x as f64, y as f64]);
     });
-    if let Texture::Label { bars, level: lab } = &look.texture {
-        for r in bars {
-            let ring = vec![vec![[r[0], r[1]], [r[2], r[1]], [r[2], r[3]], [r[0], r[3]]]];
-            let cov = coverage(&pose.rings(&ring), Some((w, h)), SUBROWS);
-            cov.for_each(|x, y, c| {
-                img[y as usize * w + x as usize] += c * (lab - look.contrast);
-            });
+    let mut mark = |rings: &[Vec<P>], level: f64| {
+        let cov = coverage(&project(rings), Some((w, h)), SUBROWS);
+        cov.for_each(|x, y, c| {
+            img[y as usize * w + x as usize] += c * (level - look.contrast);
+        });
+    };
+    match &look.texture {
+        Texture::Label { bars, level: lab } => {
+            for r in bars {
+                let ring = vec![vec![[r[0], r[1]], [r[2], r[1]], [r[2], r[3]], [r[0], r[3]]]];
+                mark(&ring, *lab);
+            }
         }
+        Texture::Print { marks } => {
+            for m in marks {
+                mark(&m.rings, m.level);
+            }
+        }
+        _ => {}
     }
+}
+
+/// The coverage of a part's silhouette in a `w`×`h` image.
+pub(crate) fn silhouette(spec: &PartSpec, pose: &Pose, w: usize, h: usize) -> Coverage {
+    coverage(&pose.rings(spec.rings()), Some((w, h)), SUBROWS)
 }
 
 /// A template: the silhouette at the reference pose and `px_per_mm`, pixel-centre rule, 255 on

@@ -20,6 +20,13 @@ pub(crate) mod purpose {
     pub(crate) const NOISE_LEFT: u64 = 4;
     /// Sensor noise of a frame (right camera).
     pub(crate) const NOISE_RIGHT: u64 = 5;
+    /// Set-wide choices of the real-camera variants: lens, camera height, platform texture,
+    /// vignette (streams of their own, so the older variants draw exactly what they drew).
+    pub(crate) const EFFECT_SET: u64 = 6;
+    /// Per-scene choices of the real-camera variants: thickness, print, levels (index = scene).
+    pub(crate) const EFFECT_SCENE: u64 = 7;
+    /// Exposure (gain, offset) of a frame (index = frame).
+    pub(crate) const EXPOSURE: u64 = 8;
 }
 
 /// SplitMix64 finaliser: a bijective mix of 64 bits.

@@ -7,6 +7,7 @@
 
 use std::f64::consts::TAU;
 
+use super::effects::CloseCamera;
 use super::raster::{bounds, clipped_area, Pose};
 use super::render::{Appearance, Texture};
 use super::rng::Rng;
@@ -48,6 +49,28 @@ pub(crate) struct SceneConfig {
     pub(crate) min_contrast: f64,
     pub(crate) border: bool,
     pub(crate) stereo: Option<StereoRig>,
+    /// A close camera (`thick`): parts are placed so that their walls keep the gap and stay inside.
+    pub(crate) close: Option<CloseFit>,
+}
+
+/// Room a part needs under a close camera: its top face is its bottom face magnified by up to
+/// `s_max` about the camera's principal point.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct CloseFit {
+    pub(crate) camera: CloseCamera,
+    pub(crate) s_max: f64,
+}
+
+/// What a part is besides a flat silhouette of one look.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(crate) enum Body {
+    /// A flat part (every variant but `thick` and `backlit`).
+    #[default]
+    Flat,
+    /// A prism of this height under a close camera; its walls at `wall` levels above the platform.
+    Thick { thickness_mm: f64, wall: f64 },
+    /// Opaque in front of a backlight: the silhouette at this gray level.
+    Opaque { level: f64 },
 }
 
 /// One part placed in a frame.
@@ -66,6 +89,8 @@ pub(crate) struct Placed {
     pub(crate) look: Appearance,
     /// Stereo: depth of the top face (mm) and disparity (px).
     pub(crate) depth: Option<(f64, f64)>,
+    /// Set after planning by the variants that need it.
+    pub(crate) body: Body,
 }
 
 /// Plans one frame: 2–5 parts (fewer when they do not fit).
@@ -134,13 +159,26 @@ fn try_place(rng: &mut Rng, cat: &[PartSpec], spec_i: usize, cfg: &SceneConfig, 
     };
     let gap = GAP_PX + if cfg.stereo.is_some() { 5.0 } else { 0.0 };
     let centre: P = [cx, cy];
+    // The circle about the centroid that holds the part, under a close camera its walls too.
+    let reach = |c: P, r: f64| {
+        cfg.close
+            .map_or(r, |f| f.s_max * r + norm(sub(c, f.camera.centre)) * (f.s_max - 1.0))
+    };
     for q in placed {
         let rq = cat[q.spec].radius_mm() * q.pose.k;
-        if norm(sub(centre, [q.pose.cx, q.pose.cy])) < radius + rq + gap {
+        let qc = [q.pose.cx, q.pose.cy];
+        if norm(sub(centre, qc)) < reach(centre, radius) + reach(qc, rq) + gap {
             return None;
         }
     }
     let pose = Pose::new(cx, cy, angle_deg, k);
+    if let Some(f) = cfg.close {
+        // The top face (the highest there may be) inside the frame too; the walls lie between.
+        let t = bounds(&f.camera.lift(&pose, f.s_max).rings(spec.rings()));
+        if t[0] < m || t[1] < m || t[2] > w - 1.0 - m || t[3] > h - 1.0 - m {
+            return None;
+        }
+    }
     let visible = if partial {
         if !(0.0..=w - 1.0).contains(&cx) || !(0.0..=h - 1.0).contains(&cy) {
             return None;
@@ -163,6 +201,7 @@ fn try_place(rng: &mut Rng, cat: &[PartSpec], spec_i: usize, cfg: &SceneConfig, 
         visible,
         look,
         depth,
+        body: Body::Flat,
     })
 }
 
@@ -287,7 +326,7 @@ fn label_texture(
 }
 
 /// Distance from `p` to the nearest border segment.
-fn clearance(rings: &[Vec<P>], p: P) -> f64 {
+pub(crate) fn clearance(rings: &[Vec<P>], p: P) -> f64 {
     rings
         .iter()
         .flat_map(|r| {
@@ -323,7 +362,7 @@ fn segments_cross(a: P, b: P, c: P, d: P) -> bool {
 }
 
 /// True when no border segment of `rings` comes within `margin` of the rectangle.
-fn rect_clear(rings: &[Vec<P>], r: [f64; 4], margin: f64) -> bool {
+pub(crate) fn rect_clear(rings: &[Vec<P>], r: [f64; 4], margin: f64) -> bool {
     let corners = [[r[0], r[1]], [r[2], r[1]], [r[2], r[3]], [r[0], r[3]]];
     for ring in rings {
         for (i, &a) in ring.iter().enumerate() {
@@ -363,6 +402,7 @@ mod tests {
             min_contrast: 30.0,
             border,
             stereo: None,
+            close: None,
         }
     }
 

@@ -143,7 +143,7 @@ fn rounded_polygon(corners: &[(P, f64)]) -> Vec<P> {
 }
 
 /// Convex hull (monotone chain) of points.
-fn convex_hull(mut pts: Vec<P>) -> Vec<P> {
+pub(crate) fn convex_hull(mut pts: Vec<P>) -> Vec<P> {
     pts.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
     pts.dedup();
     let cross = |o: P, a: P, b: P| (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]);
@@ -478,6 +478,135 @@ fn blob() -> Vec<Vec<P>> {
     vec![pts]
 }
 
+/// A square hole of side `s` about `c`, turned by `a` radians.
+fn square(c: P, s: f64, a: f64) -> Vec<P> {
+    (0..4)
+        .map(|k| {
+            polar(
+                c,
+                s / 2.0 * std::f64::consts::SQRT_2,
+                a + PI / 4.0 + f64::from(k) * PI / 2.0,
+            )
+        })
+        .collect()
+}
+
+/// Spur gear with sharp rectangular teeth: parallel flanks 11 mm apart, flat tips at 58 mm,
+/// root arcs at 44 mm, round bore.
+fn gear_sharp(z: u32) -> Vec<Vec<P>> {
+    let (r_tip, r_root, r_bore, half) = (58.0_f64, 44.0_f64, 16.0, 5.5_f64);
+    let pitch = TAU / f64::from(z);
+    let (a_root, a_tip) = ((half / r_root).asin(), (half / r_tip).asin());
+    let mut p = Path::new();
+    for k in 0..z {
+        let phi = f64::from(k) * pitch;
+        p.arc([0.0, 0.0], r_root, phi - pitch / 2.0, phi - a_root);
+        p.to(polar([0.0, 0.0], r_tip, phi - a_tip));
+        p.to(polar([0.0, 0.0], r_tip, phi + a_tip));
+        p.arc([0.0, 0.0], r_root, phi + a_root, phi + pitch / 2.0);
+    }
+    vec![p.finish(), circle([0.0, 0.0], r_bore)]
+}
+
+/// Snail (drop) cam: the radius grows linearly from 30 to 56 mm over one turn, then drops back
+/// at a sharp radial step; bore on the spiral's axis.
+fn cam_snail() -> Vec<Vec<P>> {
+    let (r0, r1, n) = (30.0, 56.0, 720);
+    let pts = (0..=n)
+        .map(|i| {
+            let t = f64::from(i) / f64::from(n);
+            polar([0.0, 0.0], r0 + (r1 - r0) * t, TAU * t)
+        })
+        .collect();
+    vec![pts, circle([0.0, 0.0], 10.0)]
+}
+
+/// L bracket with square corners, a round and a square hole.
+fn l_square() -> Vec<Vec<P>> {
+    let outline = vec![
+        [0.0, 0.0],
+        [110.0, 0.0],
+        [110.0, 34.0],
+        [34.0, 34.0],
+        [34.0, 100.0],
+        [0.0, 100.0],
+    ];
+    vec![outline, circle([90.0, 17.0], 6.0), square([17.0, 80.0], 12.0, 0.0)]
+}
+
+/// Hexagon with sharp corners, 80 mm across flats, round bore.
+fn hex_sharp() -> Vec<Vec<P>> {
+    let r = 40.0 / (PI / 6.0).cos();
+    let corners: Vec<P> = (0..6).map(|k| polar([0.0, 0.0], r, f64::from(k) * PI / 3.0)).collect();
+    vec![corners, circle([0.0, 0.0], 22.0)]
+}
+
+/// Rectangular plate, 120 × 60 mm, with a V notch in one long side, a rectangular notch in one
+/// end and a square hole turned by 45°.
+fn plate_notched() -> Vec<Vec<P>> {
+    let outline = vec![
+        [-60.0, -30.0],
+        [-10.0, -30.0],
+        [0.0, -16.0],
+        [10.0, -30.0],
+        [60.0, -30.0],
+        [60.0, -8.0],
+        [44.0, -8.0],
+        [44.0, 8.0],
+        [60.0, 8.0],
+        [60.0, 30.0],
+        [-60.0, 30.0],
+    ];
+    vec![outline, square([-35.0, 0.0], 14.0, PI / 4.0)]
+}
+
+/// Plus-shaped plate: arms 36 mm wide, 120 mm across, square corners, square centre hole.
+fn cross() -> Vec<Vec<P>> {
+    let (a, b) = (18.0, 60.0);
+    let outline = vec![
+        [-a, -b],
+        [a, -b],
+        [a, -a],
+        [b, -a],
+        [b, a],
+        [a, a],
+        [a, b],
+        [-a, b],
+        [-a, a],
+        [-b, a],
+        [-b, -a],
+        [-a, -a],
+    ];
+    vec![outline, square([0.0, 0.0], 14.0, 0.0)]
+}
+
+/// Distractor: equilateral triangle plate (110 mm sides, sharp corners) with a round hole.
+fn triangle() -> Vec<Vec<P>> {
+    let r = 110.0 / 3.0_f64.sqrt();
+    let corners: Vec<P> = (0..3)
+        .map(|k| polar([0.0, 0.0], r, f64::from(k) * TAU / 3.0 - PI / 2.0))
+        .collect();
+    vec![corners, circle([0.0, 0.0], 12.0)]
+}
+
+/// The parts of the `sharp` variant: sharp-cornered templates (no fillets anywhere), then
+/// sharp-cornered distractors.
+///
+/// Sizes are 92–120 mm across, drawn at 1 px/mm.
+pub fn sharp_catalogue() -> Vec<PartSpec> {
+    vec![
+        part("gear_sharp_z12", true, 12, gear_sharp(12)),
+        part("cam_snail", true, 1, cam_snail()),
+        part("l_square", true, 1, l_square()),
+        part("hex_sharp", true, 6, hex_sharp()),
+        part("plate_notched", true, 1, plate_notched()),
+        part("cross", true, 4, cross()),
+        part("star", false, 5, star()),
+        part("triangle", false, 3, triangle()),
+        part("crescent", false, 1, crescent()),
+    ]
+}
+
 /// The parts: templates first (in a fixed order), then the distractors.
 ///
 /// Sizes are 88–138 mm across, drawn at 1 px/mm by default (0.4 px/mm in the `small` variant).
@@ -517,11 +646,47 @@ mod tests {
         let cat = catalogue();
         assert!(cat.iter().filter(|p| p.is_template).count() >= 10);
         assert!(cat.iter().filter(|p| !p.is_template).count() >= 2);
+        well_formed(&cat);
+        let sharp = sharp_catalogue();
+        assert!(sharp.iter().filter(|p| p.is_template).count() >= 6);
+        assert!(sharp.iter().filter(|p| !p.is_template).count() >= 2);
+        well_formed(&sharp);
+    }
+
+    #[test]
+    fn gen_sharp_parts_have_sharp_corners() {
+        // Every template of the sharp catalogue has corners of the outline (turns of more than
+        // 30° between consecutive edges); the gear 4 per tooth.
+        for p in sharp_catalogue().iter().filter(|p| p.is_template) {
+            let outer = p.rings().iter().find(|r| ring_moments(r).0 > 0.0).expect("outer ring");
+            let n = outer.len();
+            let corners = (0..n)
+                .filter(|&i| {
+                    let (a, b, c) = (outer[(i + n - 1) % n], outer[i], outer[(i + 1) % n]);
+                    let (u, v) = (sub(b, a), sub(c, b));
+                    (dot(u, v) / (norm(u) * norm(v))).clamp(-1.0, 1.0).acos() > 30f64.to_radians()
+                })
+                .count();
+            let want = match p.name {
+                "gear_sharp_z12" => 48,
+                "cam_snail" => 2,
+                "hex_sharp" => 6,
+                "l_square" => 6,
+                "plate_notched" => 11,
+                "cross" => 12,
+                other => panic!("unexpected part {other}"),
+            };
+            assert_eq!(corners, want, "{}", p.name);
+        }
+    }
+
+    /// Size, centroid at the origin, unique names and one outer ring for every part of `cat`.
+    fn well_formed(cat: &[PartSpec]) {
         let mut names: Vec<&str> = cat.iter().map(|p| p.name).collect();
         names.sort_unstable();
         names.dedup();
         assert_eq!(names.len(), cat.len(), "class names are unique");
-        for p in &cat {
+        for p in cat {
             let across = (p.bbox_mm()[2] - p.bbox_mm()[0]).max(p.bbox_mm()[3] - p.bbox_mm()[1]);
             assert!((75.0..=150.0).contains(&across), "{}: {across} mm across", p.name);
             // Centroid at the origin, to rounding.
@@ -550,7 +715,7 @@ mod tests {
 
     #[test]
     fn gen_symmetries_hold_on_sampled_points() {
-        for p in catalogue() {
+        for p in catalogue().into_iter().chain(sharp_catalogue()) {
             let n = p.symmetry;
             let (r, b) = (p.radius_mm(), p.bbox_mm());
             // Points of a grid (offset so they avoid the vertices), away from the border by 0.05 mm.

@@ -1,0 +1,566 @@
+//! Tests of the real-camera variants and of sets without a background.
+
+use super::tests::{files, gray, scratch, worst_disagreement};
+use super::*;
+
+/// A 320×240 set of `frames` frames of `variant`.
+fn small_opts(variant: Variant, seed: u64, frames: usize) -> GenOptions {
+    GenOptions {
+        seed,
+        frames,
+        variant,
+        width: 320,
+        height: 240,
+        background: None,
+    }
+}
+
+/// Frame `index` of a set without noise or drift: the plan, its placed parts, the image before
+/// noise and the blurred empty platform.
+fn clean_frame(opts: &GenOptions, index: usize) -> (SetPlan, Vec<Placed>, Vec<f64>, Vec<f64>) {
+    let mut set = SetPlan::new(opts);
+    set.drift_max = 0.0;
+    let scene = set.scene_of(index);
+    let mut rng = Rng::stream(opts.seed, purpose::LAYOUT, scene as u64);
+    let mut parts = plan(&mut rng, &set.cat, &set.scene);
+    set.finish_parts(&mut parts, scene);
+    let img = set.compose(&parts, false, &mut rng);
+    let mut light = set.light.clone();
+    blur(&mut light, set.w, set.h, BLUR_SIGMA);
+    (set, parts, img, light)
+}
+
+/// Centroid of `weight(i)` over the pixels within `r` of `c`.
+fn centroid(w: usize, h: usize, c: P, r: f64, weight: impl Fn(usize) -> f64) -> P {
+    let (mut s, mut sx, mut sy) = (0.0, 0.0, 0.0);
+    let (y0, y1) = (
+        (c[1] - r).floor().max(0.0) as usize,
+        ((c[1] + r).ceil() as usize).min(h - 1),
+    );
+    let (x0, x1) = (
+        (c[0] - r).floor().max(0.0) as usize,
+        ((c[0] + r).ceil() as usize).min(w - 1),
+    );
+    for y in y0..=y1 {
+        for x in x0..=x1 {
+            if (x as f64 - c[0]).hypot(y as f64 - c[1]) <= r {
+                let v = weight(y * w + x);
+                s += v;
+                sx += v * x as f64;
+                sy += v * y as f64;
+            }
+        }
+    }
+    [sx / s, sy / s]
+}
+
+type P = [f64; 2];
+
+fn dist(a: P, b: P) -> f64 {
+    (a[0] - b[0]).hypot(a[1] - b[1])
+}
+
+fn truth_of(dir: &Path) -> FramesJson {
+    FramesJson::load(&dir.join("truth.json")).expect("truth loads")
+}
+
+fn variant_json(dir: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("variant.json")).expect("variant.json")).expect("json")
+}
+
+#[test]
+fn gen_real_variants_are_deterministic_and_write_their_fields() {
+    let fields: [(Variant, &[&str]); 7] = [
+        (Variant::Sharp, &[]),
+        (
+            Variant::Lens,
+            &[
+                "x_undistorted",
+                "y_undistorted",
+                "angle_drawn_deg",
+                "lens_rotation_deg",
+                "lens_scale",
+                "area_x",
+                "area_y",
+            ],
+        ),
+        (
+            Variant::Thick,
+            &["thickness_mm", "top_scale", "bottom_x", "bottom_y", "wall_contrast"],
+        ),
+        (Variant::Exposure, &["gain", "offset", "scene"]),
+        (Variant::Paper, &[]),
+        (Variant::Printed, &[]),
+        (Variant::Backlit, &["level"]),
+    ];
+    for (v, want) in fields {
+        let opts = small_opts(v, 4, 3);
+        let (a, b, c) = (
+            scratch(&format!("{v}-a")),
+            scratch(&format!("{v}-b")),
+            scratch(&format!("{v}-c")),
+        );
+        let sa = generate(&a, &opts).expect("generate a");
+        let sb = generate(&b, &opts).expect("generate b");
+        generate(
+            &c,
+            &GenOptions {
+                seed: 5,
+                ..opts.clone()
+            },
+        )
+        .expect("generate c");
+        assert_eq!(sa, sb, "{v}");
+        assert!(sa.parts >= 2, "{v}: {sa:?}");
+        let (fa, fb) = (files(&a), files(&b));
+        assert_eq!(fa, fb, "{v}: same options, same bytes");
+        assert_ne!(
+            std::fs::read(a.join("truth.json")).ok(),
+            std::fs::read(c.join("truth.json")).ok(),
+            "{v}"
+        );
+        assert_eq!(variant_json(&a)["variant"], json!(v.name()));
+        assert_eq!(a.join("background.png").is_file(), v != Variant::Backlit, "{v}");
+        let classes: Vec<String> = v
+            .catalogue()
+            .iter()
+            .filter(|s| s.is_template)
+            .map(|s| s.name.to_string())
+            .collect();
+        assert_eq!(sa.classes, classes);
+        for t in classes {
+            assert!(a.join("templates").join(format!("{t}.png")).is_file(), "{v}: {t}");
+        }
+        for parts in truth_of(&a).frames.values() {
+            for p in parts {
+                assert!((0.0..360.0).contains(&p.angle_deg), "{v}");
+                for key in ["scale", "contrast", "texture", "shape"].iter().chain(want) {
+                    assert!(p.extra.contains_key(*key), "{v}: {key} missing");
+                }
+                assert!(p.symmetry.is_some());
+            }
+        }
+        for d in [a, b, c] {
+            let _ = std::fs::remove_dir_all(d);
+        }
+    }
+}
+
+#[test]
+fn gen_sharp_parts_centroids_and_silhouettes_match_truth() {
+    let opts = GenOptions {
+        seed: 8,
+        frames: 3,
+        variant: Variant::Sharp,
+        ..GenOptions::default()
+    };
+    let mut checked = 0;
+    for index in 0..8 {
+        let (set, parts, img, light) = clean_frame(&opts, index);
+        for p in parts.iter().filter(|p| p.look.texture == Texture::Plain) {
+            let r = set.cat[p.spec].radius_mm() * p.pose.k + 4.0;
+            let c = centroid(set.w, set.h, [p.pose.cx, p.pose.cy], r, |i| {
+                (img[i] - light[i]) / p.look.contrast
+            });
+            let t = set.truth(p, index);
+            assert!(dist(c, [t.x, t.y]) < 0.02, "{}: {c:?}", set.cat[p.spec].name);
+            checked += 1;
+        }
+    }
+    assert!(checked >= 5);
+    let dir = scratch("sharp-set");
+    generate(&dir, &opts).expect("generate");
+    let bg = gray(&dir.join("background.png"));
+    for (name, parts) in &truth_of(&dir).frames {
+        for p in parts {
+            assert!(sharp_catalogue()
+                .iter()
+                .any(|s| Some(s.name) == p.extra["shape"].as_str()));
+        }
+        let worst = worst_disagreement(&gray(&dir.join("frames").join(name)), &bg, parts, false);
+        assert!(worst < 0.005, "{name}: {worst}");
+    }
+    let t = gray(&dir.join("templates").join("gear_sharp_z12.png"));
+    assert!(t.pixels().all(|p| p.0[0] == 0 || p.0[0] == 255));
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn gen_lens_truth_is_the_distorted_centroid() {
+    let opts = GenOptions {
+        seed: 12,
+        frames: 6,
+        variant: Variant::Lens,
+        ..GenOptions::default()
+    };
+    let (mut checked, mut turned) = (0, 0.0_f64);
+    for index in 0..6 {
+        let (set, parts, img, light) = clean_frame(&opts, index);
+        let Effect::Lens(lens) = &set.effect else {
+            panic!("lens variant without a lens");
+        };
+        let shift = lens.corner_shift(set.w, set.h);
+        assert!((3.0..6.0).contains(&shift), "{shift}");
+        for p in &parts {
+            let t = set.truth(p, index);
+            let spec = &set.cat[p.spec];
+            let area_c = [
+                t.extra["area_x"].as_f64().expect("x"),
+                t.extra["area_y"].as_f64().expect("y"),
+            ];
+            // The distorted image of the centroid is the centroid of the distorted silhouette to
+            // first order (the scale varies over the part: up to about 0.2 px near the corners).
+            let off = dist(area_c, [t.x, t.y]);
+            assert!(off < 0.3, "{}: {area_c:?} vs {} {}", spec.name, t.x, t.y);
+            assert!(
+                off <= 0.01 + 0.002 * dist([t.x, t.y], lens.centre),
+                "{}: {off}",
+                spec.name
+            );
+            let rot = t.extra["lens_rotation_deg"].as_f64().expect("rot");
+            assert!(rot.abs() < 1.0, "{rot}");
+            assert!((wrap_deg(p.angle_deg + rot) - t.angle_deg).abs() < 1e-9);
+            turned = turned.max(rot.abs());
+            if p.look.texture == Texture::Plain {
+                let r = spec.radius_mm() * p.pose.k + 4.0;
+                let c = centroid(set.w, set.h, [t.x, t.y], r, |i| (img[i] - light[i]) / p.look.contrast);
+                assert!(dist(c, area_c) < 0.02, "{}: rendered {c:?} vs {area_c:?}", spec.name);
+                checked += 1;
+            }
+            // Scale a little under 1 (barrel), not the drawn one.
+            let s = t.extra["lens_scale"].as_f64().expect("scale");
+            assert!(s < 1.0 && s > 0.95, "{s}");
+        }
+    }
+    assert!(checked >= 3, "{checked}");
+    assert!(turned > 0.001, "some part is turned by the lens: {turned}");
+}
+
+#[test]
+fn gen_thick_parts_show_their_walls_and_truth_is_the_top_face() {
+    let opts = GenOptions {
+        seed: 6,
+        frames: 6,
+        variant: Variant::Thick,
+        ..GenOptions::default()
+    };
+    let mut outward = 0;
+    for index in 0..6 {
+        let (set, parts, img, light) = clean_frame(&opts, index);
+        let Effect::Thick(cam) = set.effect else {
+            panic!("thick variant without a close camera");
+        };
+        for p in &parts {
+            let t = set.truth(p, index);
+            let Body::Thick { thickness_mm, wall } = p.body else {
+                panic!("flat part in a thick set");
+            };
+            assert!((THICKNESS_MM.0..THICKNESS_MM.1).contains(&thickness_mm));
+            let s = cam.scale(thickness_mm);
+            assert!((t.extra["top_scale"].as_f64().expect("s") - s).abs() < 1e-12);
+            assert!((t.extra["scale"].as_f64().expect("scale") - p.scale * s).abs() < 1e-12);
+            // The top face's centroid is the bottom's magnified about the principal point.
+            let top = cam.lift_point([p.pose.cx, p.pose.cy], s);
+            assert!(dist(top, [t.x, t.y]) < 1e-9);
+            let spec = &set.cat[p.spec];
+            let top_pose = raster::Pose::new(t.x, t.y, t.angle_deg, t.extra["scale"].as_f64().expect("scale"));
+            let top_cov = silhouette(spec, &top_pose, set.w, set.h);
+            let (top_area, top_c) = top_cov.moments();
+            assert!(dist(top_c, [t.x, t.y]) < 0.02);
+            let sweep = coverage_union(&cam.sweep(&p.pose.rings(spec.rings()), s), None, SUBROWS);
+            let (area, c) = sweep.moments();
+            assert!(area > top_area);
+            // Every pixel of the top face is in the sweep.
+            top_cov.for_each(|x, y, v| assert!(sweep.at(x, y) >= v - 1e-9));
+            // Seen from the principal point, the walls lie on the near side: the part's image
+            // is stretched outward from its top face towards the centre.
+            if dist(top, cam.centre) > 60.0 {
+                let (u, d) = (
+                    [cam.centre[0] - top[0], cam.centre[1] - top[1]],
+                    [c[0] - top[0], c[1] - top[1]],
+                );
+                assert!(u[0] * d[0] + u[1] * d[1] > 0.0);
+                outward += 1;
+            }
+            // The rendered part: the sweep at the wall level plus the top face at its own.
+            if p.look.texture == Texture::Plain {
+                // Within the room the placement kept for the part (its walls included) + 3.5 px.
+                let bottom = [p.pose.cx, p.pose.cy];
+                let r = s * spec.radius_mm() * p.pose.k + dist(bottom, cam.centre) * (s - 1.0) + 3.5;
+                let got = centroid(set.w, set.h, bottom, r, |i| img[i] - light[i]);
+                let want = [
+                    (wall * area * c[0] + (p.look.contrast - wall) * top_area * top_c[0])
+                        / (wall * area + (p.look.contrast - wall) * top_area),
+                    (wall * area * c[1] + (p.look.contrast - wall) * top_area * top_c[1])
+                        / (wall * area + (p.look.contrast - wall) * top_area),
+                ];
+                assert!(dist(got, want) < 0.03, "{}: {got:?} vs {want:?}", spec.name);
+            }
+        }
+    }
+    assert!(outward >= 5);
+}
+
+#[test]
+fn gen_exposure_pairs_show_one_scene_at_two_exposures() {
+    let dir = scratch("exposure");
+    let opts = GenOptions {
+        seed: 2,
+        frames: 5,
+        variant: Variant::Exposure,
+        ..GenOptions::default()
+    };
+    generate(&dir, &opts).expect("generate");
+    let truth = truth_of(&dir);
+    let names: Vec<&String> = truth.frames.keys().collect();
+    let exposure = |n: &str| {
+        let p = &truth.frames[n][0];
+        (
+            p.extra["gain"].as_f64().expect("gain"),
+            p.extra["offset"].as_f64().expect("offset"),
+            p.extra["scene"].as_u64().expect("scene"),
+        )
+    };
+    for (i, n) in names.iter().enumerate() {
+        let (g, o, scene) = exposure(n);
+        assert!((EXPOSURE_GAIN.0..EXPOSURE_GAIN.1).contains(&g) && (EXPOSURE_OFFSET.0..EXPOSURE_OFFSET.1).contains(&o));
+        assert_eq!(scene, i as u64 / 2);
+    }
+    for k in 0..2 {
+        let (a, b) = (names[2 * k], names[2 * k + 1]);
+        let (ga, oa, _) = exposure(a);
+        let (gb, ob, _) = exposure(b);
+        assert!((ga - gb).abs() >= EXPOSURE_GAIN_STEP);
+        // Same parts at the same poses.
+        let pose = |n: &str| -> Vec<(Option<String>, f64, f64, f64)> {
+            truth.frames[n]
+                .iter()
+                .map(|p| (p.class.clone(), p.x, p.y, p.angle_deg))
+                .collect()
+        };
+        assert_eq!(pose(a), pose(b));
+        // Undone, the two exposures agree to the noise (where neither clips).
+        let (fa, fb) = (gray(&dir.join("frames").join(a)), gray(&dir.join("frames").join(b)));
+        let (mut undone, mut raw, mut n) = (0.0, 0.0, 0.0);
+        for (pa, pb) in fa.pixels().zip(fb.pixels()) {
+            let (va, vb) = (f64::from(pa.0[0]), f64::from(pb.0[0]));
+            if (3.0..252.0).contains(&va) && (3.0..252.0).contains(&vb) {
+                undone += ((va - oa) / ga - (vb - ob) / gb).abs();
+                raw += (va - vb).abs();
+                n += 1.0;
+            }
+        }
+        // Mean |difference| of two Gaussian noises of σ = 2/ga and 2/gb, plus rounding.
+        let expected = 2.0 * (1.0 / (ga * ga) + 1.0 / (gb * gb)).sqrt() * (2.0 / std::f64::consts::PI).sqrt();
+        assert!(undone / n < 1.2 * expected + 0.3, "{} vs {expected}", undone / n);
+        assert!(raw / n > undone / n, "{} {}", raw / n, undone / n);
+    }
+    // The background at gain 1.
+    let bg = gray(&dir.join("background.png"));
+    let mean = bg.pixels().map(|p| f64::from(p.0[0])).sum::<f64>() / (640.0 * 480.0);
+    assert!((110.0..=150.0).contains(&mean), "{mean}");
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn gen_paper_texture_is_part_of_the_platform() {
+    let dir = scratch("paper");
+    let opts = small_opts(Variant::Paper, 3, 2);
+    generate(&dir, &opts).expect("generate");
+    let (bg, bg0) = (
+        gray(&dir.join("background.png")),
+        gray(&dir.join("backgrounds").join("bg_00.png")),
+    );
+    let std = variant_json(&dir)["texture_std"].as_f64().expect("std");
+    assert!((PAPER_STD.0..PAPER_STD.1).contains(&std));
+    // Fine detail (less a 7×7 local mean) of two captures of the platform: the same texture
+    // under fresh noise.
+    let detail = |img: &image::GrayImage| -> Vec<f64> {
+        let (w, h) = (img.width() as i64, img.height() as i64);
+        let at = |x: i64, y: i64| f64::from(img.get_pixel(x.clamp(0, w - 1) as u32, y.clamp(0, h - 1) as u32).0[0]);
+        (0..h)
+            .flat_map(|y| (0..w).map(move |x| (x, y)))
+            .map(|(x, y)| {
+                let mut s = 0.0;
+                for dy in -3..=3 {
+                    for dx in -3..=3 {
+                        s += at(x + dx, y + dy);
+                    }
+                }
+                at(x, y) - s / 49.0
+            })
+            .collect()
+    };
+    let (a, b) = (detail(&bg), detail(&bg0));
+    let (sa, sb) = (effects::spread(&a).1, effects::spread(&b).1);
+    let corr = a.iter().zip(&b).map(|(x, y)| x * y).sum::<f64>() / a.len() as f64 / (sa * sb);
+    assert!(corr > 0.5, "texture shared by the captures: {corr}");
+    assert!(sa > 2.0, "texture visible: {sa}");
+    // Inside a plain part the texture is hidden; outside, the frame is the platform.
+    let (set, parts, img, light) = clean_frame(&opts, 0);
+    let Effect::Paper { texture, .. } = &set.effect else {
+        panic!("paper variant without texture");
+    };
+    let mut bare: Vec<f64> = set.light.iter().zip(texture).map(|(l, t)| l - t).collect();
+    blur(&mut bare, set.w, set.h, BLUR_SIGMA);
+    let (mut inside, mut outside) = (Vec::new(), Vec::new());
+    // Pixels within 3 px of a part.
+    let mut near = vec![false; set.w * set.h];
+    for p in &parts {
+        let cov = silhouette(&set.cat[p.spec], &p.pose, set.w, set.h);
+        cov.for_each(|x, y, _| {
+            for dy in -3..=3_i64 {
+                for dx in -3..=3_i64 {
+                    let (xx, yy) = (x + dx, y + dy);
+                    if xx >= 0 && yy >= 0 && (xx as usize) < set.w && (yy as usize) < set.h {
+                        near[yy as usize * set.w + xx as usize] = true;
+                    }
+                }
+            }
+        });
+        if p.look.texture != Texture::Plain {
+            continue;
+        }
+        cov.for_each(|x, y, _| {
+            // Pixels 3 px or more inside the part.
+            let deep = (-3..=3).all(|dy: i64| (-3..=3).all(|dx: i64| cov.at(x + dx, y + dy) == 1.0));
+            if deep {
+                let i = y as usize * set.w + x as usize;
+                inside.push(img[i] - bare[i] - p.look.contrast);
+            }
+        });
+    }
+    for (i, (v, l)) in img.iter().zip(&light).enumerate() {
+        if !near[i] {
+            outside.push(v - l);
+        }
+    }
+    assert!(!inside.is_empty());
+    assert!(effects::spread(&inside).1 < 0.5, "texture hidden under parts");
+    // Away from the parts the frame is the textured platform.
+    let off = effects::spread(&outside);
+    assert!(off.0.abs() < 1e-9 && off.1 < 1e-9, "{off:?}");
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn gen_printed_parts_keep_their_own_centroid() {
+    let opts = GenOptions {
+        seed: 4,
+        frames: 6,
+        variant: Variant::Printed,
+        ..GenOptions::default()
+    };
+    let (mut printed, mut patches) = (0, 0);
+    for index in 0..6 {
+        let (set, parts, img, _) = clean_frame(&opts, index);
+        for p in &parts {
+            let t = set.truth(p, index);
+            let spec = &set.cat[p.spec];
+            let (_, c) = silhouette(spec, &p.pose, set.w, set.h).moments();
+            assert!(dist(c, [t.x, t.y]) < 0.02);
+            let Texture::Print { marks } = &p.look.texture else {
+                continue;
+            };
+            printed += 1;
+            patches += t.extra["print_patches"].as_u64().expect("patches");
+            assert_eq!(t.extra["texture"], json!("print"));
+            assert_eq!(
+                t.extra["print_marks"].as_u64().expect("marks") + t.extra["print_patches"].as_u64().expect("patches"),
+                marks.len() as u64
+            );
+            // The print is there: the part's pixels are far from one level.
+            let mut plain = p.clone();
+            plain.look.texture = Texture::Plain;
+            let mut flat = set.light.clone();
+            draw_part(&mut flat, set.w, set.h, spec, &plain.pose, &plain.look);
+            blur(&mut flat, set.w, set.h, BLUR_SIGMA);
+            let differ = (0..set.w * set.h).filter(|&i| (img[i] - flat[i]).abs() > 15.0).count();
+            assert!(differ > 10, "{}: {differ} printed pixels", spec.name);
+        }
+    }
+    assert!(printed >= 6 && patches >= 1, "{printed} {patches}");
+}
+
+#[test]
+fn gen_backlit_parts_are_dark_on_a_vignetted_backlight() {
+    let opts = GenOptions {
+        seed: 9,
+        frames: 4,
+        variant: Variant::Backlit,
+        ..GenOptions::default()
+    };
+    let mut checked = 0;
+    for index in 0..4 {
+        let (set, parts, img, light) = clean_frame(&opts, index);
+        let Effect::Backlit(b) = &set.effect else {
+            panic!("backlit variant without a backlight");
+        };
+        assert!((244.0..252.0).contains(&light[(set.h / 2) * set.w + set.w / 2]));
+        let corners = [0, set.w - 1, (set.h - 1) * set.w, set.h * set.w - 1];
+        let darkest = corners.iter().map(|&i| set.light[i]).fold(f64::MAX, f64::min);
+        assert!((145.0..155.0).contains(&darkest), "{darkest}");
+        assert!((darkest - b.corner_level(set.w, set.h)).abs() < 1e-9);
+        for p in &parts {
+            let t = set.truth(p, index);
+            let Body::Opaque { level } = p.body else {
+                panic!("a backlit part that is not opaque");
+            };
+            assert_eq!(t.extra["level"], json!(level));
+            // Opaque: the part's share of each pixel is (backlight − image) / (backlight − level).
+            let r = set.cat[p.spec].radius_mm() * p.pose.k + 4.0;
+            let c = centroid(set.w, set.h, [t.x, t.y], r, |i| {
+                (light[i] - img[i]) / (light[i] - level)
+            });
+            assert!(dist(c, [t.x, t.y]) < 0.03, "{c:?} vs {} {}", t.x, t.y);
+            checked += 1;
+        }
+    }
+    assert!(checked >= 6);
+    // No background unless asked for.
+    let dir = scratch("backlit");
+    generate(&dir, &small_opts(Variant::Backlit, 9, 1)).expect("generate");
+    assert!(!dir.join("background.png").exists() && !dir.join("backgrounds").exists());
+    assert_eq!(variant_json(&dir)["background"], json!(false));
+    generate(
+        &dir,
+        &GenOptions {
+            background: Some(true),
+            ..small_opts(Variant::Backlit, 9, 1)
+        },
+    )
+    .expect("generate");
+    assert!(dir.join("background.png").is_file() && dir.join("backgrounds").join("bg_07.png").is_file());
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn gen_no_background_leaves_out_only_the_platform() {
+    for v in [Variant::Default, Variant::Stereo, Variant::Lens] {
+        let (with, without) = (scratch(&format!("bg-{v}")), scratch(&format!("nobg-{v}")));
+        generate(&with, &small_opts(v, 3, 2)).expect("generate");
+        generate(
+            &without,
+            &GenOptions {
+                background: Some(false),
+                ..small_opts(v, 3, 2)
+            },
+        )
+        .expect("generate");
+        let platform = |p: &Path| {
+            let s = p.to_string_lossy();
+            s.starts_with("background") || s == "variant.json"
+        };
+        let keep = |f: Vec<(PathBuf, Vec<u8>)>| f.into_iter().filter(|(p, _)| !platform(p)).collect::<Vec<_>>();
+        let (fw, fo) = (files(&with), files(&without));
+        assert!(
+            fo.iter().all(|(p, _)| !p.to_string_lossy().starts_with("background")),
+            "{v}"
+        );
+        assert!(fw.iter().any(|(p, _)| p == Path::new("background.png")));
+        assert_eq!(keep(fw), keep(fo), "{v}: frames, templates and truth do not change");
+        for d in [with, without] {
+            let _ = std::fs::remove_dir_all(d);
+        }
+    }
+}
