@@ -25,3 +25,25 @@ echo "### default: position through the aligned pose (--position pose)"
 "$VORL" eval "$OUT/default" --position pose
 echo "### default: one candidate verified (--candidates 1)"
 "$VORL" eval "$OUT/default" --candidates 1
+echo "### default: the 0.6 px verification of before (--verify-relative 0 --offset-relative 0)"
+"$VORL" eval "$OUT/default" --verify-relative 0 --offset-relative 0
+# Without an empty shot: the same four sets, background.png and backgrounds/ left out, so the
+# platform is estimated from each frame.
+for set in default noisy small border; do
+    rm -rf "$OUT/$set-noshot"
+    mkdir -p "$OUT/$set-noshot"
+    cp -r "$OUT/$set/frames" "$OUT/$set/templates" "$OUT/$set/truth.json" "$OUT/$set-noshot/"
+    echo "### $set without an empty shot (platform estimated)"
+    "$VORL" eval "$OUT/$set-noshot"
+done
+# The failure modes of real cameras (vorl gen variants of the real-photo issue).
+for v in sharp lens thick exposure paper printed backlit; do
+    "$VORL" gen "$OUT/$v" --seed 3 --frames 60 --variant "$v" >/dev/null
+    echo "### $v (defaults)"
+    "$VORL" eval "$OUT/$v"
+done
+for v in exposure thick; do
+    "$VORL" gen "$OUT/$v-noshot" --seed 3 --frames 60 --variant "$v" --no-background >/dev/null
+    echo "### $v without an empty shot"
+    "$VORL" eval "$OUT/$v-noshot"
+done

@@ -99,3 +99,76 @@ mod tests {
         assert!((wrap_degrees(-90.0) - 270.0).abs() < 1e-4);
     }
 }
+
+/// The `k`-th smallest (0-based) finite value of `values`, without sorting or moving them:
+/// bisection on the value between the least and the largest (32 halvings, then the largest
+/// element at or below the bound found), so `O(32·len)` and no panic path. `None` when fewer
+/// than `k + 1` values are finite.
+pub fn nth_smallest(values: &[f32], k: usize) -> Option<f32> {
+    let (mut lo, mut hi, mut finite) = (f32::INFINITY, f32::NEG_INFINITY, 0usize);
+    for &v in values.iter().filter(|v| v.is_finite()) {
+        lo = lo.min(v);
+        hi = hi.max(v);
+        finite += 1;
+    }
+    if finite <= k {
+        return None;
+    }
+    let at_most = |t: f32| values.iter().filter(|&&v| v <= t).count();
+    // Invariant: fewer than k + 1 values are ≤ lo_bound (or lo_bound < lo), at least k + 1 are ≤ hi.
+    let (mut a, mut b) = (lo, hi);
+    if at_most(a) > k {
+        return Some(a);
+    }
+    for _ in 0..32 {
+        let mid = a + 0.5 * (b - a);
+        if !(mid > a && mid < b) {
+            break;
+        }
+        if at_most(mid) > k {
+            b = mid;
+        } else {
+            a = mid;
+        }
+    }
+    // The element itself: the largest value at or below b.
+    values
+        .iter()
+        .copied()
+        .filter(|&v| v <= b && v.is_finite())
+        .reduce(f32::max)
+}
+
+#[cfg(test)]
+mod nth_tests {
+    use super::nth_smallest;
+
+    /// Against sorting, on values with ties, NaN and infinities.
+    #[test]
+    fn nth_smallest_is_the_sorted_kth() {
+        let mut x = 0x2545_f491u32;
+        for len in [1usize, 2, 3, 7, 64, 200] {
+            let values: [f32; 200] = core::array::from_fn(|i| {
+                x ^= x << 13;
+                x ^= x >> 17;
+                x ^= x << 5;
+                match i % 23 {
+                    5 => f32::NAN,
+                    7 => f32::INFINITY,
+                    _ => (x % 50) as f32 * 0.25 - 3.0,
+                }
+            });
+            let v = &values[..len];
+            let mut sorted: [f32; 200] = [0.0; 200];
+            let mut n = 0;
+            for &f in v.iter().filter(|f| f.is_finite()) {
+                sorted[n] = f;
+                n += 1;
+            }
+            sorted[..n].sort_by(f32::total_cmp);
+            for k in 0..len {
+                assert_eq!(nth_smallest(v, k), sorted[..n].get(k).copied(), "len {len} k {k}");
+            }
+        }
+    }
+}

@@ -465,13 +465,8 @@ fn median_of<const G: usize>(
             }
         }
     }
-    let values = grid.value.get_mut(..n)?;
-    if values.is_empty() {
-        return None;
-    }
-    let mid = values.len() / 2;
-    values.select_nth_unstable_by(mid, f32::total_cmp);
-    values.get(mid).copied()
+    let values = grid.value.get(..n)?;
+    crate::math::nth_smallest(values, values.len() / 2)
 }
 
 /// Least squares of the kept cells' levels on the degree-`degree` basis (`None` when singular).

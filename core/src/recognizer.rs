@@ -523,8 +523,9 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
     /// Template `ti` aligned on the frame from the DP's pose (the part's `position`, the
     /// `signed` angle in degrees, the scale of the areas), and its verification score against
     /// the part's edge (`self.part_edges`) with the score's limit for the aligned part's size.
-    /// A template whose outline is nearly 2-fold ([`Template::half_turn`] below
-    /// [`HALF_TURN_AMBIGUOUS`]) is aligned half a turn on too, and the better of the two kept.
+    /// A template whose outline is nearly but not exactly 2-fold ([`Template::half_turn`]
+    /// between [`HALF_TURN_SYMMETRIC`] and [`HALF_TURN_AMBIGUOUS`]: a connecting rod) is
+    /// aligned half a turn on too, and the better of the two kept.
     #[allow(clippy::too_many_arguments)]
     fn align_and_verify<B: AsRef<[u8]>>(
         &self,
@@ -541,8 +542,8 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let part_edges = self.part_edges.get(..n).unwrap_or(&[]);
         let seed = seed_pose(position, signed, area, t);
         let limit_at = |scale: f32| params.verify_limit(t.size() * scale);
-        // The alignment gives up at twice the limit for the seed's size (unless the caller
-        // never gives up).
+        // The alignment gives up at the limit for the seed's size, at least the caller's
+        // (unless the caller never gives up).
         // The distance cap grows with the limit (a large part's edge may lie farther from its
         // template's than a small one's and still be the same part); the profiles keep their
         // length, which thin rings and slots need.
@@ -551,15 +552,15 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let reach = if reach.is_finite() { reach.max(1.0) } else { 1.0 };
         let rp = RefineParams {
             give_up: if refine_params.give_up.is_finite() {
-                refine_params.give_up.max(2.0 * limit)
+                refine_params.give_up.max(limit)
             } else {
                 f32::INFINITY
             },
             cap: refine_params.cap * reach,
             ..*refine_params
         };
-        // Without an outline offset first; a fit that is not CONFIDENT is aligned again from
-        // where it ended with the offset free (walls, blur), and the better kept.
+        // Without an outline offset first; a near miss that is not CONFIDENT is aligned again
+        // from where it ended with the offset free (walls, blur), and the better kept.
         let with_offset = RefineParams {
             offset_max: params.offset_relative * t.size() * seed.scale,
             ..rp
@@ -569,7 +570,8 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             let aligned = align(diff, t.edge(), t.normals(), s, &rp);
             let verify = verify_score(&aligned, t, part_edges, diff, &rp, params);
             let first = (aligned.pose, verify, limit_at(aligned.pose.scale));
-            if verify < CONFIDENT * first.2 || !(with_offset.offset_max > 0.0) || aligned.gave_up {
+            let near_miss = verify < NEAR_MISS * first.2;
+            if verify < CONFIDENT * first.2 || !near_miss || !(with_offset.offset_max > 0.0) || aligned.gave_up {
                 return first;
             }
             let again = align(diff, t.edge(), t.normals(), aligned.pose, &with_offset);
@@ -582,7 +584,8 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             }
         };
         let first = once(signed);
-        if !(t.half_turn() < HALF_TURN_AMBIGUOUS) {
+        // A 2-fold symmetric outline (a gear of even teeth, a washer) is the same half a turn on.
+        if !(t.half_turn() < HALF_TURN_AMBIGUOUS) || t.half_turn() < HALF_TURN_SYMMETRIC {
             return Some(first);
         }
         let second = once(signed + 180.0);
@@ -614,15 +617,25 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let mut best = None;
         // The cost records of the bound order first; unless one of them verified with a score
         // below CONFIDENT times its limit, the next templates of that order within
-        // FALLBACK_RATIO of the lowest cost (a real part's descriptor may rank its template
-        // behind a near-alike one, which then verifies, but less well).
+        // FALLBACK_RATIO of the lowest cost, one more (a real part's descriptor may rank its template
+        // behind a near-alike one, which then verifies, but less well) — when the best so far
+        // is a NEAR_MISS, or could not be verified at all (no candidate, or a scale out of
+        // range).
         let mut ratio = params.candidate_ratio;
+        let mut limit = k;
         loop {
-            let Some((ti, m)) = self.next_candidate(&mut scan, n, k, ratio) else {
-                if ratio < FALLBACK_RATIO && scan.found < k && !(detection.verify < CONFIDENT * detection.verify_limit)
+            let Some((ti, m)) = self.next_candidate(&mut scan, n, limit, ratio) else {
+                let near_miss = detection.verify < NEAR_MISS * detection.verify_limit;
+                let confident = detection.verify < CONFIDENT * detection.verify_limit;
+                if ratio < FALLBACK_RATIO
+                    && scan.found < k
+                    && !confident
+                    && (near_miss || !detection.verify.is_finite())
                 {
                     // Again from the start of the bound order, without the candidates tried.
                     ratio = FALLBACK_RATIO;
+                    // One more candidate, the next of the bound order within the ratio.
+                    limit = scan.found + 1;
                     let (found, lowest, tried) = (scan.found, scan.lowest, scan.tried);
                     scan = self.candidate_scan(n);
                     for (ti, state) in scan.state.iter_mut().enumerate() {
@@ -978,18 +991,25 @@ fn verify_score<const M: usize, B: AsRef<[u8]>>(
     0.5 * (there + back)
 }
 
-/// The mean of the smallest `kept` fraction of `values` (at least one; `empty` for none).
-fn trimmed_mean(values: &mut [f32], kept: f32, empty: f32) -> f32 {
+/// The mean of the smallest `kept` fraction of `values` (at least one; `empty` for none): the
+/// values below the `keep`-th smallest, and that one for the rest ([`math::nth_smallest`]).
+fn trimmed_mean(values: &[f32], kept: f32, empty: f32) -> f32 {
     let len = values.len();
     if len == 0 {
         return empty;
     }
     let keep = ((len as f32 * kept) as usize).clamp(1, len);
-    if keep < len {
-        values.select_nth_unstable_by(keep - 1, f32::total_cmp);
+    let Some(t) = math::nth_smallest(values, keep - 1) else {
+        return empty;
+    };
+    let (mut sum, mut below) = (0.0f32, 0usize);
+    for &v in values {
+        if v < t {
+            sum += v;
+            below += 1;
+        }
     }
-    let sum: f32 = values.get(..keep).unwrap_or(&[]).iter().sum();
-    sum / keep as f32
+    (sum + (keep.saturating_sub(below)) as f32 * t) / keep as f32
 }
 
 /// The fraction of each side's points that the verification score averages (the nearest).
@@ -997,7 +1017,11 @@ pub const VERIFY_KEPT: f32 = 0.8;
 
 /// [`Template::half_turn`] below which the outline counts as nearly 2-fold: the DP's
 /// correspondence may then be half a turn off, and both are aligned.
-pub const HALF_TURN_AMBIGUOUS: f32 = 0.1;
+pub const HALF_TURN_AMBIGUOUS: f32 = 0.2;
+
+/// [`Template::half_turn`] below which the outline is 2-fold symmetric: half a turn on is the
+/// same pose, and it is not aligned twice.
+pub const HALF_TURN_SYMMETRIC: f32 = 0.01;
 
 /// The bound ratio of the candidate scan once no candidate so far has verified well.
 pub const FALLBACK_RATIO: f32 = 3.0;
@@ -1006,6 +1030,12 @@ pub const FALLBACK_RATIO: f32 = 3.0;
 /// cost records (the right template of a generated set's part scores 0.1–0.4 of it); above,
 /// the scan goes on within [`FALLBACK_RATIO`].
 pub const CONFIDENT: f32 = 0.5;
+
+/// A candidate whose score is below this multiple of its limit is a near miss: only then does
+/// the alignment try the outline offset, and the candidate scan go on (a part far from every
+/// template so far, such as a distractor, is not searched further; on the generated sets their
+/// scores are 2.6× their limit and more, the real rods' right templates 0.5–2.2×).
+pub const NEAR_MISS: f32 = 2.5;
 
 impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: usize> Recognizer<T, M, P, C, D> {
     /// Candidates kept per part (capacity of the list).

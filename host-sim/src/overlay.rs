@@ -64,8 +64,10 @@ pub fn draw_detection(img: &mut RgbImage, d: &HostDetection) {
         let (a, b) = (d.border[i], d.border[(i + 1) % n]);
         draw_line_segment_mut(img, (a.0 as f32, a.1 as f32), (b.0 as f32, b.1 as f32), c);
     }
-    // The best template's outline where the alignment put it (cyan), over the border.
-    let m = d.outline.len();
+    // The best template's outline where the alignment put it (cyan), over the border: for a
+    // known part, and for a near miss (score under twice its limit), not for a far one.
+    let near = d.class.is_some() || d.core.verify < 2.0 * d.core.verify_limit;
+    let m = if near { d.outline.len() } else { 0 };
     for i in 0..m {
         let (a, b) = (d.outline[i], d.outline[(i + 1) % m]);
         draw_line_segment_mut(img, (a[0], a[1]), (b[0], b[1]), ALIGNED);
