@@ -916,7 +916,7 @@ pub fn refine_disparity<B1: AsRef<[u8]>, B2: AsRef<[u8]>, P: OutlinePoint>(
             fit.disparity = seed;
             return Ok(fit);
         }
-        cap = (4.0 * fit.rms_px).clamp(0.25 * params.max_residual_px, params.max_residual_px);
+        cap = math::clamp(4.0 * fit.rms_px, 0.25 * params.max_residual_px, params.max_residual_px);
         if delta.abs() < params.tolerance_px {
             break;
         }
