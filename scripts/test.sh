@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Runs every check of the project, as CI does: set-up (idempotent), formatting, lints, the API
-# docs, the microcontroller build of the core, the whole test suite (unit, doc, integration,
-# property and the firmware-in-QEMU test), and a build of the benchmarks.
+# docs, the microcontroller build of the core, the panic-never link, the whole test suite (unit,
+# doc, integration, property and the firmware-in-QEMU test), and a build of the benchmarks.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -21,6 +21,12 @@ RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --quiet
 
 step "vorl-core for the MCU (thumbv7em-none-eabihf, no std, no alloc)"
 cargo build -p vorl-core --target thumbv7em-none-eabihf --release
+
+step "panic-never: vorl-core links with no panic path left (thumbv7em-none-eabihf, fat LTO)"
+(cd panic-never && cargo build --release) || {
+    echo "a panic path of vorl-core survives optimisation: bash scripts/panic-sites.sh lists where" >&2
+    exit 1
+}
 
 step "tests (cargo test --workspace)"
 timeout 1800 cargo test --workspace
