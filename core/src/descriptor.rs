@@ -31,7 +31,10 @@ pub struct DescriptorParams {
 /// `round(k·points/n)`, at least 1 (so both span the same fraction of the outline); `k` (at
 /// least 1) for `n = 0` or counts so large that `2·k·points + n` or `2n` overflow.
 pub fn scaled_k(k: usize, n: usize, points: usize) -> usize {
-    let num = k.checked_mul(points).and_then(|v| v.checked_mul(2)).and_then(|v| v.checked_add(n));
+    let num = k
+        .checked_mul(points)
+        .and_then(|v| v.checked_mul(2))
+        .and_then(|v| v.checked_add(n));
     let den = n.checked_mul(2);
     num.zip(den).and_then(|(a, b)| a.checked_div(b)).unwrap_or(k).max(1)
 }

@@ -130,12 +130,13 @@
 use crate::error::{Error, Result};
 use crate::resample::check_counts;
 
-/// Cells of the backtracking table for `n` part and `m` template points: `n·(m − n + 1)`.
+/// Cells of the backtracking table for `n` part and `m` template points: `n·(m − n + 1)`
+/// (`usize::MAX` where that overflows: no buffer holds it).
 pub const fn table_cells(n: usize, m: usize) -> usize {
     if m < n {
         0
     } else {
-        n * (m - n + 1)
+        n.saturating_mul((m - n).saturating_add(1))
     }
 }
 
@@ -189,9 +190,12 @@ pub const fn search_cells(n: usize, m: usize) -> usize {
     if m < n {
         return 0;
     }
-    let w = m - n + 1;
+    let w = (m - n).saturating_add(1);
     let paths = path_slots(m).saturating_mul(n);
-    let bits = (n + w - 1).saturating_mul(w.div_ceil(BITS_PER_CELL)).saturating_add(3);
+    let bits = n
+        .saturating_add(w - 1)
+        .saturating_mul(w.div_ceil(BITS_PER_CELL))
+        .saturating_add(3);
     // The template twice, the part values and the column buffer (`PAD` cells more each), the
     // band of a DP.
     let columns = n.saturating_mul(4).saturating_add(2 * PAD + 1);

@@ -131,8 +131,8 @@ fn rotate_sc((s, c): (f32, f32), v: [f32; 2]) -> [f32; 2] {
 /// `None` where they coincide. `counter_clockwise` is the outline's direction as seen on screen
 /// (a negative shoelace sum in image coordinates), which decides which side is out.
 pub fn outward_normal(points: &[[f32; 2]], k: usize, counter_clockwise: bool) -> Option<[f32; 2]> {
-    let n = points.len();
-    let (prev, next) = (points.get((k + n - 1) % n.max(1))?, points.get((k + 1) % n.max(1))?);
+    let (n, k) = (points.len().max(1), k % points.len().max(1)); // k + n − 1 without overflow
+    let (prev, next) = (points.get((k + n - 1) % n)?, points.get((k + 1) % n)?);
     let (tx, ty) = (next[0] - prev[0], next[1] - prev[1]);
     let len = math::hypot(tx, ty);
     if !(len > 0.0) {
