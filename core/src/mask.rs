@@ -857,6 +857,10 @@ fn horizontal_pass<W: Word, const ERODE: bool>(src: &[u8], dst: &mut [u8], g: &G
 /// packed plane each (`g.packed` bytes).
 #[inline(always)]
 fn horizontal_form<W: Word, const ERODE: bool, const SIMD: bool>(src: &[u8], dst: &mut [u8], g: &Geometry<W>) {
+    if g.row_bytes == 0 {
+        // An empty plane (and no chunks of 0 bytes below).
+        return;
+    }
     let ident = if ERODE { W::ONES } else { W::ZERO };
     let len = g.packed;
     let n = len / W::BYTES;
@@ -908,7 +912,7 @@ fn horizontal_form<W: Word, const ERODE: bool, const SIMD: bool>(src: &[u8], dst
     let (bit0, top) = (one::<W>(), W::ONES << (W::PX as u32 - 1));
     let full = g.last_valid == W::ONES;
     let (rb, b) = (g.row_bytes, W::BYTES);
-    for (srow, drow) in src.chunks_exact(rb.max(1)).zip(dst.chunks_exact_mut(rb.max(1))) {
+    for (srow, drow) in src.chunks_exact(rb).zip(dst.chunks_exact_mut(rb)) {
         let c = W::load(srow);
         let v = W::load(drow);
         ((v & !bit0) | (op(c, c >> 8) & bit0)).store(drow);
