@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Runs every check of the project, as CI does: set-up (idempotent), formatting, lints, the API
 # docs, the microcontroller build of the core, the panic-never link, the whole test suite (unit,
-# doc, integration, property and the firmware-in-QEMU test), and a build of the benchmarks.
+# doc, integration, property and the firmware-in-QEMU test), a build of the benchmarks, and a
+# short run of every fuzz target (VORL_SKIP_FUZZ=1 leaves it out).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -33,5 +34,12 @@ timeout 1800 cargo test --workspace
 
 step "benchmarks build (cargo bench --no-run)"
 cargo bench --workspace --no-run
+
+if [ "${VORL_SKIP_FUZZ:-0}" = "1" ]; then
+    step "fuzz targets: skipped (VORL_SKIP_FUZZ=1)"
+else
+    step "fuzz targets, ${VORL_CI_FUZZ_SECONDS:-5} s each (scripts/fuzz.sh; any crash fails)"
+    VORL_FUZZ_SECONDS="${VORL_CI_FUZZ_SECONDS:-5}" bash scripts/fuzz.sh
+fi
 
 printf '\nall checks passed\n'
