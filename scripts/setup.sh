@@ -2,7 +2,9 @@
 # Installs everything vorl's build and tests need, idempotently:
 #   - the Cortex-M4F target (thumbv7em-none-eabihf) and the llvm-tools, clippy and rustfmt
 #     components, via rustup;
-#   - qemu-system-arm (to run the firmware example), via apt-get, when it is missing.
+#   - qemu-system-arm (to run the firmware example), via apt-get, when it is missing;
+#   - the nightly toolchain (minimal profile) and cargo-fuzz, for the fuzz targets
+#     (scripts/fuzz.sh), unless VORL_SKIP_FUZZ=1.
 # Safe to run again: each step checks first. Needs the Rust toolchain (rustup) already.
 set -euo pipefail
 
@@ -46,5 +48,21 @@ else
     $SUDO apt-get update -qq
     $SUDO apt-get install -y -qq --no-install-recommends qemu-system-arm >/dev/null
     say "qemu-system-arm: $(qemu-system-arm --version | head -n 1)"
+fi
+if [ "${VORL_SKIP_FUZZ:-0}" = "1" ]; then
+    say "nightly and cargo-fuzz: skipped (VORL_SKIP_FUZZ=1); scripts/test.sh skips the fuzz run"
+else
+    if rustup toolchain list | grep -q '^nightly'; then
+        say "toolchain nightly: present"
+    else
+        say "installing the nightly toolchain (for cargo fuzz)"
+        rustup toolchain install nightly --profile minimal
+    fi
+    if cargo fuzz --version >/dev/null 2>&1; then
+        say "cargo-fuzz: $(cargo fuzz --version)"
+    else
+        say "installing cargo-fuzz (cargo install, a few minutes)"
+        cargo install cargo-fuzz --locked
+    fi
 fi
 say "done"

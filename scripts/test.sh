@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Runs every check of the project, as CI does: set-up (idempotent), formatting, lints, the API
-# docs, the microcontroller build of the core, the whole test suite (unit, doc, integration,
-# property and the firmware-in-QEMU test), and a build of the benchmarks.
+# docs, the microcontroller build of the core, the panic-never link, the whole test suite (unit,
+# doc, integration, property and the firmware-in-QEMU test), a build of the benchmarks, and a
+# short run of every fuzz target (VORL_SKIP_FUZZ=1 leaves it out).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -22,10 +23,23 @@ RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --quiet
 step "vorl-core for the MCU (thumbv7em-none-eabihf, no std, no alloc)"
 cargo build -p vorl-core --target thumbv7em-none-eabihf --release
 
+step "panic-never: vorl-core links with no panic path left (thumbv7em-none-eabihf, fat LTO)"
+(cd panic-never && cargo build --release) || {
+    echo "a panic path of vorl-core survives optimisation: bash scripts/panic-sites.sh lists where" >&2
+    exit 1
+}
+
 step "tests (cargo test --workspace)"
 timeout 1800 cargo test --workspace
 
 step "benchmarks build (cargo bench --no-run)"
 cargo bench --workspace --no-run
+
+if [ "${VORL_SKIP_FUZZ:-0}" = "1" ]; then
+    step "fuzz targets: skipped (VORL_SKIP_FUZZ=1)"
+else
+    step "fuzz targets, ${VORL_CI_FUZZ_SECONDS:-5} s each (scripts/fuzz.sh; any crash fails)"
+    VORL_FUZZ_SECONDS="${VORL_CI_FUZZ_SECONDS:-5}" bash scripts/fuzz.sh
+fi
 
 printf '\nall checks passed\n'

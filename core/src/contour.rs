@@ -564,7 +564,7 @@ fn follow<const P: usize, const C: usize>(
         }
         stats.subsampled += 1;
     }
-    let stored_len = result.len.div_ceil(stride).min(free);
+    let stored_len = result.len.div_ceil(stride.max(1)).min(free);
     let contour = Contour {
         kind: if hole { BorderKind::Hole } else { BorderKind::Outer },
         parent,

@@ -28,12 +28,15 @@ pub struct DescriptorParams {
 }
 
 /// The neighbourhood for a contour of `points` points when parts of `n` points use `k`:
-/// `round(k·points/n)`, at least 1 (so both span the same fraction of the outline).
+/// `round(k·points/n)`, at least 1 (so both span the same fraction of the outline); `k` (at
+/// least 1) for `n = 0` or counts so large that `2·k·points + n` or `2n` overflow.
 pub fn scaled_k(k: usize, n: usize, points: usize) -> usize {
-    if n == 0 {
-        return k.max(1);
-    }
-    ((k * points * 2 + n) / (2 * n)).max(1)
+    let num = k
+        .checked_mul(points)
+        .and_then(|v| v.checked_mul(2))
+        .and_then(|v| v.checked_add(n));
+    let den = n.checked_mul(2);
+    num.zip(den).and_then(|(a, b)| a.checked_div(b)).unwrap_or(k).max(1)
 }
 
 /// Writes `c_i` for the resampled points into `out` (same length) and returns the centroid.
@@ -128,5 +131,33 @@ fn cos_at(p: [f32; 2], q: [f32; 2], c: [f32; 2]) -> f32 {
         1.0
     } else {
         ((ux * wx + uy * wy) / den).clamp(-1.0, 1.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scaled_k_rounds_the_ratio() {
+        assert_eq!(scaled_k(4, 64, 96), 6);
+        assert_eq!(scaled_k(4, 64, 64), 4);
+        assert_eq!(scaled_k(3, 64, 80), 4); // 3.75
+        assert_eq!(scaled_k(1, 64, 8), 1); // 0.125, at least 1
+        assert_eq!(scaled_k(0, 64, 96), 1);
+        assert_eq!(scaled_k(5, 0, 96), 5);
+    }
+
+    /// Found by the panic-never link (`panic-never/`): with `n > usize::MAX / 2` the divisor `2n`
+    /// wrapped to 0 in release builds (a division by zero) and overflowed in debug builds;
+    /// `2·k·points + n` overflowed for huge `k` or `points`. Now neither panics.
+    #[test]
+    fn scaled_k_never_overflows() {
+        let huge = usize::MAX / 2 + 1;
+        assert_eq!(scaled_k(4, huge, 96), 4);
+        assert_eq!(scaled_k(4, usize::MAX, 96), 4);
+        assert_eq!(scaled_k(usize::MAX, 64, 96), usize::MAX);
+        assert_eq!(scaled_k(4, 64, usize::MAX), 4);
+        assert_eq!(scaled_k(0, usize::MAX, usize::MAX), 1);
     }
 }

@@ -109,7 +109,7 @@ fn to_u8(v: f32) -> u8 {
 pub fn enhance<B: AsRef<[u8]>>(frame: &Frame<B>, alpha: Alpha, out: &mut [u8]) -> usize {
     let w = frame.width();
     let mut rows = 0;
-    for (y, row) in out.chunks_exact_mut(w).take(frame.height()).enumerate() {
+    for (y, row) in out.chunks_exact_mut(w.max(1)).take(frame.height()).enumerate() {
         enhance_row(frame, y, alpha, row);
         rows += 1;
     }

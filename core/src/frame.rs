@@ -102,8 +102,9 @@ impl<B: AsRef<[u8]>> Frame<B> {
     /// Pixel at `(x, y)` with coordinates clamped into the image (replicated border).
     #[inline]
     pub fn get_clamped(&self, x: isize, y: isize) -> u8 {
-        let xc = x.clamp(0, self.width as isize - 1) as usize;
-        let yc = y.clamp(0, self.height as isize - 1) as usize;
+        // `max(0).min(..)`, not `clamp`: clamp panics on crossed bounds (a zero width).
+        let xc = x.max(0).min(self.width as isize - 1) as usize;
+        let yc = y.max(0).min(self.height as isize - 1) as usize;
         self.data.as_ref().get(yc * self.stride + xc).copied().unwrap_or(0)
     }
 

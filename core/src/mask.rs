@@ -321,14 +321,18 @@ fn mask_with<const WIDE64: bool, B: AsRef<[u8]>, S: AsRef<[u8]> + AsMut<[u8]>>(
     let mut hist = [0u32; 256];
     if direct {
         if otsu {
-            for (y, brow) in bg.chunks_exact(w).enumerate() {
+            for (y, brow) in bg.chunks_exact(w.max(1)).enumerate() {
                 for (&f, &b) in frame.row(y).iter().zip(brow) {
                     hist[f.abs_diff(b) as usize] += 1;
                 }
             }
         }
     } else {
-        for (y, (row, brow)) in labels.chunks_exact_mut(w).zip(bg.chunks_exact(w)).enumerate() {
+        for (y, (row, brow)) in labels
+            .chunks_exact_mut(w.max(1))
+            .zip(bg.chunks_exact(w.max(1)))
+            .enumerate()
+        {
             enhance_row(frame, y, alpha, row);
             for (d, &b) in row.iter_mut().zip(brow) {
                 *d = d.abs_diff(b);
@@ -379,7 +383,11 @@ fn narrow_mask<B: AsRef<[u8]>>(
     let (frame, bg, tau) = (input.frame, input.bg, input.tau);
     let (w, h) = (frame.width(), frame.height());
     if input.direct {
-        for (y, (row, brow)) in labels.chunks_exact_mut(w).zip(bg.chunks_exact(w)).enumerate() {
+        for (y, (row, brow)) in labels
+            .chunks_exact_mut(w.max(1))
+            .zip(bg.chunks_exact(w.max(1)))
+            .enumerate()
+        {
             for (o, (&f, &b)) in row.iter_mut().zip(frame.row(y).iter().zip(brow)) {
                 *o = u8::from(f.abs_diff(b) > tau);
             }
@@ -398,7 +406,7 @@ fn narrow_mask<B: AsRef<[u8]>>(
         erode(labels, w, h);
     }
     spans.clear(w, h);
-    for (y, row) in labels.chunks_exact(w).enumerate() {
+    for (y, row) in labels.chunks_exact(w.max(1)).enumerate() {
         if let (Some(x0), Some(x1)) = (row.iter().position(|&v| v != 0), row.iter().rposition(|&v| v != 0)) {
             spans.include(y, x0, x1 + 1);
         }
@@ -741,8 +749,8 @@ fn pack<W: Word, B: AsRef<[u8]>>(input: &Input<'_, B>, g: &Geometry<W>, labels: 
     if input.direct {
         let a = labels.get_mut(..g.packed).unwrap_or_default();
         for (y, (prow, brow)) in a
-            .chunks_exact_mut(g.row_bytes)
-            .zip(input.bg.chunks_exact(g.w))
+            .chunks_exact_mut(g.row_bytes.max(1))
+            .zip(input.bg.chunks_exact(g.w.max(1)))
             .enumerate()
         {
             let mut words = prow.chunks_exact_mut(W::BYTES);
@@ -794,9 +802,9 @@ fn vertical<W: Word, const ERODE: bool>(src: &[u8], dst: &mut [u8], g: &Geometry
     let op = |u: W, c: W, d: W| if ERODE { u & c & d } else { u | c | d };
     let (rb, len) = (g.row_bytes, g.packed);
     if g.h < 2 {
-        dst.get_mut(..len)
-            .unwrap_or_default()
-            .copy_from_slice(src.get(..len).unwrap_or_default());
+        if let (Some(d), Some(s)) = (dst.get_mut(..len), src.get(..len)) {
+            d.copy_from_slice(s);
+        }
         return;
     }
     // Rows 1 ..= h − 2 in one flat loop: up, at and below are the plane from rows 0, 1 and 2 on.
@@ -849,6 +857,10 @@ fn horizontal_pass<W: Word, const ERODE: bool>(src: &[u8], dst: &mut [u8], g: &G
 /// packed plane each (`g.packed` bytes).
 #[inline(always)]
 fn horizontal_form<W: Word, const ERODE: bool, const SIMD: bool>(src: &[u8], dst: &mut [u8], g: &Geometry<W>) {
+    if g.row_bytes == 0 {
+        // An empty plane (and no chunks of 0 bytes below).
+        return;
+    }
     let ident = if ERODE { W::ONES } else { W::ZERO };
     let len = g.packed;
     let n = len / W::BYTES;
@@ -1124,7 +1136,9 @@ fn morph(plane: &mut [u8], w: usize, h: usize, erode: bool) {
     }
     // Vertical pass: bit 0 = combination of bit 1 at y−1, y, y+1.
     for y in 0..h {
-        let (before, rest) = plane.split_at_mut(y * w);
+        let Some((before, rest)) = plane.split_at_mut_checked(y * w) else {
+            break;
+        };
         let (cur, after) = rest.split_at_mut(w.min(rest.len()));
         let up = if y > 0 { before.get((y - 1) * w..) } else { None };
         let down = if y + 1 < h { after.get(..w) } else { None };

@@ -130,12 +130,13 @@
 use crate::error::{Error, Result};
 use crate::resample::check_counts;
 
-/// Cells of the backtracking table for `n` part and `m` template points: `n·(m − n + 1)`.
+/// Cells of the backtracking table for `n` part and `m` template points: `n·(m − n + 1)`
+/// (`usize::MAX` where that overflows: no buffer holds it).
 pub const fn table_cells(n: usize, m: usize) -> usize {
     if m < n {
         0
     } else {
-        n * (m - n + 1)
+        n.saturating_mul((m - n).saturating_add(1))
     }
 }
 
@@ -189,9 +190,12 @@ pub const fn search_cells(n: usize, m: usize) -> usize {
     if m < n {
         return 0;
     }
-    let w = m - n + 1;
+    let w = (m - n).saturating_add(1);
     let paths = path_slots(m).saturating_mul(n);
-    let bits = (n + w - 1).saturating_mul(w.div_ceil(BITS_PER_CELL)).saturating_add(3);
+    let bits = n
+        .saturating_add(w - 1)
+        .saturating_mul(w.div_ceil(BITS_PER_CELL))
+        .saturating_add(3);
     // The template twice, the part values and the column buffer (`PAD` cells more each), the
     // band of a DP.
     let columns = n.saturating_mul(4).saturating_add(2 * PAD + 1);
@@ -626,10 +630,41 @@ pub fn best_match(
     Ok(best)
 }
 
+/// Sorts `values` ascending in [`f32::total_cmp`]'s order: the same result as
+/// `values.sort_unstable_by(f32::total_cmp)` (values equal in that order are the same bits, so
+/// any correct sort gives the same slice), by insertion, which cannot panic. The standard sort
+/// keeps a panic for comparators that are not a total order (`panic_on_ord_violation`), which
+/// the optimiser cannot remove even for `total_cmp`; descriptors are sorted once per part or
+/// template (n, m ≤ a few hundred values), where insertion costs about what it does.
+pub(crate) fn sort_total(values: &mut [f32]) {
+    // `total_cmp`'s key: the bits as `i32`, the magnitude bits flipped for negative values.
+    let key = |v: f32| {
+        let b = v.to_bits() as i32;
+        b ^ (((b >> 31) as u32) >> 1) as i32
+    };
+    for i in 1..values.len() {
+        let Some(&x) = values.get(i) else { break };
+        let kx = key(x);
+        let mut j = i;
+        while let Some(&p) = j.checked_sub(1).and_then(|k| values.get(k)) {
+            if key(p) <= kx {
+                break;
+            }
+            if let Some(c) = values.get_mut(j) {
+                *c = p;
+            }
+            j -= 1;
+        }
+        if let Some(c) = values.get_mut(j) {
+            *c = x;
+        }
+    }
+}
+
 /// The full table of one start: row `i` holds `D_i(δ)`.
 fn fill_table(part: &[f32], template: &[f32], s: usize, table: &mut [f32], width: usize) {
     let m = template.len();
-    let mut rows = table.chunks_exact_mut(width);
+    let mut rows = table.chunks_exact_mut(width.max(1));
     let Some(first) = rows.next() else { return };
     let c0 = part
         .first()
@@ -766,11 +801,11 @@ fn search_counted<const L: usize>(
     let w = m - n + 1;
     let chunks = w.div_ceil(BITS_PER_CELL);
     let slots = path_slots(m);
-    let (t2, rest) = scratch.split_at_mut(2 * m);
-    let (pc, rest) = rest.split_at_mut(n + PAD);
-    let (cols, rest) = rest.split_at_mut(n + 1 + PAD);
-    let (band, rest) = rest.split_at_mut(2 * n);
-    let (paths, rest) = rest.split_at_mut(slots * n);
+    let (t2, rest) = scratch.split_at_mut_checked(2 * m)?;
+    let (pc, rest) = rest.split_at_mut_checked(n + PAD)?;
+    let (cols, rest) = rest.split_at_mut_checked(n + 1 + PAD)?;
+    let (band, rest) = rest.split_at_mut_checked(2 * n)?;
+    let (paths, rest) = rest.split_at_mut_checked(slots * n)?;
     let bits = rest.get_mut(..(n + w - 1) * chunks + 3)?;
     let (values, pad) = pc.split_at_mut(n);
     values.copy_from_slice(part);
@@ -915,8 +950,9 @@ impl<const L: usize> Search<'_, L> {
         );
         let (si, ti) = (s as i32, top as i32);
         fill_band(self.band, lower, upper, (s, s), |i, dl, du| {
-            let low = (dl - si).clamp(0, ti);
-            (si + i + low, si + i + (du - si).clamp(0, ti).max(low))
+            // `max(0).min(ti)`, not `clamp`: clamp panics on crossed bounds.
+            let low = (dl - si).max(0).min(ti);
+            (si + i + low, si + i + (du - si).max(0).min(ti).max(low))
         });
         // The path is read back only to keep it or to report a winner: without either, no bits.
         let record = keep.is_some() || !self.out.is_empty();
@@ -953,7 +989,7 @@ impl<const L: usize> Search<'_, L> {
                 *c = pack(k.wrapping_sub(s).wrapping_sub(i));
             }
             if let Some(o) = out.get_mut(i) {
-                *o = (k % m) as u16;
+                *o = k.checked_rem(m).unwrap_or(0) as u16;
             }
         });
         keep.is_some()
@@ -1308,6 +1344,38 @@ mod tests {
     extern crate std;
     use std::vec;
     use std::vec::Vec;
+
+    #[test]
+    fn sort_total_is_the_standard_sort_by_total_cmp() {
+        let mut rng = crate::test_rng::XorShift(0x5eed_f0f5_5027);
+        let special = [
+            f32::NAN,
+            -f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            0.0,
+            -0.0,
+            1e-45,
+            f32::MAX,
+            1.5,
+        ];
+        for len in 0..80 {
+            for _ in 0..20 {
+                let v: Vec<f32> = (0..len)
+                    .map(|_| match rng.below(4) {
+                        0 => special[rng.below(special.len())],
+                        1 => (rng.below(5) as f32) - 2.0,
+                        _ => f32::from_bits(rng.next() as u32),
+                    })
+                    .collect();
+                let (mut ours, mut std_sorted) = (v.clone(), v);
+                sort_total(&mut ours);
+                std_sorted.sort_unstable_by(f32::total_cmp);
+                let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&ours), bits(&std_sorted));
+            }
+        }
+    }
 
     /// The straightforward DP: every start on its whole row, no pruning.
     fn reference(part: &[f32], template: &[f32]) -> f32 {

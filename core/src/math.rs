@@ -80,6 +80,20 @@ pub fn wrap_degrees(deg: f32) -> f32 {
     a
 }
 
+/// `f32::clamp` without its panic: the same value for every `x` (NaN stays NaN) when
+/// `lo ≤ hi`; crossed or NaN bounds do not panic (then `x` below `lo` is `lo`, else above `hi` is
+/// `hi`).
+#[inline]
+pub fn clamp(x: f32, lo: f32, hi: f32) -> f32 {
+    if x < lo {
+        lo
+    } else if x > hi {
+        hi
+    } else {
+        x
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -88,6 +102,34 @@ mod tests {
     fn acos_is_clamped() {
         assert_eq!(acos_clamped(1.000_001), 0.0);
         assert!((acos_clamped(-1.5) - core::f32::consts::PI).abs() < 1e-6);
+    }
+
+    #[test]
+    fn clamp_is_f32_clamp_without_the_panic() {
+        let values = [
+            f32::NAN,
+            f32::NEG_INFINITY,
+            -3.0,
+            -2.0,
+            -0.0,
+            0.0,
+            0.5,
+            7.0,
+            8.0,
+            f32::INFINITY,
+        ];
+        for x in values {
+            for (lo, hi) in [(-2.0f32, 7.0f32), (0.0, 0.0), (-0.0, 0.0)] {
+                assert_eq!(
+                    clamp(x, lo, hi).to_bits(),
+                    x.clamp(lo, hi).to_bits(),
+                    "{x} in [{lo}, {hi}]"
+                );
+            }
+        }
+        // Crossed and NaN bounds: a value, not a panic.
+        assert_eq!(clamp(1.0, 2.0, -1.0), 2.0);
+        assert_eq!(clamp(1.0, f32::NAN, f32::NAN), 1.0);
     }
 
     #[test]

@@ -212,7 +212,7 @@ impl Params {
                 value: self.n as f32,
             });
         }
-        if self.k == 0 || 2 * self.k >= self.n {
+        if self.k == 0 || self.k.checked_mul(2).is_none_or(|k2| k2 >= self.n) {
             return Err(Error::Parameter {
                 name: "k",
                 value: self.k as f32,

@@ -38,7 +38,7 @@ fn pair_offsets<'a>(
 }
 
 /// The paper's unsigned rotation estimate in degrees, `[0, 180]` (eq. 6.4); `None` when no pair
-/// is usable.
+/// is usable (a pair whose offsets are not finite, or whose cosine is not, is not).
 pub fn angle_paper(
     part: &[[f32; 2]],
     part_centroid: [f32; 2],
@@ -53,7 +53,11 @@ pub fn angle_paper(
         if den < 1e-12 {
             continue;
         }
-        sum += math::acos_clamped((vx * wx + vy * wy) / den);
+        let cos = (vx * wx + vy * wy) / den;
+        if !cos.is_finite() {
+            continue;
+        }
+        sum += math::acos_clamped(cos);
         count += 1;
     }
     (count > 0).then(|| math::degrees(sum / count as f32))

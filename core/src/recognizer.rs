@@ -687,7 +687,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             return scan;
         };
         sorted.copy_from_slice(part);
-        sorted.sort_unstable_by(f32::total_cmp);
+        crate::matching::sort_total(sorted);
         for ((t, w), state) in self
             .templates
             .iter()

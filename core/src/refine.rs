@@ -131,8 +131,8 @@ fn rotate_sc((s, c): (f32, f32), v: [f32; 2]) -> [f32; 2] {
 /// `None` where they coincide. `counter_clockwise` is the outline's direction as seen on screen
 /// (a negative shoelace sum in image coordinates), which decides which side is out.
 pub fn outward_normal(points: &[[f32; 2]], k: usize, counter_clockwise: bool) -> Option<[f32; 2]> {
-    let n = points.len();
-    let (prev, next) = (points.get((k + n - 1) % n.max(1))?, points.get((k + 1) % n.max(1))?);
+    let (n, k) = (points.len().max(1), k % points.len().max(1)); // k + n − 1 without overflow
+    let (prev, next) = (points.get((k + n - 1) % n)?, points.get((k + 1) % n)?);
     let (tx, ty) = (next[0] - prev[0], next[1] - prev[1]);
     let len = math::hypot(tx, ty);
     if !(len > 0.0) {
@@ -222,8 +222,7 @@ impl<'a, B: AsRef<[u8]>> Difference<'a, B> {
     #[inline]
     pub fn at(&self, x: isize, y: isize) -> f32 {
         let (w, h) = (self.frame.width() as isize, self.frame.height() as isize);
-        let xc = x.clamp(0, w - 1);
-        let yc = y.clamp(0, h - 1);
+        let (xc, yc) = (x.max(0).min(w - 1), y.max(0).min(h - 1)); // no clamp: it panics for w = 0
         let b = self.background.get((yc * w + xc) as usize).copied().unwrap_or(0) as f32;
         if self.alpha.get() >= 1.0 {
             // The default α = 1: a subtraction, small enough to inline into the callers' loops.
@@ -289,8 +288,8 @@ impl<'a, B: AsRef<[u8]>> Difference<'a, B> {
         // Beyond a pixel outside the image every neighbour clamps to the border anyway; the
         // clamp keeps the integer coordinates from overflowing.
         let (x, y) = (
-            x.clamp(-2.0, self.width() as f32 + 1.0),
-            y.clamp(-2.0, self.height() as f32 + 1.0),
+            math::clamp(x, -2.0, self.width() as f32 + 1.0),
+            math::clamp(y, -2.0, self.height() as f32 + 1.0),
         );
         let (fx, fy) = (math::floor(x), math::floor(y));
         let (tx, ty) = (x - fx, y - fy);
@@ -960,7 +959,7 @@ pub fn align<B: AsRef<[u8]>>(
         let mut calm = false;
         while left > 0 {
             left -= 1;
-            let profiles = points.div_ceil(stride).max(1) as f32;
+            let profiles = points.div_ceil(stride.max(1)).max(1) as f32;
             let step = match gauss_newton_step(diff, edge, normals, pose, offset, stride, prm) {
                 Ok(step) => step,
                 // Too few edges for a step: the alignment ends here, and when those profiles

@@ -68,7 +68,7 @@ pub fn resample(border: &[Point], out: &mut [[f32; 2]]) -> Result<()> {
 /// # Errors
 /// [`Error::PointCounts`].
 pub fn check_counts(n: usize, m: usize) -> Result<()> {
-    if n == 0 || n > m || m >= 2 * n {
+    if n == 0 || n > m || m - n >= n {
         return Err(Error::PointCounts { n, m });
     }
     Ok(())

@@ -113,13 +113,13 @@ impl StereoRig {
     /// # Errors
     ///
     /// [`Error::Disparity`] when `d` is zero, negative or not finite, or so small that `Z`
-    /// overflows `f32`.
+    /// overflows `f32` (or so large that it underflows to 0).
     pub fn depth(&self, disparity: f32) -> Result<f32> {
         if !disparity.is_finite() || disparity <= 0.0 {
             return Err(Error::Disparity { disparity });
         }
         let z = self.f_px * self.baseline_mm / disparity;
-        if !z.is_finite() {
+        if !z.is_finite() || !(z > 0.0) {
             return Err(Error::Disparity { disparity });
         }
         Ok(z)
@@ -132,7 +132,7 @@ impl StereoRig {
     /// # Errors
     ///
     /// [`Error::Parameter`] (`"depth_mm"`) when the depth is zero, negative, not finite, or so
-    /// small that the disparity overflows `f32`.
+    /// small that the disparity overflows `f32` (or so large that it underflows to 0).
     pub fn disparity(&self, depth_mm: f32) -> Result<f32> {
         if !depth_mm.is_finite() || depth_mm <= 0.0 {
             return Err(Error::Parameter {
@@ -141,7 +141,7 @@ impl StereoRig {
             });
         }
         let d = self.f_px * self.baseline_mm / depth_mm;
-        if !d.is_finite() {
+        if !d.is_finite() || !(d > 0.0) {
             return Err(Error::Parameter {
                 name: "depth_mm",
                 value: depth_mm,
@@ -916,7 +916,7 @@ pub fn refine_disparity<B1: AsRef<[u8]>, B2: AsRef<[u8]>, P: OutlinePoint>(
             fit.disparity = seed;
             return Ok(fit);
         }
-        cap = (4.0 * fit.rms_px).clamp(0.25 * params.max_residual_px, params.max_residual_px);
+        cap = math::clamp(4.0 * fit.rms_px, 0.25 * params.max_residual_px, params.max_residual_px);
         if delta.abs() < params.tolerance_px {
             break;
         }

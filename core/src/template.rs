@@ -169,7 +169,7 @@ impl<const M: usize> Template<M> {
                 got: labels.len(),
             });
         }
-        for (y, row) in labels.chunks_exact_mut(w).take(h).enumerate() {
+        for (y, row) in labels.chunks_exact_mut(w.max(1)).take(h).enumerate() {
             for (l, &p) in row.iter_mut().zip(silhouette.row(y)) {
                 *l = (p > 127) as u8;
             }
@@ -354,7 +354,7 @@ impl<const M: usize> Template<M> {
         let m = self.m.min(M);
         if let (Some(dst), Some(src)) = (self.sorted.get_mut(..m), self.descriptor.get(..m)) {
             dst.copy_from_slice(src);
-            dst.sort_unstable_by(f32::total_cmp);
+            crate::matching::sort_total(dst);
         }
     }
 
