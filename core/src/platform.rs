@@ -203,7 +203,7 @@ pub fn estimate_platform<B: AsRef<[u8]>, const G: usize>(
     };
     // 1. Cell levels.
     for c in 0..cells {
-        let (gx, gy) = (c % cx, c / cx);
+        let (gx, gy) = (cell_x(c, cx), cell_y(c, cx));
         let level = cell_level(frame, alpha, gx * s, gy * s, s);
         if let (Some(l), Some(st)) = (grid.level.get_mut(c), grid.state.get_mut(c)) {
             match level {
@@ -224,7 +224,7 @@ pub fn estimate_platform<B: AsRef<[u8]>, const G: usize>(
     // 3. Fill: kept cells keep their level; the others take the surface plus the residuals
     //    spread from their kept neighbours.
     for c in 0..cells {
-        let fit = surface.at(c % cx, c / cx, cx, cy);
+        let fit = surface.at(cell_x(c, cx), cell_y(c, cx), cx, cy);
         if let (Some(&st), Some(&l), Some(v)) = (grid.state.get(c), grid.level.get(c), grid.value.get_mut(c)) {
             *v = if st == KEPT { l - fit } else { f32::NAN };
         }
@@ -232,7 +232,7 @@ pub fn estimate_platform<B: AsRef<[u8]>, const G: usize>(
     spread_residuals(grid, cx, cy, cells);
     let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
     for c in 0..cells {
-        let fit = surface.at(c % cx, c / cx, cx, cy);
+        let fit = surface.at(cell_x(c, cx), cell_y(c, cx), cx, cy);
         if let Some(v) = grid.value.get_mut(c) {
             let r = if v.is_finite() { *v } else { 0.0 };
             *v = (fit + r).clamp(0.0, 255.0);
@@ -244,6 +244,16 @@ pub fn estimate_platform<B: AsRef<[u8]>, const G: usize>(
     // 4. The plane (`level` is free now: one row's values at the cell centres).
     write_plane(&grid.value, &mut grid.level, cx, cy, s, w, h, plane);
     Ok(stats)
+}
+
+/// Column of cell `c` in a grid `cx` cells across (0 for an empty grid).
+fn cell_x(c: usize, cx: usize) -> usize {
+    c.checked_rem(cx).unwrap_or(0)
+}
+
+/// Row of cell `c` in a grid `cx` cells across (0 for an empty grid).
+fn cell_y(c: usize, cx: usize) -> usize {
+    c.checked_div(cx).unwrap_or(0)
 }
 
 /// The mode-trimmed mean of the cell at `(x0, y0)`, side `s` (cut by the frame's edge), or
@@ -387,7 +397,7 @@ fn fit_surface<const G: usize>(
     for round in 0..FIT_ROUNDS {
         // The threshold from the residuals of the cells within reach of this surface.
         let mad = median_of(grid, cells, |c, l| {
-            let r = (l - surface.at(c % cx, c / cx, cx, cy)).abs();
+            let r = (l - surface.at(cell_x(c, cx), cell_y(c, cx), cx, cy)).abs();
             Some(r)
         })
         .unwrap_or(0.0);
@@ -400,7 +410,7 @@ fn fit_surface<const G: usize>(
         };
         let mut kept = 0;
         for c in 0..cells {
-            let fit = surface.at(c % cx, c / cx, cx, cy);
+            let fit = surface.at(cell_x(c, cx), cell_y(c, cx), cx, cy);
             if let (Some(st), Some(&l)) = (grid.state.get_mut(c), grid.level.get(c)) {
                 if *st == LEVEL || *st == KEPT {
                     *st = if (l - fit).abs() <= outlier { KEPT } else { LEVEL };
@@ -432,7 +442,7 @@ fn fit_surface<const G: usize>(
     let mut kept = 0;
     let outlier = stats.outlier;
     for c in 0..cells {
-        let fit = surface.at(c % cx, c / cx, cx, cy);
+        let fit = surface.at(cell_x(c, cx), cell_y(c, cx), cx, cy);
         if let (Some(st), Some(&l)) = (grid.state.get_mut(c), grid.level.get(c)) {
             if *st == LEVEL || *st == KEPT {
                 *st = if (l - fit).abs() <= outlier { KEPT } else { LEVEL };
@@ -486,7 +496,7 @@ fn least_squares<const G: usize>(
             continue;
         }
         let l = grid.level.get(c).copied().unwrap_or(0.0);
-        terms = fill_basis(cell_u(c % cx, cx), cell_u(c / cx, cy), degree, &mut basis);
+        terms = fill_basis(cell_u(cell_x(c, cx), cx), cell_u(cell_y(c, cx), cy), degree, &mut basis);
         for (i, row) in a.iter_mut().enumerate().take(terms) {
             let bi = basis.get(i).copied().unwrap_or(0.0);
             for (aij, bj) in row.iter_mut().zip(&basis).take(terms) {
@@ -507,8 +517,10 @@ fn least_squares<const G: usize>(
 /// Gaussian elimination with partial pivoting on the first `n` rows and columns.
 fn solve(a: &mut [[f32; TERMS]; TERMS], b: &mut [f32; TERMS], n: usize) -> Option<[f32; TERMS]> {
     let n = n.min(TERMS);
+    let at =
+        |a: &[[f32; TERMS]; TERMS], r: usize, c: usize| a.get(r).and_then(|row| row.get(c)).copied().unwrap_or(0.0);
     // A light ridge keeps a grid with few kept cells solvable.
-    let scale = (0..n).map(|i| a[i][i]).fold(0.0f32, f32::max);
+    let scale = (0..n).map(|i| at(a, i, i)).fold(0.0f32, f32::max);
     if !(scale > 0.0) {
         return None;
     }
@@ -520,35 +532,38 @@ fn solve(a: &mut [[f32; TERMS]; TERMS], b: &mut [f32; TERMS], n: usize) -> Optio
     for col in 0..n {
         let mut pivot = col;
         for r in col + 1..n {
-            if a[r][col].abs() > a[pivot][col].abs() {
+            if at(a, r, col).abs() > at(a, pivot, col).abs() {
                 pivot = r;
             }
         }
-        if !(a[pivot][col].abs() > 1e-12 * scale) {
+        if !(at(a, pivot, col).abs() > 1e-12 * scale) {
             return None;
         }
-        a.swap(col, pivot);
-        b.swap(col, pivot);
-        let p = a[col][col];
-        for r in col + 1..n {
-            let f = a[r][col] / p;
+        a.swap(col, pivot.min(TERMS - 1));
+        b.swap(col, pivot.min(TERMS - 1));
+        let p = at(a, col, col);
+        let pivot_row = a.get(col).copied().unwrap_or([0.0; TERMS]);
+        let pivot_b = b.get(col).copied().unwrap_or(0.0);
+        for (row, rb) in a.iter_mut().zip(b.iter_mut()).take(n).skip(col + 1) {
+            let f = row.get(col).copied().unwrap_or(0.0) / p;
             if f == 0.0 {
                 continue;
             }
-            let pivot_row = a[col];
-            for (x, y) in a[r].iter_mut().zip(pivot_row.iter()).skip(col).take(n - col) {
+            for (x, y) in row.iter_mut().zip(pivot_row.iter()).skip(col).take(n - col) {
                 *x -= f * y;
             }
-            b[r] -= f * b[col];
+            *rb -= f * pivot_b;
         }
     }
     let mut x = [0.0f32; TERMS];
     for i in (0..n).rev() {
-        let mut s = b[i];
-        for j in i + 1..n {
-            s -= a[i][j] * x[j];
+        let mut s = b.get(i).copied().unwrap_or(0.0);
+        for (j, xj) in x.iter().enumerate().take(n).skip(i + 1) {
+            s -= at(a, i, j) * xj;
         }
-        x[i] = s / a[i][i];
+        if let Some(xi) = x.get_mut(i) {
+            *xi = s / at(a, i, i);
+        }
     }
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
@@ -563,7 +578,7 @@ fn spread_residuals<const G: usize>(grid: &mut PlatformGrid<G>, cx: usize, cy: u
             if grid.value.get(c).is_none_or(|v| v.is_finite()) {
                 continue;
             }
-            let (gx, gy) = ((c % cx) as isize, (c / cx) as isize);
+            let (gx, gy) = (cell_x(c, cx) as isize, cell_y(c, cx) as isize);
             let (mut sum, mut n) = (0.0f32, 0u32);
             for dy in -1..=1isize {
                 for dx in -1..=1isize {

@@ -166,6 +166,10 @@ fn params() -> Params {
         candidates: u(),
         candidate_ratio: f(),
         verify_threshold: f(),
+        verify_relative: f(),
+        offset_relative: f(),
+        scale_min: f(),
+        scale_max: f(),
         position: if flag() {
             Position::Polygon
         } else {
@@ -183,6 +187,7 @@ fn refine_params() -> RefineParams {
         cap: f(),
         scale_penalty: f(),
         give_up: f(),
+        offset_max: f(),
     }
 }
 
@@ -274,6 +279,11 @@ fn recognizer<const T: usize, const M: usize, const P: usize, const C: usize, co
             }
             let _ = black_box(bg.update(&fr, alpha(), labels, u8_()));
             if flag() {
+                // No empty shot: the platform estimated from the frame.
+                let mut grid = vorl_core::platform::PlatformGrid::<64>::new();
+                let _ = black_box(bg.estimate_from_frame(&fr, alpha(), &mut grid));
+            }
+            if flag() {
                 let _ = black_box(rec.process(&fr, &bg, labels));
             } else {
                 let _ = black_box(rec.process_observed(&fr, &bg, labels, |s: Stage| {
@@ -332,6 +342,11 @@ fn pixels() {
         enhance::enhance_row(&fr, u(), alpha(), out);
         enhance::enhance_span(&fr, u(), u(), alpha(), out);
         black_box(enhance::enhance(&fr, alpha(), out));
+        let plane = buffer!(u8, 4096, 0);
+        let mut grid = vorl_core::platform::PlatformGrid::<32>::new();
+        let _ = black_box(vorl_core::platform::estimate_platform(&fr, alpha(), plane, &mut grid));
+        let _ = black_box(vorl_core::platform::cell_size(u(), u(), u()));
+        black_box(vorl_core::math::nth_smallest(buffer!(f32, 64, 0.0), u()));
         let bg_plane = buffer!(u8, 4096, 0);
         if let Ok(mut bg) = Background::new(bg_plane, u(), u()) {
             let _ = black_box(bg.set_from_frame(&fr, alpha()));
