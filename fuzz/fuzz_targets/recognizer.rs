@@ -1,6 +1,6 @@
 //! A frame of any size and bytes through `Recognizer::process` with any `Params`: background
-//! learned, set or updated, templates taught from silhouettes, frames with a stride, labels
-//! planes too short, a background of another size.
+//! learned, set, estimated from the frame (no empty shot) or updated, templates taught from
+//! silhouettes, frames with a stride, labels planes too short, a background of another size.
 //!
 //! Input: width, height, mode, parameters (`vorl_fuzz::params`), the background plane, the frame
 //! plane, a rectangle silhouette's box (a template), then anything left is a second frame.
@@ -76,6 +76,14 @@ fuzz_target!(|data: &[u8]| {
         strided[y * stride..y * stride + w].copy_from_slice(&frame_px[y * w..(y + 1) * w]);
     }
     let frame = Frame::with_stride(&strided[..], w, h, stride).expect("stride·h bytes");
+    // No empty shot: the platform estimated from the frame itself (a grid of any small size).
+    if mode & 64 == 64 {
+        let mut grid = vorl_core::platform::PlatformGrid::<24>::new();
+        if let Ok(stats) = bg.estimate_from_frame(&frame, alpha, &mut grid) {
+            assert!(stats.cells_x * stats.cells_y <= 24 && stats.cell >= 1);
+            assert!(bg.is_ready());
+        }
+    }
     let labels_len = if mode & 32 == 32 {
         (w * h).saturating_sub(1)
     } else {

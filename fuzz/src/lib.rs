@@ -200,6 +200,10 @@ pub fn params(input: &mut Input<'_>) -> Params {
     p.candidates = input.count_or(d.candidates);
     p.candidate_ratio = input.num_or(d.candidate_ratio);
     p.verify_threshold = input.num_or(d.verify_threshold);
+    p.verify_relative = input.num_or(d.verify_relative);
+    p.offset_relative = input.num_or(d.offset_relative);
+    p.scale_min = input.num_or(d.scale_min);
+    p.scale_max = input.num_or(d.scale_max);
     p.position = if input.u8() < 200 {
         d.position
     } else {
