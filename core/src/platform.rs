@@ -408,16 +408,7 @@ fn fit_surface<const G: usize>(
         } else {
             outlier
         };
-        let mut kept = 0;
-        for c in 0..cells {
-            let fit = surface.at(cell_x(c, cx), cell_y(c, cx), cx, cy);
-            if let (Some(st), Some(&l)) = (grid.state.get_mut(c), grid.level.get(c)) {
-                if *st == LEVEL || *st == KEPT {
-                    *st = if (l - fit).abs() <= outlier { KEPT } else { LEVEL };
-                    kept += (*st == KEPT) as usize;
-                }
-            }
-        }
+        let kept = mark_kept(grid, &surface, outlier, cx, cy, cells);
         stats.kept = kept;
         stats.outlier = outlier;
         let degree = match round {
@@ -439,8 +430,21 @@ fn fit_surface<const G: usize>(
         stats.degree = surface.degree;
     }
     // Final membership against the last surface.
+    stats.kept = mark_kept(grid, &surface, stats.outlier, cx, cy, cells);
+    surface
+}
+
+/// Marks every cell with a level as kept when it lies within `outlier` of `surface` (else as
+/// a plain level); returns how many are kept.
+fn mark_kept<const G: usize>(
+    grid: &mut PlatformGrid<G>,
+    surface: &Surface,
+    outlier: f32,
+    cx: usize,
+    cy: usize,
+    cells: usize,
+) -> usize {
     let mut kept = 0;
-    let outlier = stats.outlier;
     for c in 0..cells {
         let fit = surface.at(cell_x(c, cx), cell_y(c, cx), cx, cy);
         if let (Some(st), Some(&l)) = (grid.state.get_mut(c), grid.level.get(c)) {
@@ -450,8 +454,7 @@ fn fit_surface<const G: usize>(
             }
         }
     }
-    stats.kept = kept;
-    surface
+    kept
 }
 
 /// The median of `f(cell, level)` over the cells with a level (`value` is scratch).
