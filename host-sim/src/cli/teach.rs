@@ -311,37 +311,26 @@ fn component_pixels(labels: &[u8], w: usize, h: usize, sx: usize, sy: usize) -> 
 /// The 8-connected foreground component containing `(sx, sy)`, cropped with a 10 px margin,
 /// part 255 and the rest 0.
 pub fn component(labels: &[u8], w: usize, h: usize, sx: usize, sy: usize) -> GrayImage {
-    let mut seen = vec![false; w * h];
-    let mut queue = VecDeque::from([(sx, sy)]);
-    let (mut x0, mut y0, mut x1, mut y1) = (sx, sy, sx, sy);
-    let mut pixels = Vec::new();
-    if sx < w && sy < h && labels[sy * w + sx] != 0 {
-        seen[sy * w + sx] = true;
+    let on = sx < w && sy < h && labels.get(sy * w + sx).is_some_and(|&l| l != 0);
+    let pixels: Vec<(usize, usize)> = if on {
+        component_pixels(labels, w, h, sx, sy)
+            .into_iter()
+            .map(|i| (i % w, i / w))
+            .collect()
     } else {
-        queue.clear();
-    }
-    while let Some((x, y)) = queue.pop_front() {
-        pixels.push((x, y));
-        (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x), y1.max(y));
-        for dy in -1i64..=1 {
-            for dx in -1i64..=1 {
-                let (nx, ny) = (x as i64 + dx, y as i64 + dy);
-                if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
-                    continue;
-                }
-                let i = ny as usize * w + nx as usize;
-                if !seen[i] && labels[i] != 0 {
-                    seen[i] = true;
-                    queue.push_back((nx as usize, ny as usize));
-                }
-            }
-        }
-    }
+        vec![(sx, sy)]
+    };
+    let x0 = pixels.iter().map(|p| p.0).min().unwrap_or(sx);
+    let y0 = pixels.iter().map(|p| p.1).min().unwrap_or(sy);
+    let x1 = pixels.iter().map(|p| p.0).max().unwrap_or(sx);
+    let y1 = pixels.iter().map(|p| p.1).max().unwrap_or(sy);
     const MARGIN: usize = 10;
     let (cw, ch) = (x1 - x0 + 1 + 2 * MARGIN, y1 - y0 + 1 + 2 * MARGIN);
     let mut out = GrayImage::new(cw as u32, ch as u32);
-    for (x, y) in pixels {
-        out.put_pixel((x - x0 + MARGIN) as u32, (y - y0 + MARGIN) as u32, Luma([255]));
+    if on {
+        for (x, y) in pixels {
+            out.put_pixel((x - x0 + MARGIN) as u32, (y - y0 + MARGIN) as u32, Luma([255]));
+        }
     }
     out
 }
