@@ -48,7 +48,9 @@ use crate::math;
 use crate::params::{AngleEstimator, Params, Position, Refine};
 use crate::partial_volume::{partial_volume_centroid, Rect};
 use crate::pose::{angle_paper, angle_signed_refined, area_centroid};
-use crate::refine::{align, edge_distances, outward_normal, Alignment, Difference, Outline, Pose, RefineParams};
+use crate::refine::{
+    align_recording, edge_distances, outward_normal, Alignment, Difference, Outline, Pose, RefineParams,
+};
 use crate::resample::resample;
 use crate::template::Template;
 
@@ -567,15 +569,16 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         };
         let once = |angle_deg: f32| {
             let s = seed_pose(position, angle_deg, area, t);
-            let aligned = align(diff, t.edge(), t.normals(), s, &rp);
-            let verify = verify_score(&aligned, t, part_edges, diff, &rp, params);
+            let mut distances = [0.0f32; M];
+            let aligned = align_recording(diff, t.edge(), t.normals(), s, &rp, &mut distances);
+            let verify = verify_score(&aligned, &mut distances, t, part_edges, diff, &rp, params);
             let first = (aligned.pose, verify, limit_at(aligned.pose.scale));
             let near_miss = verify < NEAR_MISS * first.2;
             if verify < CONFIDENT * first.2 || !near_miss || !(with_offset.offset_max > 0.0) || aligned.gave_up {
                 return first;
             }
-            let again = align(diff, t.edge(), t.normals(), aligned.pose, &with_offset);
-            let verify = verify_score(&again, t, part_edges, diff, &with_offset, params);
+            let again = align_recording(diff, t.edge(), t.normals(), aligned.pose, &with_offset, &mut distances);
+            let verify = verify_score(&again, &mut distances, t, part_edges, diff, &with_offset, params);
             let second = (again.pose, verify, limit_at(again.pose.scale));
             if second.1 / second.2 < first.1 / first.2 {
                 second
@@ -935,9 +938,12 @@ fn seed_pose<const M: usize>(position: [f32; 2], angle_deg: f32, area: f32, t: &
 /// distances (capped), each over the nearest [`VERIFY_KEPT`] of its points (a part of one type
 /// may differ from its template over a stretch of its outline: a head, a burr, the walls a
 /// close lens sees); infinite for a scale outside `[scale_min, scale_max]`.
+/// `distances` holds the template → part distances that the alignment recorded
+/// ([`align_recording`]; measured again here when it gave up) and is scratch afterwards.
 #[allow(clippy::too_many_arguments)]
 fn verify_score<const M: usize, B: AsRef<[u8]>>(
     a: &Alignment,
+    distances: &mut [f32; M],
     t: &Template<M>,
     part_edges: &[[f32; 2]],
     diff: &Difference<'_, B>,
@@ -949,10 +955,12 @@ fn verify_score<const M: usize, B: AsRef<[u8]>>(
     if !(pose.scale >= limits.scale_min && pose.scale <= limits.scale_max) {
         return f32::INFINITY;
     }
-    let mut dist = [0.0f32; M];
+    let dist = distances;
     let there = {
         let d = dist.get_mut(..edge.len()).unwrap_or(&mut []);
-        edge_distances(diff, edge, t.normals(), a, params, d);
+        if a.gave_up {
+            edge_distances(diff, edge, t.normals(), pose, a.offset, params, d);
+        }
         trimmed_mean(d, VERIFY_KEPT, params.cap)
     };
     let valid = part_edges.iter().filter(|e| e[0].is_finite()).count();

@@ -934,6 +934,61 @@ pub fn align<B: AsRef<[u8]>>(
     seed: Pose,
     params: &RefineParams,
 ) -> Alignment {
+    align_recording(diff, edge, normals, seed, params, &mut [])
+}
+
+/// [`align`], which also writes the capped distance of every edge point to the part's edge
+/// into `distances` (as [`edge_distances`] at the final pose; those of the last step when it
+/// converged, whose update moved the points by less than 0.01 px): what a robust verification
+/// score sorts, without measuring the profiles again. `distances` beyond the edge points is
+/// left alone; a shorter one takes the first points. When the alignment gave up
+/// ([`Alignment::gave_up`]), `distances` holds no valid values: measure them with
+/// [`edge_distances`] if needed.
+///
+/// ```
+/// use vorl_core::enhance::Alpha;
+/// use vorl_core::refine::{align_recording, Alignment, Difference, Pose, RefineParams};
+/// use vorl_core::Frame;
+/// // A bright 20×20 square on a dark 48×48 frame.
+/// let (w, h) = (48usize, 48usize);
+/// let mut pixels = [0u8; 48 * 48];
+/// for y in 14..34 {
+///     for x in 14..34 {
+///         pixels[y * w + x] = 200;
+///     }
+/// }
+/// let frame = Frame::new_checked(&pixels[..], w, h).unwrap();
+/// let background = [0u8; 48 * 48];
+/// let diff = Difference::new(&frame, &background, Alpha::ONE);
+/// // The square's outline, 8 points a side, and its outward normals.
+/// let mut edge = [[0.0f32; 2]; 32];
+/// let mut normals = [[0.0f32; 2]; 32];
+/// for (i, (e, n)) in edge.iter_mut().zip(normals.iter_mut()).enumerate() {
+///     let t = -10.0 + 2.5 * (i % 8) as f32;
+///     (*e, *n) = match i / 8 {
+///         0 => ([t, -10.0], [0.0, -1.0]),
+///         1 => ([10.0, t], [1.0, 0.0]),
+///         2 => ([-t, 10.0], [0.0, 1.0]),
+///         _ => ([-10.0, -t], [-1.0, 0.0]),
+///     };
+/// }
+/// let seed = Pose { x: 24.5, y: 23.6, angle: 0.03, scale: 1.0 };
+/// let mut distances = [0.0f32; 32];
+/// let a: Alignment =
+///     align_recording(&diff, &edge, &normals, seed, &RefineParams::DEFAULT, &mut distances);
+/// assert!(!a.gave_up);
+/// let mean = distances.iter().sum::<f32>() / 32.0;
+/// assert!((mean - a.distance).abs() < 1e-4);
+/// assert!(distances.iter().all(|d| *d < 0.5), "{distances:?}");
+/// ```
+pub fn align_recording<B: AsRef<[u8]>>(
+    diff: &Difference<'_, B>,
+    edge: &[[f32; 2]],
+    normals: &[[f32; 2]],
+    seed: Pose,
+    params: &RefineParams,
+    distances: &mut [f32],
+) -> Alignment {
     let coarse_stride = if edge.len() >= 4 * COARSE_POINTS { 4 } else { 1 };
     let points = edge.len().min(normals.len());
     let mut pose = seed;
@@ -960,7 +1015,10 @@ pub fn align<B: AsRef<[u8]>>(
         while left > 0 {
             left -= 1;
             let profiles = points.div_ceil(stride.max(1)).max(1) as f32;
-            let step = match gauss_newton_step(diff, edge, normals, pose, offset, stride, prm) {
+            // The fine stage's steps record their distances (the last one's stand for the
+            // final pose when it converged).
+            let record: &mut [f32] = if coarse_stage { &mut [] } else { &mut *distances };
+            let step = match gauss_newton_step(diff, edge, normals, pose, offset, stride, prm, record) {
                 Ok(step) => step,
                 // Too few edges for a step: the alignment ends here, and when those profiles
                 // already lie beyond `give_up` they stand for the final distances.
@@ -1008,7 +1066,7 @@ pub fn align<B: AsRef<[u8]>>(
     }
     // Final distances at the converged pose (those of the last step when it converged).
     let (sum, found) =
-        converged_distances.unwrap_or_else(|| capped_distances(diff, edge, normals, pose, offset, params));
+        converged_distances.unwrap_or_else(|| edge_distances(diff, edge, normals, pose, offset, params, distances));
     let count = points.max(1) as f32;
     Alignment {
         pose,
@@ -1020,52 +1078,36 @@ pub fn align<B: AsRef<[u8]>>(
     }
 }
 
-/// The capped distance of every edge point at the alignment's final pose (and offset) to the
+/// The capped distance of every edge point at `pose` (and the outline `offset`) to the
 /// part's edge, into `out` (profiles without an edge count the cap; `out` beyond the edge
-/// points is left alone): what a robust verification score sorts.
+/// points is left alone, a shorter one takes the first points): what a robust verification
+/// score sorts. Returns the sum of the distances over every edge point and how many profiles
+/// found an edge.
 pub fn edge_distances<B: AsRef<[u8]>>(
-    diff: &Difference<'_, B>,
-    edge: &[[f32; 2]],
-    normals: &[[f32; 2]],
-    alignment: &Alignment,
-    params: &RefineParams,
-    out: &mut [f32],
-) {
-    let pose = alignment.pose;
-    let sc = math::sin_cos(pose.angle);
-    let finder = diff.edge_finder(params);
-    for ((t, n), d) in edge.iter().zip(normals).zip(out.iter_mut()) {
-        let nf = rotate_sc(sc, *n);
-        let p = offset_point(pose.apply_sc(sc, *t), nf, alignment.offset);
-        *d = match finder.offset(p, nf) {
-            Some(r) => r.abs().min(params.cap),
-            None => params.cap,
-        };
-    }
-}
-
-/// The sum of the capped distances from the edge points at `pose` to the part's edge (profiles
-/// without an edge count the cap), and how many profiles found an edge.
-fn capped_distances<B: AsRef<[u8]>>(
     diff: &Difference<'_, B>,
     edge: &[[f32; 2]],
     normals: &[[f32; 2]],
     pose: Pose,
     offset: f32,
     params: &RefineParams,
+    out: &mut [f32],
 ) -> (f32, usize) {
     let (mut sum, mut found) = (0.0f32, 0usize);
     let sc = math::sin_cos(pose.angle);
     let finder = diff.edge_finder(params);
-    for (t, n) in edge.iter().zip(normals) {
+    for (i, (t, n)) in edge.iter().zip(normals).enumerate() {
         let nf = rotate_sc(sc, *n);
         let p = offset_point(pose.apply_sc(sc, *t), nf, offset);
-        match finder.offset(p, nf) {
+        let d = match finder.offset(p, nf) {
             Some(r) => {
-                sum += r.abs().min(params.cap);
                 found += 1;
+                r.abs().min(params.cap)
             }
-            None => sum += params.cap,
+            None => params.cap,
+        };
+        sum += d;
+        if let Some(slot) = out.get_mut(i) {
+            *slot = d;
         }
     }
     (sum, found)
@@ -1123,6 +1165,7 @@ const FINE_ITERATIONS: usize = 4;
 /// square, px). An error when too few profiles find an edge (with the capped sum and the count
 /// of those that did, as [`Step`] holds them), or without them when the system is singular or
 /// the next pose is not finite or its scale leaves `[0.5, 2]`.
+#[allow(clippy::too_many_arguments)]
 fn gauss_newton_step<B: AsRef<[u8]>>(
     diff: &Difference<'_, B>,
     edge: &[[f32; 2]],
@@ -1131,11 +1174,12 @@ fn gauss_newton_step<B: AsRef<[u8]>>(
     offset: f32,
     stride: usize,
     params: &RefineParams,
+    record: &mut [f32],
 ) -> Result<Step, Option<(f32, usize)>> {
     if params.offset_max > 0.0 {
-        gauss_newton_step_n::<B, 5>(diff, edge, normals, pose, offset, stride, params)
+        gauss_newton_step_n::<B, 5>(diff, edge, normals, pose, offset, stride, params, record)
     } else {
-        gauss_newton_step_n::<B, 4>(diff, edge, normals, pose, 0.0, stride, params)
+        gauss_newton_step_n::<B, 4>(diff, edge, normals, pose, 0.0, stride, params, record)
     }
 }
 
@@ -1152,6 +1196,7 @@ fn offset_point(p: [f32; 2], nf: [f32; 2], offset: f32) -> [f32; 2] {
 
 /// [`gauss_newton_step`] with `N` parameters: translation, rotation and scale (`N = 4`), and
 /// the outline offset (`N = 5`).
+#[allow(clippy::too_many_arguments)]
 fn gauss_newton_step_n<B: AsRef<[u8]>, const N: usize>(
     diff: &Difference<'_, B>,
     edge: &[[f32; 2]],
@@ -1160,6 +1205,7 @@ fn gauss_newton_step_n<B: AsRef<[u8]>, const N: usize>(
     offset: f32,
     stride: usize,
     params: &RefineParams,
+    record: &mut [f32],
 ) -> Result<Step, Option<(f32, usize)>> {
     // Normal equations for δ = (δx, δy, δθ, δs[, δo]) of Σ (n·δp + δo − r)².
     let mut ata = [[0.0f32; N]; N];
@@ -1171,14 +1217,21 @@ fn gauss_newton_step_n<B: AsRef<[u8]>, const N: usize>(
     let sc = math::sin_cos(pose.angle);
     let (s, c) = sc;
     let finder = diff.edge_finder(params);
-    for (t, n) in edge.iter().zip(normals).step_by(stride.max(1)) {
+    for (i, (t, n)) in edge.iter().zip(normals).enumerate().step_by(stride.max(1)) {
         let nf = rotate_sc(sc, *n);
         let p = offset_point(pose.apply_sc(sc, *t), nf, offset);
         let Some(r) = finder.offset_inline(p, nf) else {
             capped_sum += params.cap;
+            if let Some(slot) = record.get_mut(i) {
+                *slot = params.cap;
+            }
             continue;
         };
-        capped_sum += r.abs().min(params.cap);
+        let d = r.abs().min(params.cap);
+        capped_sum += d;
+        if let Some(slot) = record.get_mut(i) {
+            *slot = d;
+        }
         // ∂p/∂θ = s·R'(θ)·t with R'(θ)t = (−t_x sinθ + t_y cosθ, −t_x cosθ − t_y sinθ).
         let dth = [pose.scale * (-t[0] * s + t[1] * c), pose.scale * (-t[0] * c - t[1] * s)];
         // ∂p/∂s = R(θ)·t.
@@ -1887,7 +1940,7 @@ mod tests {
         let a = align(&diff, &edge, &normals, seed, &params);
         // The distances come from the last step's profiles when it converged; they must stand
         // for those at the final pose.
-        let (sum, found) = capped_distances(&diff, &edge, &normals, a.pose, a.offset, &params);
+        let (sum, found) = edge_distances(&diff, &edge, &normals, a.pose, a.offset, &params, &mut []);
         assert!((a.distance - sum / 72.0).abs() < 2e-3, "{a:?}: {}", sum / 72.0);
         assert_eq!(a.coverage, found as f32 / 72.0, "{a:?}");
         a
@@ -1957,7 +2010,8 @@ mod tests {
                 angle: 0.0,
                 scale: 1.0,
             };
-            let step = gauss_newton_step(&diff, &edge, &normals, seed, 0.0, 1, &RefineParams::DEFAULT).unwrap();
+            let step =
+                gauss_newton_step(&diff, &edge, &normals, seed, 0.0, 1, &RefineParams::DEFAULT, &mut []).unwrap();
             let (ex, ey) = (step.next.x - cx, step.next.y - cy);
             assert!(
                 math::hypot(ex, ey) < 0.1 * math::hypot(ox, oy),
