@@ -336,12 +336,9 @@ impl Surface {
     /// The surface at the centre of cell `(gx, gy)` of a `cx`×`cy` grid.
     fn at(&self, gx: usize, gy: usize, cx: usize, cy: usize) -> f32 {
         let mut basis = [0.0f32; TERMS];
-        let terms = fill_basis(cell_u(gx, cx), cell_u(gy, cy), self.degree, &mut basis);
-        basis
-            .iter()
-            .zip(&self.coef)
-            .take(terms)
-            .fold(0.0, |acc, (b, c)| acc + b * c)
+        // The coefficients beyond the surface's degree are 0 (`solve` leaves them so).
+        fill_basis(cell_u(gx, cx), cell_u(gy, cy), self.degree, &mut basis);
+        basis.iter().zip(&self.coef).fold(0.0, |acc, (b, c)| acc + b * c)
     }
 }
 
@@ -354,7 +351,9 @@ fn cell_u(g: usize, n: usize) -> f32 {
     }
 }
 
-/// `T_i(u)·T_j(v)` for `i + j ≤ degree` into `basis`; returns how many.
+/// `T_i(u)·T_j(v)` for `i + j ≤ degree` into `basis` (in order of `i + j`, then `i`), and the
+/// terms of degree up to 4 after them; returns how many are of degree `≤ degree`. Written out
+/// in full: the surface is evaluated a few thousand times a frame.
 fn fill_basis(u: f32, v: f32, degree: usize, basis: &mut [f32; TERMS]) -> usize {
     let cheb = |x: f32| {
         let t2 = 2.0 * x * x - 1.0;
@@ -362,18 +361,26 @@ fn fill_basis(u: f32, v: f32, degree: usize, basis: &mut [f32; TERMS]) -> usize 
         let t4 = 2.0 * x * t3 - t2;
         [1.0, x, t2, t3, t4]
     };
-    let (tu, tv) = (cheb(u), cheb(v));
-    let mut k = 0;
-    for total in 0..=degree.min(4) {
-        for i in 0..=total {
-            let j = total - i;
-            if let (Some(slot), Some(a), Some(b)) = (basis.get_mut(k), tu.get(i), tv.get(j)) {
-                *slot = a * b;
-                k += 1;
-            }
-        }
-    }
-    k
+    let ([u0, u1, u2, u3, u4], [v0, v1, v2, v3, v4]) = (cheb(u), cheb(v));
+    *basis = [
+        u0 * v0,
+        u0 * v1,
+        u1 * v0,
+        u0 * v2,
+        u1 * v1,
+        u2 * v0,
+        u0 * v3,
+        u1 * v2,
+        u2 * v1,
+        u3 * v0,
+        u0 * v4,
+        u1 * v3,
+        u2 * v2,
+        u3 * v1,
+        u4 * v0,
+    ];
+    let d = degree.min(4);
+    (d + 1) * (d + 2) / 2
 }
 
 /// Rounds of least squares on the cells with a level, each keeping the cells within the
@@ -626,9 +633,7 @@ fn spread_residuals<const G: usize>(grid: &mut PlatformGrid<G>, cx: usize, cy: u
 
 /// The centre of cell `g` of side `s` along an axis of `len` px (the last cell may be cut).
 fn cell_centre(g: usize, s: usize, len: usize) -> f32 {
-    let first = g.saturating_mul(s);
-    let last = first.saturating_add(s).min(len).saturating_sub(1).max(first);
-    (first + last) as f32 * 0.5
+    twice_centre(g, s, len) as f32 * 0.5
 }
 
 /// The two cells whose centres bracket row `x` along an axis of `n` cells (the outer pair
@@ -665,27 +670,53 @@ fn write_plane(values: &[f32], row: &mut [f32], cx: usize, cy: usize, s: usize, 
             continue;
         }
         // Segment g runs from the centre of cell g to that of g + 1 (the first from x = 0, the
-        // last to the row's end).
+        // last to the row's end). In 1/65536 of a level, rounded at the end; the centres are
+        // kept doubled (`first + last` of the cell's pixels), so the geometry is integer.
+        let fixed = |f: f32| (f * 65536.0) as i32;
         let mut x = 0usize;
+        let mut v1 = fixed(row.first().copied().unwrap_or(0.0) + 0.5);
         for g in 0..cx - 1 {
-            let (c0, c1) = (cell_centre(g, s, w), cell_centre(g + 1, s, w));
-            let (v0, v1) = (
-                row.get(g).copied().unwrap_or(0.0),
-                row.get(g + 1).copied().unwrap_or(0.0),
-            );
-            let slope = if c1 > c0 { (v1 - v0) / (c1 - c0) } else { 0.0 };
-            let end = if g + 2 == cx { w } else { (c1 as usize + 1).min(w) };
-            // In 1/65536 of a level (values and steps well inside i32), rounded at the end.
-            let fixed = |f: f32| (f * 65536.0).clamp(-2.0e9, 2.0e9) as i32;
-            let v = fixed(v0 + (x as f32 - c0) * slope + 0.5);
-            let dv = fixed(slope);
-            for (k, p) in out.get_mut(x..end).unwrap_or(&mut []).iter_mut().enumerate() {
-                let at = v.wrapping_add((k as i32).wrapping_mul(dv));
-                *p = (at >> 16).clamp(0, 255) as u8;
+            let (a0, a1) = (twice_centre(g, s, w), twice_centre(g + 1, s, w));
+            let v0 = v1;
+            v1 = fixed(row.get(g + 1).copied().unwrap_or(0.0) + 0.5);
+            // The step per pixel: (v1 − v0) over (a1 − a0)/2 pixels.
+            let dv = if a1 > a0 {
+                ((v1 as i64 - v0 as i64) * 2 / (a1 - a0) as i64) as i32
+            } else {
+                0
+            };
+            let end = if g + 2 == cx { w } else { (a1 / 2 + 1).min(w) };
+            // The value at x: v0 + (x − a0/2)·dv.
+            let v = (v0 as i64 + (2 * x as i64 - a0 as i64) * dv as i64 / 2) as i32;
+            let span = out.get_mut(x..end).unwrap_or(&mut []);
+            // The values run linearly from the first pixel's to the last's: when both lie in
+            // 0..=255 every one does, and none needs clamping (between two centres, always:
+            // the cell values are clamped; beyond the outermost ones, mostly).
+            let last = v.wrapping_add((span.len().saturating_sub(1) as i32).wrapping_mul(dv));
+            let in_range = |a: i32| (0..256 << 16).contains(&a);
+            if in_range(v) && in_range(last) {
+                let mut at = v;
+                for p in span.iter_mut() {
+                    *p = (at >> 16) as u8;
+                    at = at.wrapping_add(dv);
+                }
+            } else {
+                for (k, p) in span.iter_mut().enumerate() {
+                    let at = v.wrapping_add((k as i32).wrapping_mul(dv));
+                    *p = (at >> 16).clamp(0, 255) as u8;
+                }
             }
             x = end.max(x);
         }
     }
+}
+
+/// Twice the centre of cell `g` of side `s` along an axis of `len` px ([`cell_centre`]), an
+/// integer (saturating).
+fn twice_centre(g: usize, s: usize, len: usize) -> usize {
+    let first = g.saturating_mul(s);
+    let last = first.saturating_add(s).min(len).saturating_sub(1).max(first);
+    first.saturating_add(last)
 }
 
 #[cfg(test)]
