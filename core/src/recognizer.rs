@@ -617,6 +617,10 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let params = self.params;
         let k = params.candidates.clamp(1, MAX_CANDIDATES);
         let mut scan = self.candidate_scan(n);
+        let whole = !detection.touches_edge;
+        if whole {
+            self.leave_out_by_size(&mut scan, area);
+        }
         let mut best = None;
         // The cost records of the bound order first; unless one of them verified with a score
         // below CONFIDENT times its limit, the next templates of that order within
@@ -641,6 +645,9 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                     limit = scan.found + 1;
                     let (found, lowest, tried) = (scan.found, scan.lowest, scan.tried);
                     scan = self.candidate_scan(n);
+                    if whole {
+                        self.leave_out_by_size(&mut scan, area);
+                    }
                     for (ti, state) in scan.state.iter_mut().enumerate() {
                         if tried.get(ti).copied().unwrap_or(false) {
                             *state = Listing::Out;
@@ -671,6 +678,23 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             );
         }
         best
+    }
+
+    /// Leaves out of `scan` every template that a whole part of this `area` could not verify
+    /// against: its scale from the areas, `√(area / template area)`, lies outside
+    /// `[scale_min, scale_max]` widened by [`SCALE_SLACK`] (the aligned scale follows the
+    /// outline, which blur, walls and holes move a little from the areas' ratio). No DP is run
+    /// for them: an integrator's catalogue holds parts of many sizes, and a distractor far
+    /// from every size costs no search at all (it stays unknown, without a nearest template).
+    fn leave_out_by_size(&self, scan: &mut CandidateScan<T, M>, area: f32) {
+        let (lo, hi) = (self.params.scale_min / SCALE_SLACK, self.params.scale_max * SCALE_SLACK);
+        for (t, state) in self.templates.iter().zip(scan.state.iter_mut()) {
+            let ratio = if t.area() > 0.0 { area / t.area() } else { f32::NAN };
+            // Compared squared (no square root): NaN is left out too.
+            if !(ratio >= lo * lo && ratio <= hi * hi) {
+                *state = Listing::Out;
+            }
+        }
     }
 
     /// The scan of [`Self::next_candidate`] over this part's templates: the part's sorted
@@ -1030,6 +1054,10 @@ pub const HALF_TURN_AMBIGUOUS: f32 = 0.2;
 /// [`Template::half_turn`] below which the outline is 2-fold symmetric: half a turn on is the
 /// same pose, and it is not aligned twice.
 pub const HALF_TURN_SYMMETRIC: f32 = 0.01;
+
+/// How far the scale from the areas may lie outside `[scale_min, scale_max]` (as a factor)
+/// before a template is not searched for a whole part ([`Recognizer`]'s candidate scan).
+pub const SCALE_SLACK: f32 = 1.15;
 
 /// The bound ratio of the candidate scan once no candidate so far has verified well.
 pub const FALLBACK_RATIO: f32 = 3.0;
