@@ -48,6 +48,7 @@ pub mod contour;
 pub mod descriptor;
 pub mod enhance;
 pub mod error;
+pub mod exposure;
 pub mod frame;
 pub mod library;
 pub mod mask;

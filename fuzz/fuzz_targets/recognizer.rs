@@ -76,6 +76,15 @@ fuzz_target!(|data: &[u8]| {
         strided[y * stride..y * stride + w].copy_from_slice(&frame_px[y * w..(y + 1) * w]);
     }
     let frame = Frame::with_stride(&strided[..], w, h, stride).expect("stride·h bytes");
+    // The frame's exposure against the background: gain positive and finite when fitted, and
+    // undoing it keeps the length.
+    if let Ok(e) = vorl_core::exposure::fit_exposure(&frame, alpha, bg.plane()) {
+        assert!(e.gain > 0.0 && e.gain.is_finite() && e.offset.is_finite(), "{e:?}");
+        assert!(e.inliers <= e.samples, "{e:?}");
+        let mut copy = frame_px.to_vec();
+        e.undo(&mut copy);
+        assert_eq!(copy.len(), frame_px.len());
+    }
     // No empty shot: the platform estimated from the frame itself (a grid of any small size).
     if mode & 64 == 64 {
         let mut grid = vorl_core::platform::PlatformGrid::<24>::new();

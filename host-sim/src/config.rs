@@ -55,6 +55,20 @@ pub struct Config {
     pub scale_max: f32,
     /// Position: "polygon" (the paper's border centroid), "partial-volume", or "pose".
     pub position: PositionSetting,
+    /// With an empty shot: "fit" each frame's gain and offset against it on the platform's
+    /// pixels and undo them before the frame is processed (default), or keep the frame
+    /// "fixed". Without one the platform is estimated from each frame, exposure included.
+    pub exposure: ExposureSetting,
+}
+
+/// `exposure` as written in a config file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum ExposureSetting {
+    /// The frame's gain and offset fitted against the empty shot and undone.
+    Fit,
+    /// The frame as it is.
+    Fixed,
 }
 
 /// `cleanup` as written in a config file.
@@ -169,6 +183,7 @@ impl Config {
                 Position::PartialVolume => PositionSetting::PartialVolume,
                 Position::Pose => PositionSetting::Pose,
             },
+            exposure: ExposureSetting::Fit,
         }
     }
 
@@ -301,10 +316,14 @@ impl Config {
              scale_min = {:?}\n\
              scale_max = {:?}\n\
              # Position: \"polygon\" (the paper's border centroid), \"partial-volume\" (edge pixels by coverage), \"pose\" (template centroid through the aligned pose).\n\
-             position = \"{}\"\n",
+             position = \"{}\"\n\
+             # With an empty shot: \"fit\" each frame's gain and offset against it on the platform's pixels and undo them\n\
+             # (a brighter or dimmer exposure gives the same masks), or \"fixed\". Without one the platform is estimated per frame.\n\
+             exposure = \"{}\"\n",
             d.alpha, thr, setting_name(&d.cleanup), d.min_points, d.min_area, d.n, d.m, d.k, d.omega, d.epsilon, angle,
             setting_name(&d.refine), d.candidates, toml_float(d.candidate_ratio), d.verify_threshold,
-            d.verify_relative, d.offset_relative, d.scale_min, d.scale_max, setting_name(&d.position)
+            d.verify_relative, d.offset_relative, d.scale_min, d.scale_max, setting_name(&d.position),
+            setting_name(&d.exposure)
         )
     }
 }

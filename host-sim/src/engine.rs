@@ -6,6 +6,7 @@ use std::path::Path;
 use image::GrayImage;
 use vorl_core::background::Background;
 use vorl_core::contour::{trace_borders, BorderFilter, BorderKind, ContourStore, Point};
+use vorl_core::exposure::{fit_exposure, Exposure};
 use vorl_core::platform::{PlatformGrid, PlatformStats};
 use vorl_core::recognizer::{Report, Skip, SkipReason};
 use vorl_core::{Frame, Params, Recognizer, Template};
@@ -70,6 +71,9 @@ pub struct FrameResult {
     pub seconds: f64,
     /// The platform estimate, when the frame had no empty shot.
     pub platform: Option<PlatformStats>,
+    /// The frame's exposure against the empty shot, when it was fitted (`exposure = "fit"`);
+    /// undone before the core saw the frame unless it is the identity.
+    pub exposure: Option<Exposure>,
 }
 
 /// Loads every silhouette (`*.png`, `*.gif`, `*.bmp`) in a folder; names are file stems.
@@ -135,6 +139,10 @@ pub struct Engine {
     /// Estimate the platform from each frame (no empty shot).
     auto: bool,
     grid: Box<PlatformGrid<HOST_PLATFORM_CELLS>>,
+    /// Fit each frame's exposure against the empty shot and undo it.
+    exposure_fit: bool,
+    /// The frame with its exposure undone (scratch).
+    undone: Vec<u8>,
 }
 
 impl Engine {
@@ -152,7 +160,16 @@ impl Engine {
             labels: Vec::new(),
             auto: false,
             grid: Box::default(),
+            exposure_fit: true,
+            undone: Vec::new(),
         })
+    }
+
+    /// Whether each frame's gain and offset are fitted against the empty shot and undone before
+    /// the frame is processed ([`vorl_core::exposure`]; on by default). Without an empty shot
+    /// the platform estimate follows the exposure itself.
+    pub fn set_exposure_fit(&mut self, on: bool) {
+        self.exposure_fit = on;
     }
 
     /// The parameters.
@@ -263,9 +280,27 @@ impl Engine {
             }
         }
         let bg = self.background.as_ref().ok_or("no background set")?;
+        let mut exposure = None;
+        if !self.auto && self.exposure_fit && (bg.width(), bg.height()) == (frame.width(), frame.height()) {
+            let e = fit_exposure(&frame, self.rec.params().alpha(), bg.plane()).map_err(|e| e.to_string())?;
+            if !e.is_identity() {
+                self.undone.clear();
+                self.undone.extend_from_slice(img.as_raw());
+                e.undo(&mut self.undone);
+            }
+            exposure = Some(e);
+        }
+        let undone;
+        let frame = if exposure.is_some_and(|e| !e.is_identity()) {
+            undone =
+                Frame::new_checked(self.undone.as_slice(), frame.width(), frame.height()).map_err(|e| e.to_string())?;
+            &undone
+        } else {
+            &frame
+        };
         let report = self
             .rec
-            .process(&frame, bg, &mut self.labels)
+            .process(frame, bg, &mut self.labels)
             .map_err(|e| e.to_string())?;
         let seconds = t0.elapsed().as_secs_f64();
         let store = self.rec.contours();
@@ -297,6 +332,7 @@ impl Engine {
             report,
             seconds,
             platform,
+            exposure,
         })
     }
 }

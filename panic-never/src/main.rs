@@ -346,6 +346,11 @@ fn pixels() {
         let mut grid = vorl_core::platform::PlatformGrid::<32>::new();
         let _ = black_box(vorl_core::platform::estimate_platform(&fr, alpha(), plane, &mut grid));
         let _ = black_box(vorl_core::platform::cell_size(u(), u(), u()));
+        if let Ok(e) = black_box(vorl_core::exposure::fit_exposure(&fr, alpha(), plane)) {
+            let undone = buffer!(u8, 4096, 0);
+            e.undo(undone);
+            black_box(e.undo_table());
+        }
         black_box(vorl_core::math::nth_smallest(buffer!(f32, 64, 0.0), u()));
         let bg_plane = buffer!(u8, 4096, 0);
         if let Ok(mut bg) = Background::new(bg_plane, u(), u()) {

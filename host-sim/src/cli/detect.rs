@@ -69,8 +69,9 @@ pub fn prepare(
 ) -> Result<Inputs, String> {
     let opened = set.map(FixtureSet::open).transpose().map_err(|e| e.to_string())?;
     let base = opened.as_ref().and_then(FixtureSet::config);
-    let p = params.params_over(base.as_deref())?;
-    let mut engine = Engine::new(p)?;
+    let config = params.config_over(base.as_deref())?;
+    let mut engine = Engine::new(config.to_params()?)?;
+    engine.set_exposure_fit(config.exposure == crate::config::ExposureSetting::Fit);
     let (bgs, tpls, frames) = match opened {
         Some(s) => (
             s.load_backgrounds().map_err(|e| e.to_string())?,

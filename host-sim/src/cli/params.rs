@@ -5,7 +5,8 @@ use std::path::PathBuf;
 use vorl_core::Params;
 
 use crate::config::{
-    AngleSetting, CleanupSetting, Config, PositionSetting, RefineSetting, ThresholdName, ThresholdSetting,
+    AngleSetting, CleanupSetting, Config, ExposureSetting, PositionSetting, RefineSetting, ThresholdName,
+    ThresholdSetting,
 };
 
 /// Pipeline parameters: a config file, then single flags on top.
@@ -69,6 +70,9 @@ pub struct ParamArgs {
     /// Position estimator.
     #[arg(long, value_enum)]
     pub position: Option<PositionSetting>,
+    /// With an empty shot: fit each frame's gain and offset against it (default), or fixed.
+    #[arg(long, value_enum)]
+    pub exposure: Option<ExposureSetting>,
 }
 
 impl ParamArgs {
@@ -121,7 +125,8 @@ impl ParamArgs {
             offset_relative,
             scale_min,
             scale_max,
-            position
+            position,
+            exposure
         );
         Ok(c)
     }
