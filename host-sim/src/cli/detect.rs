@@ -68,7 +68,10 @@ pub fn prepare(
     params: &ParamArgs,
 ) -> Result<Inputs, String> {
     let opened = set.map(FixtureSet::open).transpose().map_err(|e| e.to_string())?;
-    let base = opened.as_ref().and_then(FixtureSet::config);
+    let base = match opened.as_ref() {
+        Some(s) => s.config().map_err(|e| e.to_string())?,
+        None => None,
+    };
     let p = params.params_over(base.as_deref())?;
     let mut engine = Engine::new(p)?;
     let (bgs, tpls, frames) = match opened {
