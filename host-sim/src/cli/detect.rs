@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use crate::cli::params::ParamArgs;
-use crate::engine::{skip_text, Engine, FrameResult};
+use crate::engine::{frame_notes, Engine, FrameResult};
 use crate::io::{file_name, load_gray};
 use crate::set::{load_background_frames, FixtureSet};
 use crate::truth::{FramesJson, PartJson};
@@ -276,8 +276,8 @@ pub fn run(args: DetectArgs) -> Result<ExitCode, String> {
                         failed += 1;
                     }
                 }
-                for s in &result.skips {
-                    eprintln!("note: {name}: border {} skipped: {}", s.contour, skip_text(s.reason));
+                for n in frame_notes(&result) {
+                    eprintln!("note: {name}: {n}");
                 }
                 let mut parts = to_json(&result);
                 if let Some(c) = &calibration {
