@@ -381,6 +381,21 @@ fn png_declaring_a_huge_size_is_refused_from_its_header() {
     assert!(error_line(&out, "wide.png", &refused).contains("16385×1"));
     assert!(error_line(&out, "many.png", &refused).contains("8193×8192"));
     error_line(&out, "at_limit.png", &["16384×1", "background"]);
+
+    // GIF (logical screen, 16-bit sizes) and BMP (info header) declare their size too.
+    let mut gif = b"GIF89a".to_vec();
+    gif.extend_from_slice(&[0xFF, 0xFF, 0xFF, 0xFF, 0, 0, 0]);
+    let mut bmp = b"BM".to_vec();
+    bmp.extend_from_slice(&[0; 12]);
+    bmp.extend_from_slice(&40u32.to_le_bytes());
+    bmp.extend_from_slice(&100_000i32.to_le_bytes());
+    bmp.extend_from_slice(&(-100_000i32).to_le_bytes()); // top-down rows
+    bmp.extend_from_slice(&[1, 0, 8, 0]);
+    for (name, bytes, size) in [("huge.gif", gif, "65535×65535"), ("huge.bmp", bmp, "100000×100000")] {
+        let p = write(&scratch, name, &bytes);
+        let e = vorl_host_sim::io::load_gray(&p).expect_err(name).to_string();
+        assert!(e.contains(size) && e.contains("too large"), "{name}: {e}");
+    }
 }
 
 /// 16-bit gray, palette, Adam7-interlaced, gray + alpha (and interlaced 16-bit gray + alpha)
