@@ -109,7 +109,7 @@ pub enum SkipReason {
     Degenerate,
     /// The border's polygon has zero net area (no centroid).
     NoArea,
-    /// [`MAX_DETECTIONS`] were already reported.
+    /// [`MAX_DETECTIONS`] were already reported (the border is not looked at further).
     TooManyParts,
 }
 
@@ -354,6 +354,11 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 continue;
             };
             if contour.kind != BorderKind::Outer {
+                continue;
+            }
+            // A full report takes no more parts: those are not worked out, only counted.
+            if report.detections.is_full() {
+                report.skip(index, SkipReason::TooManyParts);
                 continue;
             }
             match self.part(index, frame, background.plane(), labels) {

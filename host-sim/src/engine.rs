@@ -74,6 +74,10 @@ pub struct FrameResult {
     /// The frame's exposure against the empty shot, when it was fitted (`exposure = "fit"`);
     /// undone before the core saw the frame unless it is the identity.
     pub exposure: Option<Exposure>,
+    /// Width of the frame, px.
+    pub width: usize,
+    /// Height of the frame, px.
+    pub height: usize,
 }
 
 /// Loads every silhouette (`*.png`, `*.gif`, `*.bmp`) in a folder; names are file stems.
@@ -333,6 +337,8 @@ impl Engine {
             seconds,
             platform,
             exposure,
+            width: frame.width(),
+            height: frame.height(),
         })
     }
 }
@@ -345,4 +351,67 @@ pub fn skip_text(reason: SkipReason) -> &'static str {
         SkipReason::TooManyParts => "more parts than the report holds",
         _ => "skipped",
     }
+}
+
+/// Foreground share of a frame from which [`frame_notes`] says the background may not fit.
+pub const FOREGROUND_NOTE_SHARE: f64 = 0.5;
+
+/// What the core could not keep or report in one frame, and a frame whose foreground covers
+/// [`FOREGROUND_NOTE_SHARE`] or more of it, as one-line notes (without the frame's name):
+///
+/// - each border skipped as degenerate or without area;
+/// - the parts beyond [`vorl_core::recognizer::MAX_DETECTIONS`], in one line;
+/// - skips beyond [`vorl_core::recognizer::MAX_SKIPS`] that the report could not list;
+/// - borders not kept because the contour store ([`HOST_CONTOURS`] borders, [`HOST_POINTS`]
+///   points) was full, and borders kept subsampled;
+/// - a foreground of half the frame or more (the background no longer fits the scene, or a
+///   part covers the view).
+pub fn frame_notes(result: &FrameResult) -> Vec<String> {
+    use vorl_core::recognizer::{MAX_DETECTIONS, MAX_SKIPS};
+    let mut notes = Vec::new();
+    let r = &result.report;
+    let mut too_many = 0usize;
+    for s in &result.skips {
+        match s.reason {
+            SkipReason::TooManyParts => too_many += 1,
+            reason => notes.push(format!("border {} skipped: {}", s.contour, skip_text(reason))),
+        }
+    }
+    if too_many > 0 {
+        notes.push(format!(
+            "{too_many} outer border(s) not reported as parts (nor looked at): a frame reports at most \
+             {MAX_DETECTIONS} parts"
+        ));
+    }
+    if r.skips_lost > 0 {
+        notes.push(format!(
+            "{} further border(s) skipped and not listed (the report lists at most {MAX_SKIPS} skips)",
+            r.skips_lost
+        ));
+    }
+    if r.trace.skipped_capacity > 0 {
+        notes.push(format!(
+            "{} of {} border(s) not kept and not looked at: the contour store is full ({HOST_CONTOURS} borders, \
+             {HOST_POINTS} points; {} kept)",
+            r.trace.skipped_capacity, r.trace.found, r.trace.kept
+        ));
+    }
+    if r.trace.subsampled > 0 {
+        notes.push(format!(
+            "{} border(s) kept subsampled: longer than the free point storage",
+            r.trace.subsampled
+        ));
+    }
+    let pixels = result.width * result.height;
+    if pixels > 0 {
+        let share = r.mask.foreground as f64 / pixels as f64;
+        if share >= FOREGROUND_NOTE_SHARE {
+            notes.push(format!(
+                "{:.0} % of the frame differs from the background: the background may no longer fit \
+                 (lighting changed, camera moved) or something covers the view",
+                100.0 * share
+            ));
+        }
+    }
+    notes
 }

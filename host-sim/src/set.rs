@@ -29,7 +29,8 @@ impl FixtureSet {
     /// Opens a set folder.
     ///
     /// # Errors
-    /// The folder, its background or its frames folder are missing.
+    /// The folder or its frames folder are missing; `background.png` or `truth.json` is there
+    /// but is a directory.
     pub fn open(root: &Path) -> Result<Self, InputError> {
         if root.is_file() {
             return Err(InputError::new(
@@ -40,7 +41,7 @@ impl FixtureSet {
         if !root.is_dir() {
             return Err(InputError::new(root, "not a fixture set folder (no such folder)"));
         }
-        let background = Some(root.join("background.png")).filter(|p| p.is_file());
+        let background = optional_file(root, "background.png")?;
         let bg_dir = root.join("backgrounds");
         let backgrounds = if bg_dir.is_dir() && background.is_some() {
             list_files(&bg_dir, &["png"])?
@@ -48,7 +49,7 @@ impl FixtureSet {
             Vec::new()
         };
         let frames = list_files(&root.join("frames"), &["png"])?;
-        let truth = Some(root.join("truth.json")).filter(|p| p.is_file());
+        let truth = optional_file(root, "truth.json")?;
         Ok(FixtureSet {
             root: root.to_path_buf(),
             background,
@@ -69,8 +70,11 @@ impl FixtureSet {
     }
 
     /// `vorl.toml`: the set's own parameters, when present.
-    pub fn config(&self) -> Option<PathBuf> {
-        Some(self.root.join("vorl.toml")).filter(|p| p.is_file())
+    ///
+    /// # Errors
+    /// `vorl.toml` is there but is a directory (or another non-file).
+    pub fn config(&self) -> Result<Option<PathBuf>, InputError> {
+        optional_file(&self.root, "vorl.toml")
     }
 
     /// The template silhouettes.
@@ -79,6 +83,26 @@ impl FixtureSet {
     /// As [`load_silhouettes`].
     pub fn load_templates(&self) -> Result<Vec<NamedSilhouette>, InputError> {
         load_silhouettes(&self.templates)
+    }
+}
+
+/// `root/name` when it is a file, `None` when nothing of that name is there.
+///
+/// # Errors
+/// Something of that name is there but is not a file (a directory): it is not silently ignored.
+pub fn optional_file(root: &Path, name: &str) -> Result<Option<PathBuf>, InputError> {
+    let p = root.join(name);
+    if p.is_file() {
+        Ok(Some(p))
+    } else if p.exists() {
+        let what = if p.is_dir() {
+            "a directory"
+        } else {
+            "not a regular file"
+        };
+        Err(InputError::new(p, format!("is {what}, not a file")))
+    } else {
+        Ok(None)
     }
 }
 

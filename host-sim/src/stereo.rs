@@ -39,7 +39,7 @@ use crate::cli::calibrate::Calibration;
 use crate::cli::detect::{run_frame, to_json, DetectArgs};
 use crate::cli::eval::{EvalArgs, EvalReport};
 use crate::cli::params::ParamArgs;
-use crate::engine::{load_silhouettes, skip_text, Engine, FrameResult};
+use crate::engine::{frame_notes, load_silhouettes, Engine, FrameResult};
 use crate::eval::score;
 use crate::io::{file_name, list_files};
 use crate::set::load_background_frames;
@@ -519,12 +519,8 @@ pub fn run_detect(args: &DetectArgs, root: &Path, calibration: Option<&Calibrati
             eprintln!("note: {n}");
         }
         for (view, r) in [("left", &frame.left), ("right", &frame.right)] {
-            for s in &r.skips {
-                eprintln!(
-                    "note: {view}_{name}: border {} skipped: {}",
-                    s.contour,
-                    skip_text(s.reason)
-                );
+            for n in frame_notes(r) {
+                eprintln!("note: {view}_{name}: {n}");
             }
         }
         if let Some(dir) = &args.overlay {

@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use crate::cli::params::ParamArgs;
-use crate::engine::{skip_text, Engine, FrameResult};
+use crate::engine::{frame_notes, Engine, FrameResult};
 use crate::io::{file_name, load_gray};
 use crate::set::{load_background_frames, FixtureSet};
 use crate::truth::{FramesJson, PartJson};
@@ -68,7 +68,10 @@ pub fn prepare(
     params: &ParamArgs,
 ) -> Result<Inputs, String> {
     let opened = set.map(FixtureSet::open).transpose().map_err(|e| e.to_string())?;
-    let base = opened.as_ref().and_then(FixtureSet::config);
+    let base = match opened.as_ref() {
+        Some(s) => s.config().map_err(|e| e.to_string())?,
+        None => None,
+    };
     let config = params.config_over(base.as_deref())?;
     let mut engine = Engine::new(config.to_params()?)?;
     engine.set_exposure_fit(config.exposure == crate::config::ExposureSetting::Fit);
@@ -274,8 +277,8 @@ pub fn run(args: DetectArgs) -> Result<ExitCode, String> {
                         failed += 1;
                     }
                 }
-                for s in &result.skips {
-                    eprintln!("note: {name}: border {} skipped: {}", s.contour, skip_text(s.reason));
+                for n in frame_notes(&result) {
+                    eprintln!("note: {name}: {n}");
                 }
                 let mut parts = to_json(&result);
                 if let Some(c) = &calibration {

@@ -88,6 +88,9 @@ pub fn evaluate(args: &EvalArgs) -> Result<EvalReport, String> {
                 if let Some(n) = note {
                     bar.suspend(|| eprintln!("note: {n}"));
                 }
+                for n in crate::engine::frame_notes(&result) {
+                    bar.suspend(|| eprintln!("note: {name}: {n}"));
+                }
                 if let Some(dir) = &args.overlay {
                     let target = dir.join(&name);
                     if let Err(e) = crate::overlay::draw(&image, &result).save(&target) {
