@@ -23,7 +23,7 @@
 //! platform's by more than [`DEAD_BAND`] (a fixed camera's frames keep their bytes), and
 //! [`Exposure::IDENTITY`] when too few samples agree.
 //!
-//! Time: one pass over the samples per round (5 in all). Memory: two histograms on the stack
+//! Time: one pass over the samples per round (4 in all). Memory: two histograms on the stack
 //! (3 KB).
 
 use crate::enhance::{enhance_span, Alpha};
@@ -33,10 +33,10 @@ use crate::frame::Frame;
 /// The fit samples every `s`-th pixel of every `s`-th row, `s` the smallest of at least
 /// `MIN_STEP` that takes at most [`MAX_SAMPLES`] samples.
 pub const MIN_STEP: usize = 2;
-/// Most samples the fit takes (QVGA: every 4th pixel of every 4th row; VGA: every 7th).
-pub const MAX_SAMPLES: usize = 6000;
+/// Most samples the fit takes (QVGA: every 6th pixel of every 6th row; VGA: every 12th).
+pub const MAX_SAMPLES: usize = 2500;
 /// Rounds of least squares after the offset.
-pub const ROUNDS: usize = 4;
+pub const ROUNDS: usize = 3;
 /// The smallest inlier threshold, grey levels.
 pub const MIN_INLIER: f32 = 6.0;
 /// A fit that moves no level of 0..=255 by more than this many grey levels is the identity
@@ -236,7 +236,7 @@ pub fn fit_exposure<B: AsRef<[u8]>>(frame: &Frame<B>, alpha: Alpha, background: 
 
 /// The sampling step for a `w`×`h` frame ([`MIN_STEP`], [`MAX_SAMPLES`]).
 fn sample_step(w: usize, h: usize) -> usize {
-    // At most 256: a frame of 65 536² px would then still be sampled at about 6 000 points.
+    // At most 256: a frame of 65 536² px would then still be sampled at about 2 500 points.
     (MIN_STEP..256)
         .find(|&s| w.div_ceil(s.max(1)).saturating_mul(h.div_ceil(s.max(1))) <= MAX_SAMPLES)
         .unwrap_or(256)
