@@ -107,6 +107,11 @@ pub struct Params {
     pub scale_max: f32,
     /// How the position is measured.
     pub position: Position,
+    /// Whether an outer border that lies inside a hole of another part (print or a label on
+    /// it, a pattern, a small part resting in a ring) is a part of its own. Off (the
+    /// default), such a border is reported as a skip ([`crate::recognizer::SkipReason::InsideHole`]),
+    /// not as a part.
+    pub nested_parts: bool,
 }
 
 impl Params {
@@ -132,6 +137,7 @@ impl Params {
         scale_min: 0.9,
         scale_max: 1.1,
         position: Position::PartialVolume,
+        nested_parts: false,
     };
 
     /// Checks every range.

@@ -111,6 +111,9 @@ pub enum SkipReason {
     NoArea,
     /// [`MAX_DETECTIONS`] were already reported (the border is not looked at further).
     TooManyParts,
+    /// An outer border inside a hole of another part: print, a label, a pattern, or a small
+    /// part resting in a ring, not a part of its own unless [`Params::nested_parts`].
+    InsideHole,
 }
 
 /// A stage of [`Recognizer::process_observed`] that has just ended.
@@ -354,6 +357,15 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 continue;
             };
             if contour.kind != BorderKind::Outer {
+                continue;
+            }
+            // Inside a hole of another part (its parent is a hole border).
+            let in_hole = contour
+                .parent
+                .and_then(|p| self.store.contours().get(p as usize))
+                .is_some_and(|p| p.kind == BorderKind::Hole);
+            if in_hole && !self.params.nested_parts {
+                report.skip(index, SkipReason::InsideHole);
                 continue;
             }
             // A full report takes no more parts: those are not worked out, only counted.
@@ -1127,6 +1139,64 @@ mod tests {
             let stats = foreground_mask(&frame, &bg, p.alpha(), p.threshold, p.cleanup, &mut mask).unwrap();
             assert_eq!(report.mask, stats);
             assert!(labels[..n] == mask[..], "case {case}: {w}×{h}");
+        }
+    }
+
+    /// A dark ring on a bright platform with a dark square (print, or a small part) inside its
+    /// hole: the square's outer border lies inside the ring's hole border. By default it is a
+    /// reported skip, not a part; with `nested_parts` it is a part of its own. A square beside
+    /// the ring is a part either way.
+    #[test]
+    fn parts_inside_a_hole_are_skipped_unless_asked_for() {
+        let (w, h) = (120usize, 80usize);
+        let bg_px = std::vec![200u8; w * h];
+        let mut px = bg_px.clone();
+        for y in 0..h {
+            for x in 0..w {
+                let (dx, dy) = (x as f32 - 40.0, y as f32 - 40.0);
+                let r = libm::sqrtf(dx * dx + dy * dy);
+                let in_ring = (16.0..30.0).contains(&r);
+                let in_square = (36..46).contains(&x) && (36..46).contains(&y);
+                let beside = (90..102).contains(&x) && (30..42).contains(&y);
+                if in_ring || in_square || beside {
+                    px[y * w + x] = 20;
+                }
+            }
+        }
+        let frame = Frame::new_checked(&px[..], w, h).unwrap();
+        let mut bg = Background::new(std::vec![0u8; w * h], w, h).unwrap();
+        bg.set_from_frame(&Frame::new_checked(&bg_px[..], w, h).unwrap(), Params::DEFAULT.alpha())
+            .unwrap();
+        for nested in [false, true] {
+            let mut rec: std::boxed::Box<Recognizer<4, 96, 4096, 64, 2112>> = std::boxed::Box::default();
+            rec.set_params(Params {
+                nested_parts: nested,
+                ..Params::DEFAULT
+            })
+            .unwrap();
+            let mut labels = std::vec![0u8; w * h];
+            let report = rec.process(&frame, &bg, &mut labels).unwrap();
+            let at = |x: f32, y: f32| {
+                report
+                    .detections
+                    .iter()
+                    .any(|d| (d.x - x).abs() < 1.0 && (d.y - y).abs() < 1.0)
+            };
+            // The ring (centred on its hole) and the square beside it.
+            assert!(at(40.0, 40.0) || at(40.5, 40.5), "{nested}: {:?}", report.detections);
+            assert!(at(95.5, 35.5), "{nested}: {:?}", report.detections);
+            let inside = report
+                .skips
+                .iter()
+                .filter(|s| s.reason == SkipReason::InsideHole)
+                .count();
+            if nested {
+                assert_eq!(report.detections.len(), 3, "{:?}", report.detections);
+                assert_eq!(inside, 0);
+            } else {
+                assert_eq!(report.detections.len(), 2, "{:?}", report.detections);
+                assert_eq!(inside, 1, "{:?}", report.skips);
+            }
         }
     }
 

@@ -59,6 +59,9 @@ pub struct Config {
     /// pixels and undo them before the frame is processed (default), or keep the frame
     /// "fixed". Without one the platform is estimated from each frame, exposure included.
     pub exposure: ExposureSetting,
+    /// Whether an outer border inside a hole of another part (print, a label, a small part in
+    /// a ring) is a part of its own (else it is reported as a skip).
+    pub nested_parts: bool,
 }
 
 /// `exposure` as written in a config file.
@@ -184,6 +187,7 @@ impl Config {
                 Position::Pose => PositionSetting::Pose,
             },
             exposure: ExposureSetting::Fit,
+            nested_parts: p.nested_parts,
         }
     }
 
@@ -231,6 +235,7 @@ impl Config {
                 PositionSetting::PartialVolume => Position::PartialVolume,
                 PositionSetting::Pose => Position::Pose,
             },
+            nested_parts: self.nested_parts,
         };
         p.validate().map_err(|e| format!("invalid parameters: {e}"))?;
         Ok(p)
@@ -319,11 +324,14 @@ impl Config {
              position = \"{}\"\n\
              # With an empty shot: \"fit\" each frame's gain and offset against it on the platform's pixels and undo them\n\
              # (a brighter or dimmer exposure gives the same masks), or \"fixed\". Without one the platform is estimated per frame.\n\
-             exposure = \"{}\"\n",
+             exposure = \"{}\"\n\
+             # Whether an outer border inside a hole of another part (print, a label, a small part resting in a ring) is a part\n\
+             # of its own; false: it is reported as a skip (\"inside a hole of another part\"), not as a part.\n\
+             nested_parts = {}\n",
             d.alpha, thr, setting_name(&d.cleanup), d.min_points, d.min_area, d.n, d.m, d.k, d.omega, d.epsilon, angle,
             setting_name(&d.refine), d.candidates, toml_float(d.candidate_ratio), d.verify_threshold,
             d.verify_relative, d.offset_relative, d.scale_min, d.scale_max, setting_name(&d.position),
-            setting_name(&d.exposure)
+            setting_name(&d.exposure), d.nested_parts
         )
     }
 }

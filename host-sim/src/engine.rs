@@ -349,6 +349,9 @@ pub fn skip_text(reason: SkipReason) -> &'static str {
         SkipReason::Degenerate => "border has no extent to resample",
         SkipReason::NoArea => "border encloses no area",
         SkipReason::TooManyParts => "more parts than the report holds",
+        SkipReason::InsideHole => {
+            "inside a hole of another part (print or a nested part; nested_parts = true keeps it)"
+        }
         _ => "skipped",
     }
 }

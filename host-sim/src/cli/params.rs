@@ -73,6 +73,9 @@ pub struct ParamArgs {
     /// With an empty shot: fit each frame's gain and offset against it (default), or fixed.
     #[arg(long, value_enum)]
     pub exposure: Option<ExposureSetting>,
+    /// Report outer borders inside a hole of another part (print, a nested part) as parts.
+    #[arg(long, value_name = "true|false")]
+    pub nested_parts: Option<bool>,
 }
 
 impl ParamArgs {
@@ -126,7 +129,8 @@ impl ParamArgs {
             scale_min,
             scale_max,
             position,
-            exposure
+            exposure,
+            nested_parts
         );
         Ok(c)
     }
