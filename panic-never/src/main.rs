@@ -175,6 +175,7 @@ fn params() -> Params {
         } else {
             Position::PartialVolume
         },
+        nested_parts: flag(),
     }
 }
 
