@@ -8,8 +8,8 @@ use crate::soak::{run as soak_run, SoakOptions};
 /// Arguments of `vorl soak`.
 #[derive(Debug, Clone, clap::Args)]
 #[command(
-    after_help = "Example (the long run of docs/reliability.md):\n  vorl soak --frames 100000\n  \
-    vorl soak --frames 300 --distinct 75 --reuse 4      (the test suite's short run)"
+    after_help = "Examples:\n  vorl soak --frames 100000                           (the long run of docs/reliability.md)\n  \
+    vorl soak --frames 280 --distinct 28 --reuse 10 --seed 11   (the test suite's short run)"
 )]
 pub struct SoakArgs {
     /// Frames through the one long-lived recognizer.
