@@ -64,8 +64,9 @@ use vorl_core::contour::Contour;
 use vorl_core::library::Library;
 use vorl_core::matching::table_cells;
 use vorl_core::params::Refine;
+use vorl_core::platform::{PlatformGrid, PlatformStats};
 use vorl_core::recognizer::Stage;
-use vorl_core::{Error, Frame, Params, Recognizer, Template};
+use vorl_core::{Error, Frame, Params, Recognizer, Report, Template};
 
 /// Frame width (QVGA).
 const W: usize = 320;
@@ -85,6 +86,11 @@ const P: usize = 4096;
 const C: usize = 64;
 /// DP table cells, `D = n·(m − n + 1)`.
 const D: usize = table_cells(N, M);
+
+/// Cells of the platform grid, `G`: a QVGA frame is 20×15 cells of 16 px
+/// (`vorl_core::platform::cell_size`), the same grid as the host's, so both estimate the same
+/// platform.
+const G: usize = 300;
 
 /// The recognizer of this firmware.
 type Rec = Recognizer<T, M, P, C, D>;
@@ -118,6 +124,10 @@ const _: () = assert!(
     "vorl_core::budget::recognizer_bytes is not size_of::<Recognizer<..>>(): update core/src/budget.rs to the fields of Recognizer"
 );
 const _: () = assert!(BUDGET.total == 2 * PLANE + size_of::<Rec>());
+const _: () = assert!(
+    PlatformGrid::<G>::BYTES == size_of::<PlatformGrid<G>>(),
+    "vorl_core::platform::PlatformGrid::BYTES is not its size: update core/src/platform.rs"
+);
 
 /// Bytes aligned to 8: frames and planes start on a word boundary, as a camera's DMA buffers
 /// do, so row copies take the word-wise path of `memcpy` whatever the layout of the image
@@ -131,6 +141,8 @@ static mut RECOGNIZER: Rec = Rec::new();
 static mut BACKGROUND: Aligned<PLANE> = Aligned([0; PLANE]);
 /// The label plane: mask and border labels; the high byte of the sum while learning (`.bss`).
 static mut LABELS: Aligned<PLANE> = Aligned([0; PLANE]);
+/// The platform estimate's cells, for frames without an empty shot (`.bss`, `9·G` bytes).
+static mut PLATFORM: PlatformGrid<G> = PlatformGrid::new();
 
 /// The template library, written on the host by `vorl templates export`.
 static LIBRARY: &[u8] = include_bytes!("../fixtures/templates.vtl");
@@ -204,19 +216,26 @@ fn spin(iterations: u32) {
     }
 }
 
-/// The three statics, once (`None` on a second call).
-fn take_buffers() -> Option<(&'static mut Rec, &'static mut [u8; PLANE], &'static mut [u8; PLANE])> {
+/// The four statics, once (`None` on a second call).
+#[allow(clippy::type_complexity)]
+fn take_buffers() -> Option<(
+    &'static mut Rec,
+    &'static mut [u8; PLANE],
+    &'static mut [u8; PLANE],
+    &'static mut PlatformGrid<G>,
+)> {
     static TAKEN: AtomicBool = AtomicBool::new(false);
     if TAKEN.swap(true, Ordering::SeqCst) {
         return None;
     }
     // SAFETY: the flag lets this block run once, so these are the only references ever made to
-    // the three statics, and nothing else (no interrupt handler) touches them.
+    // the four statics, and nothing else (no interrupt handler) touches them.
     unsafe {
         Some((
             &mut *addr_of_mut!(RECOGNIZER),
             &mut (*addr_of_mut!(BACKGROUND)).0,
             &mut (*addr_of_mut!(LABELS)).0,
+            &mut *addr_of_mut!(PLATFORM),
         ))
     }
 }
@@ -286,7 +305,7 @@ fn run() -> Result<(), Failure> {
     let Some(mut core) = cortex_m::Peripherals::take() else {
         return Err(Failure::Setup("the core peripherals were taken twice"));
     };
-    let Some((rec, bg_plane, labels)) = take_buffers() else {
+    let Some((rec, bg_plane, labels, grid)) = take_buffers() else {
         return Err(Failure::Setup("the static buffers were taken twice"));
     };
     hprintln!("vorl-firmware version=1");
@@ -320,8 +339,7 @@ fn run() -> Result<(), Failure> {
     }
     let instructions = |ticks: u64| ticks * NOMINAL_INSTRUCTIONS_PER_TICK;
 
-    let library = Library::parse(LIBRARY)?;
-    library.load_into(rec)?;
+    let library = load_library(rec)?;
     let stack_after_load = stack_peak();
     let p = *rec.params();
     hprintln!(
@@ -340,10 +358,11 @@ fn run() -> Result<(), Failure> {
         D
     );
     hprintln!(
-        "memory static_ram={} recognizer={} planes={} stack_reserve={} stack_peak_after_library={}",
+        "memory static_ram={} recognizer={} planes={} platform_grid={} stack_reserve={} stack_peak_after_library={}",
         BUDGET.total,
         size_of::<Rec>(),
         2 * PLANE,
+        size_of::<PlatformGrid<G>>(),
         STACK_RESERVE,
         stack_after_load
     );
@@ -363,57 +382,15 @@ fn run() -> Result<(), Failure> {
         instructions(ticks() - t0)
     );
 
+    if let Some(frames) = soak_request() {
+        return soak(frames, rec, &library, bg_plane, labels, grid);
+    }
+
     let (mut detections, mut total) = (0usize, 0u64);
     for (name, pixels) in FRAMES.iter() {
         let frame = Frame::new_checked(&pixels.0[..], W, H)?;
-        let (report, counts) = timed(rec, &frame, &background, &mut labels[..])?;
-        hprintln!(
-            "frame name={} parts={} borders={} foreground={} threshold={}",
-            name,
-            report.detections.len(),
-            report.trace.kept,
-            report.mask.foreground,
-            report.mask.threshold
-        );
-        for (i, d) in report.detections.iter().enumerate() {
-            let class = d.template.and_then(|t| library.name(usize::from(t)));
-            let best = d
-                .best_template
-                .and_then(|t| library.name(usize::from(t)))
-                .unwrap_or("-");
-            match d.template {
-                Some(t) => hprintln!(
-                    "det frame={} part={} template={} class={} x={:.4} y={:.4} angle={:.4} angle_paper={:.4} score={:.6} area={:.1} edge={}",
-                    name,
-                    i,
-                    t,
-                    class.unwrap_or("?"),
-                    d.x,
-                    d.y,
-                    d.angle_deg,
-                    d.angle_paper_deg,
-                    d.score,
-                    d.area,
-                    u8::from(d.touches_edge)
-                ),
-                None => hprintln!(
-                    "det frame={} part={} template=- class=unknown best={} x={:.4} y={:.4} angle={:.4} angle_paper={:.4} score={:.6} area={:.1} edge={}",
-                    name,
-                    i,
-                    best,
-                    d.x,
-                    d.y,
-                    d.angle_deg,
-                    d.angle_paper_deg,
-                    d.score,
-                    d.area,
-                    u8::from(d.touches_edge)
-                ),
-            }
-        }
-        for s in report.skips.iter() {
-            hprintln!("skip frame={} border={} reason={:?}", name, s.contour, s.reason);
-        }
+        let out = run_frame(rec, &frame, &background, &mut labels[..], Some(("frame", "det", name, &library)))?;
+        let counts = out.counts;
         hprintln!(
             "instructions frame={} mask={} borders={} descriptors_matching={} total={} [instructions, not cycles]",
             name,
@@ -422,7 +399,7 @@ fn run() -> Result<(), Failure> {
             counts.parts,
             counts.total
         );
-        detections += report.detections.len();
+        detections += out.parts;
         total += counts.total;
     }
     // Two cheaper configurations for comparison (their detections are not printed): the paper's
@@ -442,7 +419,7 @@ fn run() -> Result<(), Failure> {
         })?;
         for (name, pixels) in FRAMES.iter() {
             let frame = Frame::new_checked(&pixels.0[..], W, H)?;
-            let (_, counts) = timed(rec, &frame, &background, &mut labels[..])?;
+            let counts = run_frame(rec, &frame, &background, &mut labels[..], None)?.counts;
             hprintln!(
                 "{} frame={} mask={} borders={} descriptors_matching={} total={} [instructions, not cycles]",
                 label,
@@ -455,15 +432,122 @@ fn run() -> Result<(), Failure> {
         }
     }
     rec.set_params(default)?;
+
+    let (detections_auto, total_auto) = estimated_frames(rec, &library, bg_plane, labels, grid)?;
     hprintln!(
-        "summary frames={} detections={} instructions_total={} stack_peak={} stack_peak_frames={}",
+        "summary frames={} detections={} instructions_total={} detections_auto={} instructions_total_auto={} stack_peak={} stack_peak_frames={}",
         FRAMES.len(),
         detections,
         total,
+        detections_auto,
+        total_auto,
         stack_peak(),
         stack_after_frames
     );
     Ok(())
+}
+
+/// No empty shot: the platform estimated from each frame itself, into the background plane
+/// (the learned model is gone after this), then the frame through the recognizer. Returns the
+/// detections and the instructions (estimate included). Its own stack frame: the report is
+/// not kept beside the other calls' in `run`'s.
+#[inline(never)]
+fn estimated_frames(
+    rec: &mut Rec,
+    library: &Library<'_>,
+    bg_plane: &mut [u8; PLANE],
+    labels: &mut [u8; PLANE],
+    grid: &mut PlatformGrid<G>,
+) -> Result<(usize, u64), Failure> {
+    let alpha = rec.params().alpha();
+    let instructions = |ticks: u64| ticks * NOMINAL_INSTRUCTIONS_PER_TICK;
+    let (mut detections_auto, mut total_auto) = (0usize, 0u64);
+    for (name, pixels) in FRAMES.iter() {
+        let frame = Frame::new_checked(&pixels.0[..], W, H)?;
+        let t0 = ticks();
+        let mut estimated = Background::new(&mut bg_plane[..], W, H)?;
+        let stats = estimated.estimate_from_frame(&frame, alpha, grid)?;
+        let platform = instructions(ticks() - t0);
+        print_platform(name, &stats);
+        let out = run_frame(rec, &frame, &estimated, &mut labels[..], Some(("frame_auto", "det_auto", name, library)))?;
+        let counts = out.counts;
+        hprintln!(
+            "instructions_auto frame={} platform={} mask={} borders={} descriptors_matching={} total={} [instructions, not cycles]",
+            name,
+            platform,
+            counts.mask,
+            counts.borders,
+            counts.parts,
+            platform + counts.total
+        );
+        detections_auto += out.parts;
+        total_auto += platform + counts.total;
+    }
+    Ok((detections_auto, total_auto))
+}
+
+/// What the platform estimate found (`platform` line).
+#[inline(never)]
+fn print_platform(name: &str, s: &PlatformStats) {
+    hprintln!(
+        "platform frame={} cell={} cells_x={} cells_y={} with_level={} kept={} degree={} outlier={:.2} range={:.1},{:.1}",
+        name,
+        s.cell,
+        s.cells_x,
+        s.cells_y,
+        s.with_level,
+        s.kept,
+        s.degree,
+        s.outlier,
+        s.range[0],
+        s.range[1]
+    );
+}
+
+/// One `<tag> frame=… part=…` line per detection and one `skip` line per skipped border.
+#[inline(never)]
+fn print_detections(tag: &str, name: &str, report: &Report, library: &Library<'_>) {
+    for (i, d) in report.detections.iter().enumerate() {
+        let class = d.template.and_then(|t| library.name(usize::from(t)));
+        let best = d
+            .best_template
+            .and_then(|t| library.name(usize::from(t)))
+            .unwrap_or("-");
+        match d.template {
+            Some(t) => hprintln!(
+                "{} frame={} part={} template={} class={} x={:.4} y={:.4} angle={:.4} angle_paper={:.4} score={:.6} area={:.1} edge={}",
+                tag,
+                name,
+                i,
+                t,
+                class.unwrap_or("?"),
+                d.x,
+                d.y,
+                d.angle_deg,
+                d.angle_paper_deg,
+                d.score,
+                d.area,
+                u8::from(d.touches_edge)
+            ),
+            None => hprintln!(
+                "{} frame={} part={} template=- class=unknown best={} x={:.4} y={:.4} angle={:.4} angle_paper={:.4} score={:.6} area={:.1} edge={}",
+                tag,
+                name,
+                i,
+                best,
+                d.x,
+                d.y,
+                d.angle_deg,
+                d.angle_paper_deg,
+                d.score,
+                d.area,
+                u8::from(d.touches_edge)
+            ),
+        }
+    }
+    for s in report.skips.iter() {
+        hprintln!("skip frame={} border={} reason={:?}", name, s.contour, s.reason);
+    }
 }
 
 /// Instruction counts of one frame's stages.
@@ -478,8 +562,58 @@ struct Counts {
     total: u64,
 }
 
-/// Runs one frame through the recognizer, counting each stage's instructions. Inlined so the
-/// report (about 2.6 KiB) is not copied through another stack frame.
+/// Parses the template library and loads it into the recognizer. Not inlined: the templates
+/// that pass through the stack while loading do not stay in `run`'s frame.
+#[inline(never)]
+fn load_library(rec: &mut Rec) -> Result<Library<'static>, Error> {
+    let library = Library::parse(LIBRARY)?;
+    library.load_into(rec)?;
+    Ok(library)
+}
+
+/// What a caller keeps of a frame: the counts and a fingerprint, not the report.
+struct Outcome {
+    /// Detections.
+    parts: usize,
+    /// Instructions per stage.
+    counts: Counts,
+    /// [`fingerprint`] of the report.
+    fingerprint: u64,
+}
+
+/// One frame through the recognizer ([`timed`]); with `print` = (frame tag, detection tag,
+/// name, library) its `frame` line and detections are printed. Not inlined: the report (about
+/// 5 KiB) lives in this one stack frame, not once per call site in the callers'.
+#[inline(never)]
+fn run_frame(
+    rec: &mut Rec,
+    frame: &Frame<&[u8]>,
+    background: &Background<&mut [u8]>,
+    labels: &mut [u8],
+    print: Option<(&str, &str, &str, &Library<'_>)>,
+) -> Result<Outcome, Error> {
+    let (report, counts) = timed(rec, frame, background, labels)?;
+    if let Some((frame_tag, det_tag, name, library)) = print {
+        hprintln!(
+            "{} name={} parts={} borders={} foreground={} threshold={}",
+            frame_tag,
+            name,
+            report.detections.len(),
+            report.trace.kept,
+            report.mask.foreground,
+            report.mask.threshold
+        );
+        print_detections(det_tag, name, &report, library);
+    }
+    Ok(Outcome {
+        parts: report.detections.len(),
+        counts,
+        fingerprint: fingerprint(&report),
+    })
+}
+
+/// Runs one frame through the recognizer, counting each stage's instructions. Inlined into
+/// [`run_frame`] so the report is not copied through another stack frame.
 #[inline(always)]
 fn timed(
     rec: &mut Rec,
@@ -507,4 +641,235 @@ fn timed(
         total: instructions(end - start),
     };
     Ok((report, counts))
+}
+
+// ---------------------------------------------------------------------------------------------
+// Soak run: `qemu-system-arm … -kernel vorl-firmware-example -append "soak 10000"`.
+
+/// Most frames a soak run takes.
+const SOAK_MAX: u32 = 10_000_000;
+/// The soak's scenes: the three fixture frames and an empty platform.
+static SOAK_SCENES: [(&str, &Aligned<PLANE>); 4] = [
+    ("frame_0", &FRAME_0),
+    ("frame_1", &FRAME_1),
+    ("frame_2", &FRAME_2),
+    ("background_0", &BACKGROUND_0),
+];
+/// The soak's views of a scene: (x0, y0, width, height, platform estimated). The empty-shot
+/// view is the whole frame (the learned model is full size); the estimated ones are the whole
+/// frame and a 272×208 window (a crop through the row stride, cutting parts at its edge).
+const SOAK_VIEWS: [(usize, usize, usize, usize, bool); 3] =
+    [(0, 0, W, H, false), (0, 0, W, H, true), (24, 16, 272, 208, true)];
+/// The soak's parameter sets: the defaults and the paper's path.
+const SOAK_REFINES: [Refine; 2] = [Refine::Verify, Refine::Off];
+/// Variants: scene × view × parameters.
+const SOAK_VARIANTS: usize = SOAK_SCENES.len() * SOAK_VIEWS.len() * SOAK_REFINES.len();
+/// Frames between two `soak_progress` lines.
+const SOAK_PROGRESS: u32 = 1000;
+
+/// `soak N` on the semihosting command line (QEMU's `-append`): the number of frames.
+#[inline(never)]
+fn soak_request() -> Option<u32> {
+    let mut buf = [0u8; 128];
+    // SYS_GET_CMDLINE: the block is (buffer address, its length); the host writes the command
+    // line (NUL-terminated) and stores its length in the block's second word.
+    let mut block = [buf.as_mut_ptr() as usize, buf.len() - 1];
+    // SAFETY: the block and the buffer are valid for the call; the host writes at most
+    // `buf.len() - 1` bytes into the buffer and one word into the block.
+    let status = unsafe { cortex_m_semihosting::syscall(cortex_m_semihosting::nr::GET_CMDLINE, &mut block) };
+    if status != 0 {
+        return None;
+    }
+    // SAFETY: `block` is a local array; the read keeps the compiler from assuming the host
+    // left it unchanged.
+    let len = unsafe { core::ptr::read_volatile(&block[1]) }.min(buf.len());
+    let text = core::str::from_utf8(&buf[..len]).ok()?;
+    let mut words = text.split_whitespace().skip_while(|w| *w != "soak").skip(1);
+    words.next()?.parse::<u32>().ok().map(|n| n.min(SOAK_MAX))
+}
+
+/// FNV-1a over the words of a report: every detection's template, pose, scores and area bit for
+/// bit, the mask's and the tracer's counts and the skips.
+fn fingerprint(report: &Report) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut eat = |v: u32| {
+        for b in v.to_le_bytes() {
+            h = (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    };
+    eat(report.detections.len() as u32);
+    eat(report.mask.foreground as u32);
+    eat(report.trace.kept as u32);
+    eat(report.skips.len() as u32);
+    for d in report.detections.iter() {
+        eat(d.template.map_or(u32::MAX, u32::from));
+        eat(d.best_template.map_or(u32::MAX, u32::from));
+        for v in [d.score, d.x, d.y, d.angle_deg, d.angle_paper_deg, d.verify, d.scale, d.area] {
+            eat(v.to_bits());
+        }
+        eat(u32::from(d.contour));
+        eat(u32::from(d.touches_edge));
+    }
+    for s in report.skips.iter() {
+        eat(u32::from(s.contour));
+    }
+    h
+}
+
+/// The soak: `frames` frames through this one recognizer, each a variant drawn at random
+/// (scene × view × parameters, [`SOAK_VARIANTS`] of them). The first frame of a variant
+/// prints its detections (`det_soak`, for the host to compare) and its fingerprint; every later
+/// frame of it must give the same fingerprint, bit for bit, or it is counted (and printed) as
+/// a mismatch. The learned empty-shot model is learned again whenever the estimated views have
+/// overwritten the background plane (`relearns`).
+#[inline(never)]
+fn soak(
+    frames: u32,
+    rec: &mut Rec,
+    library: &Library<'_>,
+    bg_plane: &mut [u8; PLANE],
+    labels: &mut [u8; PLANE],
+    grid: &mut PlatformGrid<G>,
+) -> Result<(), Failure> {
+    let default = *rec.params();
+    let alpha = default.alpha();
+    let mut first: [Option<(u64, usize)>; SOAK_VARIANTS] = [None; SOAK_VARIANTS];
+    let mut state: u64 = 0x9E37_79B9_7F4A_7C15;
+    let (mut mismatches, mut errors, mut relearns, mut detections) = (0u32, 0u32, 0u32, 0u64);
+    let (mut total, mut most, mut least) = (0u64, 0u64, u64::MAX);
+    let mut learned = false;
+    let mut stack_first = 0usize;
+    let start = ticks();
+    hprintln!("soak frames={} variants={}", frames, SOAK_VARIANTS);
+    for i in 0..frames {
+        // xorshift64*
+        state ^= state >> 12;
+        state ^= state << 25;
+        state ^= state >> 27;
+        let v = (state.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 33) as usize % SOAK_VARIANTS;
+        let (scene, rest) = (v / (SOAK_VIEWS.len() * SOAK_REFINES.len()), v % (SOAK_VIEWS.len() * SOAK_REFINES.len()));
+        let (view, refine) = (rest / SOAK_REFINES.len(), rest % SOAK_REFINES.len());
+        let (scene_name, pixels) = SOAK_SCENES[scene];
+        let (x0, y0, w, h, estimate) = SOAK_VIEWS[view];
+        rec.set_params(Params {
+            refine: SOAK_REFINES[refine],
+            ..default
+        })?;
+        let frame = Frame::with_stride(&pixels.0[y0 * W + x0..], w, h, W)?;
+        let mut name = [0u8; 3];
+        let tag = variant_tag(v, &mut name);
+        let print = first[v].is_none().then_some(("soak_frame", "det_soak", tag, library));
+        let outcome = (|| -> Result<(Outcome, u64), Error> {
+            let mut bg = Background::new(&mut bg_plane[..w * h], w, h)?;
+            let mut platform = 0;
+            if estimate {
+                learned = false;
+                let t0 = ticks();
+                bg.estimate_from_frame(&frame, alpha, grid)?;
+                platform = NOMINAL_INSTRUCTIONS_PER_TICK * (ticks() - t0);
+            } else {
+                // The learned model: the mean of both empty-platform captures.
+                if !learned {
+                    relearns += 1;
+                }
+                for (_, capture) in BACKGROUNDS.iter() {
+                    bg.learn(&Frame::new_checked(&capture.0[..], W, H)?, alpha, &mut labels[..])?;
+                }
+                bg.finish_learning(&labels[..])?;
+                learned = true;
+            }
+            let out = run_frame(rec, &frame, &bg, &mut labels[..w * h], print)?;
+            Ok((out, platform))
+        })();
+        match outcome {
+            Err(e) => {
+                errors += 1;
+                hprintln!("soak_error frame={} variant={} error={}", i, v, e);
+            }
+            Ok((out, platform)) => {
+                let count = platform + out.counts.total;
+                total += count;
+                most = most.max(count);
+                least = least.min(count);
+                detections += out.parts as u64;
+                match first[v] {
+                    None => {
+                        first[v] = Some((out.fingerprint, out.parts));
+                        hprintln!(
+                            "soak_variant variant={} scene={} x0={} y0={} width={} height={} platform={} refine={} first_frame={} parts={} fingerprint={:016x} instructions={}",
+                            tag,
+                            scene_name,
+                            x0,
+                            y0,
+                            w,
+                            h,
+                            if estimate { "estimated" } else { "empty_shot" },
+                            if SOAK_REFINES[refine] == Refine::Off { "off" } else { "verify" },
+                            i,
+                            out.parts,
+                            out.fingerprint,
+                            count
+                        );
+                    }
+                    Some((expected, _)) if expected != out.fingerprint => {
+                        mismatches += 1;
+                        hprintln!(
+                            "soak_mismatch frame={} variant={} fingerprint={:016x} expected={:016x}",
+                            i,
+                            v,
+                            out.fingerprint,
+                            expected
+                        );
+                    }
+                    Some(_) => {}
+                }
+            }
+        }
+        if i == 0 {
+            stack_first = stack_peak();
+        }
+        if (i + 1) % SOAK_PROGRESS == 0 || i + 1 == frames {
+            hprintln!(
+                "soak_progress frames={} mismatches={} errors={} relearns={} detections={} instructions={} stack_peak={}",
+                i + 1,
+                mismatches,
+                errors,
+                relearns,
+                detections,
+                total,
+                stack_peak()
+            );
+        }
+    }
+    rec.set_params(default)?;
+    let seen = first.iter().filter(|f| f.is_some()).count();
+    let elapsed = NOMINAL_INSTRUCTIONS_PER_TICK * (ticks() - start);
+    hprintln!(
+        "soak_summary frames={} variants={} seen={} mismatches={} errors={} relearns={} detections={} instructions_frames={} instructions_min={} instructions_max={} instructions_all={} stack_peak_first={} stack_peak={}",
+        frames,
+        SOAK_VARIANTS,
+        seen,
+        mismatches,
+        errors,
+        relearns,
+        detections,
+        total,
+        if least == u64::MAX { 0 } else { least },
+        most,
+        elapsed,
+        stack_first,
+        stack_peak()
+    );
+    if mismatches > 0 || errors > 0 {
+        return Err(Failure::Setup("the soak run lost or changed detections"));
+    }
+    Ok(())
+}
+
+/// `vNN`, the variant's name in `det_soak` lines.
+fn variant_tag(v: usize, buf: &mut [u8; 3]) -> &str {
+    buf[0] = b'v';
+    buf[1] = b'0' + (v / 10 % 10) as u8;
+    buf[2] = b'0' + (v % 10) as u8;
+    core::str::from_utf8(buf).unwrap_or("v??")
 }

@@ -15,5 +15,6 @@ pub mod overlay;
 pub mod reference;
 pub mod set;
 pub mod similarity;
+pub mod soak;
 pub mod stereo;
 pub mod truth;

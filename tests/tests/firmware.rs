@@ -596,15 +596,9 @@ fn angle_diff(a: f64, b: f64) -> f64 {
     d.min(360.0 - d)
 }
 
-#[test]
-fn firmware_matches_host() {
-    if !qemu_available() {
-        if std::env::var("VORL_SKIP_QEMU").is_ok_and(|v| v == "1") {
-            eprintln!("SKIPPED firmware_matches_host: qemu-system-arm is not installed (VORL_SKIP_QEMU=1)");
-            return;
-        }
-        panic!("qemu-system-arm is not installed: run scripts/setup.sh (or set VORL_SKIP_QEMU=1 to skip this test)");
-    }
+/// Runs the firmware in QEMU (with `-append ARGS` when given: the semihosting command line),
+/// writes its output to `target/NAME` and returns it; panics when it fails.
+fn run_firmware(append: Option<&str>, name: &str) -> String {
     let elf = firmware_elf().as_ref().unwrap_or_else(|e| panic!("{e}"));
     let mut qemu = Command::new("qemu-system-arm");
     qemu.args(["-cpu", "cortex-m4", "-machine", "mps2-an386", "-nographic"])
@@ -616,13 +610,108 @@ fn firmware_matches_host() {
             "-kernel",
         ])
         .arg(elf);
+    if let Some(args) = append {
+        qemu.args(["-append", args]);
+    }
     let started = Instant::now();
     let (status, stdout, stderr) =
         run_with_timeout(qemu, QEMU_TIMEOUT, "qemu-system-arm").unwrap_or_else(|e| panic!("{e}"));
     let seconds = started.elapsed().as_secs_f64();
-    let _ = std::fs::write(root().join("target").join("firmware-output.txt"), &stdout);
+    let _ = std::fs::write(root().join("target").join(name), &stdout);
     assert!(status.success(), "the firmware failed ({status}):\n{stdout}\n{stderr}");
     eprintln!("firmware ran {seconds:.1} s in QEMU:\n{stdout}");
+    stdout
+}
+
+/// Skips (with `VORL_SKIP_QEMU=1`) or fails when qemu-system-arm is missing; true to go on.
+fn need_qemu(test: &str) -> bool {
+    if qemu_available() {
+        return true;
+    }
+    if std::env::var("VORL_SKIP_QEMU").is_ok_and(|v| v == "1") {
+        eprintln!("SKIPPED {test}: qemu-system-arm is not installed (VORL_SKIP_QEMU=1)");
+        return false;
+    }
+    panic!("qemu-system-arm is not installed: run scripts/setup.sh (or set VORL_SKIP_QEMU=1 to skip this test)");
+}
+
+/// The firmware's `<tag> frame=NAME …` detection lines, by frame name.
+fn firmware_detections(stdout: &str, tag: &str) -> BTreeMap<String, Vec<Det>> {
+    let mut fw: BTreeMap<String, Vec<Det>> = BTreeMap::new();
+    let prefix = format!("{tag} ");
+    for line in stdout.lines().filter(|l| l.starts_with(&prefix)) {
+        let f = fields(line);
+        let class = (f["template"] != "-").then(|| f["class"].to_string());
+        let num = |k: &str| f[k].parse::<f64>().unwrap_or_else(|_| panic!("{k} in {line}"));
+        fw.entry(f["frame"].to_string()).or_default().push(Det {
+            class,
+            x: num("x"),
+            y: num("y"),
+            angle: num("angle"),
+        });
+    }
+    fw
+}
+
+/// The host's detections of one frame.
+fn host_detections(engine: &mut Engine, img: &GrayImage) -> Vec<Det> {
+    engine
+        .detect(img)
+        .unwrap()
+        .detections
+        .iter()
+        .map(|d| Det {
+            class: d.class.clone(),
+            x: f64::from(d.core.x),
+            y: f64::from(d.core.y),
+            angle: f64::from(d.core.angle_deg),
+        })
+        .collect()
+}
+
+/// Holds the firmware's detections of a frame against the host's: same classes in the same
+/// order, positions within 0.5 px, angles within 0.5°. Returns the largest differences.
+fn agree(what: &str, firmware: &[Det], host: &[Det]) -> (f64, f64) {
+    assert_eq!(
+        firmware.len(),
+        host.len(),
+        "{what}: firmware {firmware:?}\nhost {host:?}"
+    );
+    let (mut worst_pos, mut worst_angle) = (0.0f64, 0.0f64);
+    for (f, h) in firmware.iter().zip(host) {
+        assert_eq!(f.class, h.class, "{what}: firmware {f:?}, host {h:?}");
+        let pos = (f.x - h.x).abs().max((f.y - h.y).abs());
+        let ang = angle_diff(f.angle, h.angle);
+        assert!(pos < 0.5 && ang < 0.5, "{what}: firmware {f:?}, host {h:?}");
+        worst_pos = worst_pos.max(pos);
+        worst_angle = worst_angle.max(ang);
+    }
+    (worst_pos, worst_angle)
+}
+
+/// A host engine with the fixture's library and parameters (no background yet).
+fn fixture_engine(params: impl FnOnce(Params) -> Params) -> Engine {
+    let fixtures = fixture_dir();
+    let lib_bytes = std::fs::read(fixtures.join("templates.vtl")).unwrap();
+    let lib = Library::parse(&lib_bytes).unwrap();
+    let mut engine = Engine::new(params(lib.params(Params::DEFAULT))).unwrap();
+    for s in load_silhouettes(&fixtures.join("templates")).unwrap() {
+        engine.add_silhouette(&s.name, &s.image).unwrap();
+    }
+    engine
+}
+
+/// A raw 320×240 fixture file as an image.
+fn fixture_gray(name: &str) -> GrayImage {
+    GrayImage::from_raw(W as u32, H as u32, std::fs::read(fixture_dir().join(name)).unwrap()).unwrap()
+}
+
+#[test]
+fn firmware_matches_host() {
+    if !need_qemu("firmware_matches_host") {
+        return;
+    }
+    let stdout = run_firmware(None, "firmware-output.txt");
 
     // Instruction counting works: one SysTick tick is 40 instructions under -icount shift=0.
     let calibration = stdout
@@ -738,6 +827,105 @@ fn firmware_matches_host() {
     eprintln!(
         "{compared} detections agree: largest difference {worst_pos:.5} px, {worst_angle:.5}° (print precision 1e-4)"
     );
+
+    // No empty shot: the platform estimated on the camera from each frame (`det_auto`), against
+    // the host with the platform estimated (`vorl detect --background auto`, a set without
+    // background.png): the same detections, and the scene's parts classified as drawn.
+    let all = shapes();
+    let fw_auto = firmware_detections(&stdout, "det_auto");
+    let mut auto_engine = fixture_engine(|p| p);
+    auto_engine.set_auto_background();
+    let (mut auto_pos, mut auto_angle, mut auto_compared) = (0.0f64, 0.0f64, 0usize);
+    for (name, parts) in scenes() {
+        let host = host_detections(&mut auto_engine, &gray(&format!("{name}.gray")));
+        let firmware = fw_auto.get(name).map(Vec::as_slice).unwrap_or(&[]);
+        let (p, a) = agree(&format!("{name} (platform estimated)"), firmware, &host);
+        (auto_pos, auto_angle) = (auto_pos.max(p), auto_angle.max(a));
+        auto_compared += host.len();
+        let mut drawn: Vec<Option<&str>> = parts
+            .iter()
+            .map(|p| all[p.shape].template.then_some(all[p.shape].name))
+            .collect();
+        let mut found: Vec<Option<&str>> = host.iter().map(|d| d.class.as_deref()).collect();
+        drawn.sort();
+        found.sort();
+        assert_eq!(found, drawn, "{name} (platform estimated): classes");
+        let line = stdout
+            .lines()
+            .find(|l| l.starts_with("instructions_auto ") && fields(l)["frame"] == name)
+            .unwrap_or_else(|| panic!("no instruction counts for {name} with the platform estimated"));
+        let f = fields(line);
+        let count = |k: &str| f[k].parse::<u64>().unwrap();
+        assert!(count("platform") > 0, "{line}");
+        assert!(
+            count("platform") + count("mask") + count("borders") + count("descriptors_matching") <= count("total"),
+            "{line}"
+        );
+    }
+    assert_eq!(auto_compared, 12);
+    eprintln!(
+        "{auto_compared} detections agree with the platform estimated: largest difference {auto_pos:.5} px, {auto_angle:.5}°"
+    );
+}
+
+/// The soak's short run: 20 frames of the soak's variants (scene × view × parameters, drawn
+/// at random on the camera) through the firmware's one recognizer. No error, every repeat of a
+/// variant gives the report of its first frame bit for bit (the firmware's fingerprints), the
+/// stack stays within memory.x's reserve, and each variant's detections are the host's on the
+/// same view (a fresh engine per variant). The long run: `scripts/soak.sh --firmware 10000`.
+#[test]
+fn firmware_soak_short() {
+    if !need_qemu("firmware_soak_short") {
+        return;
+    }
+    let frames = 20;
+    let stdout = run_firmware(Some(&format!("soak {frames}")), "firmware-soak-output.txt");
+    let summary = stdout
+        .lines()
+        .find(|l| l.starts_with("soak_summary "))
+        .expect("soak_summary line");
+    let f = fields(summary);
+    let num = |k: &str| f[k].parse::<u64>().unwrap_or_else(|_| panic!("{k} in {summary}"));
+    assert_eq!(num("frames"), frames, "{summary}");
+    assert_eq!(num("mismatches"), 0, "{summary}");
+    assert_eq!(num("errors"), 0, "{summary}");
+    assert!((num("stack_peak") as usize) < STACK_RESERVE, "{summary}");
+    let seen = num("seen") as usize;
+    assert!(
+        seen >= 2 && seen < frames as usize,
+        "{summary}: repeats are needed to compare"
+    );
+    let fw = firmware_detections(&stdout, "det_soak");
+    let variants: Vec<&str> = stdout.lines().filter(|l| l.starts_with("soak_variant ")).collect();
+    assert_eq!(variants.len(), seen, "{summary}");
+    let mut compared = 0;
+    for line in variants {
+        let v = fields(line);
+        let at = |k: &str| v[k].parse::<u32>().unwrap_or_else(|_| panic!("{k} in {line}"));
+        let scene = match v["scene"] {
+            "background_0" => "background_0.gray".to_string(),
+            s => format!("{s}.gray"),
+        };
+        let full = fixture_gray(&scene);
+        let img = image::imageops::crop_imm(&full, at("x0"), at("y0"), at("width"), at("height")).to_image();
+        let refine = match v["refine"] {
+            "off" => vorl_core::params::Refine::Off,
+            _ => vorl_core::params::Refine::Verify,
+        };
+        let mut engine = fixture_engine(|p| Params { refine, ..p });
+        match v["platform"] {
+            "estimated" => engine.set_auto_background(),
+            _ => engine
+                .learn_background(&[fixture_gray("background_0.gray"), fixture_gray("background_1.gray")])
+                .unwrap(),
+        }
+        let host = host_detections(&mut engine, &img);
+        let firmware = fw.get(v["variant"]).map(Vec::as_slice).unwrap_or(&[]);
+        assert_eq!(firmware.len() as u32, at("parts"), "{line}");
+        agree(line, firmware, &host);
+        compared += host.len();
+    }
+    eprintln!("soak: {frames} frames, {seen} variants, {compared} detections agree with the host");
 }
 
 #[test]
@@ -795,10 +983,14 @@ fn linker_static_ram_matches_budget() {
         json: false,
     };
     let rows = budget::rows(&args).unwrap();
-    let total = rows[0].budget.total;
+    // The firmware also estimates the platform (frames without an empty shot): its grid is the
+    // "+ platform grid" line of `vorl budget` (9·G bytes, G the cells of 16 px a QVGA frame has).
+    let s = vorl_core::platform::cell_size(320, 240, usize::MAX).unwrap();
+    let grid = 9 * 320usize.div_ceil(s) * 240usize.div_ceil(s);
+    let total = rows[0].budget.total + grid;
     let static_ram = data + bss + uninit;
     eprintln!(
-        "linker: .data {data} + .bss {bss} + .uninit {uninit} = {static_ram} bytes of RAM (flash {flash}); vorl budget: {total}; \
+        "linker: .data {data} + .bss {bss} + .uninit {uninit} = {static_ram} bytes of RAM (flash {flash}); vorl budget: {total} (platform grid {grid} included); \
          difference {} bytes (margin {RUNTIME_MARGIN})",
         static_ram as i64 - total as i64
     );

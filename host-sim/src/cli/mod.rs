@@ -9,6 +9,7 @@ pub mod eval;
 pub mod gen;
 pub mod params;
 pub mod similarity;
+pub mod soak;
 pub mod teach;
 pub mod templates;
 
@@ -57,6 +58,8 @@ pub enum Command {
     Config(config::ConfigArgs),
     /// Fit the camera-to-robot map from point pairs (homography or rigid) and write cal.json.
     Calibrate(calibrate::CalibrateArgs),
+    /// A long run of generated frames through one recognizer: memory, errors, fresh-recognizer agreement.
+    Soak(soak::SoakArgs),
 }
 
 /// A progress bar over `len` items for long runs, drawn on stderr only when it is a terminal
@@ -85,6 +88,7 @@ pub fn run(cli: Cli) -> std::process::ExitCode {
         Command::Budget(a) => budget::run(a),
         Command::Config(a) => config::run(a),
         Command::Calibrate(a) => calibrate::run(a),
+        Command::Soak(a) => soak::run(a),
     };
     match result {
         Ok(code) => code,

@@ -885,6 +885,64 @@ pub fn generate(out: &Path, opts: &GenOptions) -> Result<GenSummary, GenError> {
     Ok(summary)
 }
 
+/// A set made in memory, frame by frame, without files (long runs: `vorl soak`). The images
+/// are those [`generate`] writes for the same options (stereo: the left view only).
+pub struct MemorySet {
+    plan: SetPlan,
+    background: bool,
+}
+
+impl MemorySet {
+    /// The set of these options.
+    ///
+    /// # Errors
+    /// Options out of range.
+    pub fn new(opts: &GenOptions) -> Result<Self, GenError> {
+        for (what, v) in [("width", opts.width), ("height", opts.height)] {
+            if !(32..=16384).contains(&v) {
+                return Err(GenError::Options(format!("{what} {v} px is out of range (32–16384)")));
+            }
+        }
+        Ok(MemorySet {
+            plan: SetPlan::new(opts),
+            background: opts.writes_background(),
+        })
+    }
+
+    /// The template silhouettes (class, image), in catalogue order.
+    pub fn templates(&self) -> Vec<(String, image::GrayImage)> {
+        self.plan
+            .cat
+            .iter()
+            .filter(|s| s.is_template)
+            .map(|s| (s.name.to_string(), template(s, self.plan.scene.px_per_mm).0))
+            .collect()
+    }
+
+    /// The captures of the empty platform (`background.png` and `backgrounds/`), or none when
+    /// the set has no background.
+    pub fn backgrounds(&self) -> Vec<image::GrayImage> {
+        if !self.background {
+            return Vec::new();
+        }
+        (0..=BACKGROUND_CAPTURES as u64)
+            .map(|k| self.plan.background(false, k))
+            .collect()
+    }
+
+    /// Frame `index` (the left view of a stereo pair) and its truth.
+    pub fn frame(&self, index: usize) -> (image::GrayImage, Vec<PartJson>) {
+        let set = &self.plan;
+        let scene = set.scene_of(index);
+        let mut rng = Rng::stream(set.seed, purpose::LAYOUT, scene as u64);
+        let mut parts = plan(&mut rng, &set.cat, &set.scene);
+        set.finish_parts(&mut parts, scene);
+        let img = set.view(&parts, false, index as u64, &mut rng);
+        let truth = parts.iter().map(|p| set.truth(p, index)).collect();
+        (img, truth)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -913,6 +971,51 @@ mod tests {
         }
         out.sort();
         out
+    }
+
+    /// The in-memory set gives the images `vorl gen` writes: frames (stereo: the left view),
+    /// backgrounds and templates, and the truth.
+    #[test]
+    fn memory_set_is_what_generate_writes() {
+        for variant in [Variant::Exposure, Variant::Stereo, Variant::Backlit] {
+            let opts = GenOptions {
+                seed: 5,
+                frames: 3,
+                variant,
+                width: 320,
+                height: 240,
+                background: None,
+            };
+            let dir = scratch(&format!("memory-{variant}"));
+            generate(&dir, &opts).unwrap();
+            let set = MemorySet::new(&opts).unwrap();
+            let truth: FramesJson = serde_json::from_slice(&std::fs::read(dir.join("truth.json")).unwrap()).unwrap();
+            for i in 0..3 {
+                let name = frame_name(i, 3);
+                let file = if variant == Variant::Stereo {
+                    format!("left_{name}")
+                } else {
+                    name.clone()
+                };
+                let (img, parts) = set.frame(i);
+                assert!(img == gray(&dir.join("frames").join(file)), "{variant} frame {i}");
+                assert_eq!(parts.len(), truth.frames[&name].len(), "{variant} frame {i}");
+            }
+            let backgrounds = set.backgrounds();
+            assert_eq!(backgrounds.is_empty(), !variant.writes_background(), "{variant}");
+            if let Some(first) = backgrounds.first() {
+                assert!(*first == gray(&dir.join("background.png")), "{variant}");
+                assert!(backgrounds[1] == gray(&dir.join("backgrounds/bg_00.png")), "{variant}");
+                assert_eq!(backgrounds.len(), BACKGROUND_CAPTURES + 1);
+            }
+            for (class, img) in set.templates() {
+                assert!(
+                    img == gray(&dir.join(format!("templates/{class}.png"))),
+                    "{variant} {class}"
+                );
+            }
+            let _ = std::fs::remove_dir_all(&dir);
+        }
     }
 
     pub(super) fn gray(path: &Path) -> image::GrayImage {
