@@ -674,20 +674,21 @@ fn write_plane(values: &[f32], row: &mut [f32], cx: usize, cy: usize, s: usize, 
         // kept doubled (`first + last` of the cell's pixels), so the geometry is integer.
         let fixed = |f: f32| (f * 65536.0) as i32;
         let mut x = 0usize;
-        let mut v1 = fixed(row.first().copied().unwrap_or(0.0) + 0.5);
+        let mut r1 = row.first().copied().unwrap_or(0.0);
         for g in 0..cx - 1 {
             let (a0, a1) = (twice_centre(g, s, w), twice_centre(g + 1, s, w));
-            let v0 = v1;
-            v1 = fixed(row.get(g + 1).copied().unwrap_or(0.0) + 0.5);
-            // The step per pixel: (v1 − v0) over (a1 − a0)/2 pixels.
+            let r0 = r1;
+            r1 = row.get(g + 1).copied().unwrap_or(0.0);
+            // The step per pixel: (r1 − r0) over (a1 − a0)/2 pixels (one float division; a
+            // 64-bit one is a library call on the camera).
             let dv = if a1 > a0 {
-                ((v1 as i64 - v0 as i64) * 2 / (a1 - a0) as i64) as i32
+                fixed((r1 - r0) * 2.0 / (a1 - a0) as f32)
             } else {
                 0
             };
             let end = if g + 2 == cx { w } else { (a1 / 2 + 1).min(w) };
-            // The value at x: v0 + (x − a0/2)·dv.
-            let v = (v0 as i64 + (2 * x as i64 - a0 as i64) * dv as i64 / 2) as i32;
+            // The value at x: r0 + ½ + (x − a0/2)·dv (the product in 64 bits, halved by a shift).
+            let v = (fixed(r0 + 0.5) as i64 + (((2 * x as i64 - a0 as i64) * dv as i64) >> 1)) as i32;
             let span = out.get_mut(x..end).unwrap_or(&mut []);
             // The values run linearly from the first pixel's to the last's: when both lie in
             // 0..=255 every one does, and none needs clamping (between two centres, always:
