@@ -157,7 +157,9 @@ pub struct RefineParams {
     pub step: f32,
     /// Least difference between a profile's ends for it to hold an edge (grey levels).
     pub min_contrast: f32,
-    /// Distances are capped here when averaged for the verification score, px.
+    /// Distances are capped here when averaged for the verification score, px. A cap that
+    /// is not a number or negative caps nothing (a profile without an edge then counts
+    /// infinite: never verified).
     pub cap: f32,
     /// Weight of `|ln scale|` in the verification score (px per unit of log-scale).
     pub scale_penalty: f32,
@@ -989,6 +991,11 @@ pub fn align_recording<B: AsRef<[u8]>>(
     params: &RefineParams,
     distances: &mut [f32],
 ) -> Alignment {
+    let sane = RefineParams {
+        cap: sane_cap(params.cap),
+        ..*params
+    };
+    let params = &sane;
     let coarse_stride = if edge.len() >= 4 * COARSE_POINTS { 4 } else { 1 };
     let points = edge.len().min(normals.len());
     let mut pose = seed;
@@ -1095,6 +1102,10 @@ pub fn edge_distances<B: AsRef<[u8]>>(
     let (mut sum, mut found) = (0.0f32, 0usize);
     let sc = math::sin_cos(pose.angle);
     let finder = diff.edge_finder(params);
+    let params = &RefineParams {
+        cap: sane_cap(params.cap),
+        ..*params
+    };
     for (i, (t, n)) in edge.iter().zip(normals).enumerate() {
         let nf = rotate_sc(sc, *n);
         let p = offset_point(pose.apply_sc(sc, *t), nf, offset);
@@ -1111,6 +1122,15 @@ pub fn edge_distances<B: AsRef<[u8]>>(
         }
     }
     (sum, found)
+}
+
+/// [`RefineParams::cap`] as used: a cap that is not a number or negative caps nothing.
+fn sane_cap(cap: f32) -> f32 {
+    if cap >= 0.0 {
+        cap
+    } else {
+        f32::INFINITY
+    }
 }
 
 /// What one [`gauss_newton_step`] measured and where it goes.

@@ -130,3 +130,48 @@ fn check_counts_takes_any_counts() {
     assert!(check_counts(usize::MAX, usize::MAX).is_ok());
     assert!(check_counts(huge, 3).is_err());
 }
+
+/// geometry: `refine::align` from a finite seed with a `cap` that is not a number returned
+/// `distance: NaN` when no profile found an edge (each counted the cap). A cap that is not a
+/// number or negative now caps nothing: such profiles count infinite, and the alignment is
+/// never taken for a fit.
+#[test]
+fn align_with_a_nan_cap_gives_no_nan_distance() {
+    use vorl_core::enhance::Alpha;
+    use vorl_core::refine::{align, edge_distances, Difference, Pose, RefineParams};
+    use vorl_core::Frame;
+    // A flat frame: no profile finds an edge.
+    let px = vec![100u8; 48 * 40];
+    let bg = vec![100u8; 48 * 40];
+    let frame = Frame::new_checked(&px[..], 48, 40).unwrap();
+    let diff = Difference::new(&frame, &bg, Alpha::ONE);
+    let edge: Vec<[f32; 2]> = (0..16)
+        .map(|i| {
+            let t = i as f32 * core::f32::consts::TAU / 16.0;
+            [5.0 * t.cos(), 5.0 * t.sin()]
+        })
+        .collect();
+    let normals: Vec<[f32; 2]> = edge.iter().map(|e| [e[0] / 5.0, e[1] / 5.0]).collect();
+    let seed = Pose {
+        x: 24.0,
+        y: 20.0,
+        angle: 0.0,
+        scale: 1.0,
+    };
+    for cap in [f32::NAN, -1.0, f32::NEG_INFINITY] {
+        let rp = RefineParams {
+            cap,
+            ..RefineParams::DEFAULT
+        };
+        let a = align(&diff, &edge, &normals, seed, &rp);
+        assert!(!a.distance.is_nan(), "cap {cap}: {a:?}");
+        assert!(a.distance >= 0.0, "cap {cap}: {a:?}");
+        let mut d = vec![0.0f32; edge.len()];
+        let (sum, found) = edge_distances(&diff, &edge, &normals, seed, 0.0, &rp, &mut d);
+        assert_eq!(found, 0);
+        assert!(
+            sum == f32::INFINITY && d.iter().all(|v| *v == f32::INFINITY),
+            "cap {cap}: {sum}"
+        );
+    }
+}
