@@ -383,24 +383,17 @@ mod tests {
             Exposure::IDENTITY
         );
         // A nonsense exposure undoes nothing.
-        let mut px = [1u8, 2, 3];
-        Exposure {
-            gain: f32::NAN,
-            offset: 3.0,
-            inliers: 0,
-            samples: 0,
-            levels: [0.0, 255.0],
+        for gain in [f32::NAN, -1.0] {
+            let mut px = [1u8, 2, 3];
+            Exposure {
+                gain,
+                offset: 3.0,
+                inliers: 0,
+                samples: 0,
+                levels: [0.0, 255.0],
+            }
+            .undo(&mut px);
+            assert_eq!(px, [1, 2, 3], "gain {gain}");
         }
-        .undo(&mut px);
-        assert_eq!(px, [1, 2, 3]);
-        Exposure {
-            gain: -1.0,
-            offset: 3.0,
-            inliers: 0,
-            samples: 0,
-            levels: [0.0, 255.0],
-        }
-        .undo(&mut px);
-        assert_eq!(px, [1, 2, 3]);
     }
 }

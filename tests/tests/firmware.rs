@@ -731,22 +731,10 @@ fn firmware_matches_host() {
         "stack peak {stack} bytes reaches the {STACK_RESERVE}-byte reserve of memory.x"
     );
 
-    // The firmware's detections.
-    let mut fw: BTreeMap<String, Vec<Det>> = BTreeMap::new();
-    for line in stdout.lines() {
-        let f = fields(line);
-        if line.starts_with("frame ") {
-            fw.entry(f["name"].to_string()).or_default();
-        } else if line.starts_with("det ") {
-            let class = (f["template"] != "-").then(|| f["class"].to_string());
-            let num = |k: &str| f[k].parse::<f64>().unwrap_or_else(|_| panic!("{k} in {line}"));
-            fw.entry(f["frame"].to_string()).or_default().push(Det {
-                class,
-                x: num("x"),
-                y: num("y"),
-                angle: num("angle"),
-            });
-        }
+    // The firmware's detections (every frame it reported, with or without parts).
+    let mut fw = firmware_detections(&stdout, "det");
+    for line in stdout.lines().filter(|l| l.starts_with("frame ")) {
+        fw.entry(fields(line)["name"].to_string()).or_default();
     }
     for (name, _) in scenes() {
         let line = stdout
