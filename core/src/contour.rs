@@ -169,7 +169,7 @@ impl<const P: usize, const C: usize> ContourStore<P, C> {
     }
 
     /// Kept hole borders whose parent is border `index`.
-    pub fn holes_of(&self, index: usize) -> impl Iterator<Item = usize> + '_ {
+    pub fn holes_of(&self, index: usize) -> impl Iterator<Item = usize> + Clone + '_ {
         self.contours
             .iter()
             .enumerate()

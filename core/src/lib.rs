@@ -18,6 +18,9 @@
 //!  → descriptor c_i = ω·a_i + (1−ω)·d_i              descriptor   (4.1–4.3)
 //!  → cyclic order-preserving DP, f' = f_min / n     matching     (4.4–4.9, 5.1)
 //!  → known iff f' < ε; rotation; area centroid      pose         (5.2, 6.1–6.4)
+//!  → candidates aligned and verified: the outline,  refine
+//!    and the template's holes where the pose puts   holes
+//!    them; partial-volume centroid                  partial_volume
 //!  → detections                                     recognizer
 //! ```
 //!
@@ -50,6 +53,7 @@ pub mod enhance;
 pub mod error;
 pub mod exposure;
 pub mod frame;
+pub mod holes;
 pub mod library;
 pub mod mask;
 pub mod matching;

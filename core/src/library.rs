@@ -8,15 +8,18 @@
 //! [`Recognizer`] without any allocation. [`write_library`] writes the format into a caller's
 //! buffer of [`encoded_len`] bytes.
 //!
-//! # Format, version 1
+//! # Format, version 2
 //!
 //! Little-endian throughout; every real value is an IEEE-754 `f32`. A 16-byte header, then the
 //! payload: the parameters the templates were made with, then one fixed-size record per template.
+//! Version 2 adds each template's holes ([`crate::holes`]) at the end of its record; libraries
+//! of version 1 (the same records without the holes) are still read, their templates without
+//! holes.
 //!
 //! | offset | bytes | field |
 //! |---:|---:|---|
 //! | 0 | 4 | magic `VRLT` (`56 52 4C 54`) |
-//! | 4 | 2 | format version, `u16` = [`VERSION`] (1) |
+//! | 4 | 2 | format version, `u16` = [`VERSION`] (2; 1 is read too) |
 //! | 6 | 2 | reserved, `u16` = 0 |
 //! | 8 | 4 | payload length `L` in bytes, `u32` (everything after the header) |
 //! | 12 | 4 | CRC-32 of the `L` payload bytes, `u32` ([`crc32`]: IEEE 802.3, reflected, polynomial `0xEDB88320`) |
@@ -25,10 +28,10 @@
 //! | 20 | 2 | `k`, neighbourhood of the angle term for parts, `u16` (`1 ≤ k`, `2k < n`) |
 //! | 22 | 2 | `T`, number of templates, `u16` |
 //! | 24 | 4 | `ω`, weight of the angle term, `f32` in `[0, 1]` |
-//! | 28 | `T·(60 + 28·m)` | `T` template records, below |
+//! | 28 | `T·(160 + 28·m)` | `T` template records, below |
 //!
-//! One template record ([`record_len`]`(m) = 60 + 28·m` bytes, at
-//! `28 + i·record_len(m)`):
+//! One template record ([`record_len`]`(m) = 160 + 28·m` bytes, at `28 + i·record_len(m)`;
+//! in version 1, `60 + 28·m` bytes: the same without the holes):
 //!
 //! | offset | bytes | field |
 //! |---:|---:|---|
@@ -42,9 +45,11 @@
 //! | +60 + 8·m | `4·m` | the `m` descriptor values `c'_j` |
 //! | +60 + 12·m | `8·m` | the `m` sub-pixel edge points, offsets from the area centroid: x, y, … |
 //! | +60 + 20·m | `8·m` | the `m` unit outward normals at the edge points: x, y, … |
+//! | +60 + 28·m | 4 | number of holes `h`, `u32` ≤ [`MAX_HOLES`] (8) |
+//! | +64 + 28·m | 96 | 8 holes, largest first: centre as an offset from the area centroid x, y, and area in px², `f32`; the slots after the first `h` are 0 |
 //!
-//! So `L = 12 + T·(60 + 28·m)` exactly, and the file is `16 + L` bytes ([`encoded_len`]); for
-//! 8 templates of `m = 96` points that is 22 012 bytes. A template read back is equal, field for
+//! So `L = 12 + T·(160 + 28·m)` exactly, and the file is `16 + L` bytes ([`encoded_len`]); for
+//! 8 templates of `m = 96` points that is 22 812 bytes. A template read back is equal, field for
 //! field, to the one that was written (`Template`'s `PartialEq`).
 //!
 //! # Checks, in order
@@ -53,10 +58,10 @@
 //! |---|---|
 //! | fewer than 16 bytes | [`Error::Truncated`] |
 //! | first four bytes are not `VRLT` | [`Error::BadMagic`] |
-//! | version is not 1 | [`Error::UnsupportedVersion`] |
+//! | version is not 1 or 2 | [`Error::UnsupportedVersion`] |
 //! | fewer than `16 + L` bytes | [`Error::Truncated`] |
 //! | CRC-32 of the payload differs from the stored one | [`Error::Checksum`] |
-//! | reserved field not 0, bytes after the payload, `L` not `12 + T·(60 + 28·m)`, parameters out of range, a name too long or not UTF-8, a value not finite | [`Error::Corrupt`] |
+//! | reserved field not 0, bytes after the payload, `L` not `12 + T·record_len(m)`, parameters out of range, a name too long or not UTF-8, a value not finite, more than 8 holes or a hole of no area | [`Error::Corrupt`] |
 //!
 //! ```
 //! use vorl_core::library::{encoded_len, write_library, Library};
@@ -80,6 +85,7 @@
 //! ```
 
 use crate::error::{Error, Result};
+use crate::holes::{Hole, Holes, MAX_HOLES};
 use crate::params::Params;
 use crate::recognizer::Recognizer;
 use crate::resample::check_counts;
@@ -87,8 +93,8 @@ use crate::template::Template;
 
 /// The four bytes a library starts with.
 pub const MAGIC: [u8; 4] = *b"VRLT";
-/// The format version this core writes and reads.
-pub const VERSION: u16 = 1;
+/// The format version this core writes (it reads 1 too).
+pub const VERSION: u16 = 2;
 /// Bytes of the header (magic, version, reserved, payload length, CRC-32).
 pub const HEADER_LEN: usize = 16;
 /// Bytes of the parameter block at the start of the payload (`n`, `m`, `k`, `T`, `ω`).
@@ -100,16 +106,33 @@ pub const MAX_NAME_LEN: usize = NAME_FIELD_LEN - 1;
 /// Bytes of a record before its points: name field, centroid, area centroid, area, position.
 const RECORD_HEAD_LEN: usize = NAME_FIELD_LEN + 28;
 
-/// Bytes of one template record with `m` points: `60 + 28·m` (saturating at `usize::MAX`).
+/// Bytes of a record's hole block: the count and [`MAX_HOLES`] slots of three `f32`.
+const HOLES_LEN: usize = 4 + 12 * MAX_HOLES;
+
+/// Bytes of one template record with `m` points: `160 + 28·m` (saturating at `usize::MAX`).
 pub const fn record_len(m: usize) -> usize {
-    m.saturating_mul(28).saturating_add(RECORD_HEAD_LEN)
+    record_len_of(VERSION, m)
 }
 
-/// Bytes of a whole library of `templates` templates of `m` points: `28 + T·(60 + 28·m)`
+/// Bytes of one record of format `version` (1: `60 + 28·m`, without the holes).
+const fn record_len_of(version: u16, m: usize) -> usize {
+    let points = m.saturating_mul(28).saturating_add(RECORD_HEAD_LEN);
+    if version >= 2 {
+        points.saturating_add(HOLES_LEN)
+    } else {
+        points
+    }
+}
+
+/// Bytes of a whole library of `templates` templates of `m` points: `28 + T·(160 + 28·m)`
 /// (saturating at `usize::MAX`).
 pub const fn encoded_len(templates: usize, m: usize) -> usize {
+    encoded_len_of(VERSION, templates, m)
+}
+
+const fn encoded_len_of(version: u16, templates: usize, m: usize) -> usize {
     templates
-        .saturating_mul(record_len(m))
+        .saturating_mul(record_len_of(version, m))
         .saturating_add(HEADER_LEN + PARAMS_LEN)
 }
 
@@ -164,8 +187,10 @@ fn f32_at(bytes: &[u8], at: usize) -> Option<f32> {
 /// A checked template library borrowed from its bytes.
 #[derive(Debug, Clone, Copy)]
 pub struct Library<'a> {
-    /// The records, `T·record_len(m)` bytes.
+    /// The records, `T·record_len(m)` bytes (of the library's version).
     records: &'a [u8],
+    /// The format version (1 or 2).
+    version: u16,
     n: usize,
     m: usize,
     k: usize,
@@ -190,7 +215,7 @@ impl<'a> Library<'a> {
             return Err(Error::BadMagic);
         }
         let version = u16_at(header, 4).ok_or(truncated(HEADER_LEN))?;
-        if version != VERSION {
+        if version != VERSION && version != 1 {
             return Err(Error::UnsupportedVersion {
                 found: version,
                 supported: VERSION,
@@ -241,17 +266,18 @@ impl<'a> Library<'a> {
                 what: "ω out of [0, 1]",
             });
         }
-        if HEADER_LEN.checked_add(payload_len) != Some(encoded_len(count, m)) {
+        if HEADER_LEN.checked_add(payload_len) != Some(encoded_len_of(version, count, m)) {
             return Err(Error::Corrupt {
                 what: "payload length does not match the template count and m",
             });
         }
         let records = payload.get(PARAMS_LEN..).unwrap_or(&[]);
-        for record in records.chunks_exact(record_len(m)) {
-            check_record(record)?;
+        for record in records.chunks_exact(record_len_of(version, m)) {
+            check_record(record, m)?;
         }
         Ok(Library {
             records,
+            version,
             n,
             m,
             k,
@@ -311,7 +337,7 @@ impl<'a> Library<'a> {
         if index >= self.count {
             return None;
         }
-        let len = record_len(self.m);
+        let len = record_len_of(self.version, self.m);
         let start = index.checked_mul(len)?;
         self.records.get(start..start.checked_add(len)?)
     }
@@ -353,6 +379,19 @@ impl<'a> Library<'a> {
             *n = pair(normals_at + 8 * j);
         }
         t.set_edge(edge.get(..m).unwrap_or(&[]), normals.get(..m).unwrap_or(&[]), pair(52))?;
+        if self.version >= 2 {
+            let holes_at = RECORD_HEAD_LEN + 28 * m;
+            let count = u32_at(record, holes_at).unwrap_or(0) as usize;
+            let mut holes = Holes::new();
+            for j in 0..count.min(MAX_HOLES) {
+                let at = holes_at + 4 + 12 * j;
+                holes.insert(Hole {
+                    centre: pair(at),
+                    area: f(at + 8),
+                });
+            }
+            t.set_holes(holes);
+        }
         Ok(t)
     }
 
@@ -388,7 +427,7 @@ fn record_name(record: &[u8]) -> Option<&str> {
     core::str::from_utf8(record.get(1..1 + len)?).ok()
 }
 
-fn check_record(record: &[u8]) -> Result<()> {
+fn check_record(record: &[u8], m: usize) -> Result<()> {
     let len = usize::from(record.first().copied().unwrap_or(0));
     if len > MAX_NAME_LEN {
         return Err(Error::Corrupt {
@@ -406,12 +445,29 @@ fn check_record(record: &[u8]) -> Result<()> {
             what: "template name padding is not zero",
         });
     }
-    let values = record.get(NAME_FIELD_LEN..).unwrap_or(&[]);
-    for v in values.chunks_exact(4) {
+    let holes_at = RECORD_HEAD_LEN + 28 * m;
+    let values = record.get(NAME_FIELD_LEN..holes_at).unwrap_or(&[]);
+    let hole_values = record.get(holes_at + 4..).unwrap_or(&[]);
+    for v in values.chunks_exact(4).chain(hole_values.chunks_exact(4)) {
         if !f32_at(v, 0).is_some_and(f32::is_finite) {
             return Err(Error::Corrupt {
                 what: "template value is not finite",
             });
+        }
+    }
+    // Version 2's hole block (a version 1 record ends before it).
+    if let Some(count) = u32_at(record, holes_at) {
+        if count as usize > MAX_HOLES {
+            return Err(Error::Corrupt {
+                what: "template hole count over 8",
+            });
+        }
+        for j in 0..count as usize {
+            if !f32_at(hole_values, 12 * j + 8).is_some_and(|a| a > 0.0) {
+                return Err(Error::Corrupt {
+                    what: "template hole of no area",
+                });
+            }
         }
     }
     Ok(())
@@ -480,6 +536,13 @@ pub fn write_library<'t, const M: usize>(
         for p in t.edge().iter().chain(t.normals()) {
             w.f32(p[0]);
             w.f32(p[1]);
+        }
+        let holes = t.holes().as_slice();
+        w.bytes(&(holes.len() as u32).to_le_bytes());
+        for h in holes {
+            w.f32(h.centre[0]);
+            w.f32(h.centre[1]);
+            w.f32(h.area);
         }
         count += 1;
         at = end;
@@ -598,7 +661,7 @@ mod tests {
     #[test]
     fn round_trip_is_exact() {
         let (bytes, ts) = library();
-        assert_eq!(bytes.len(), 16 + 12 + 2 * (60 + 28 * 96));
+        assert_eq!(bytes.len(), 16 + 12 + 2 * (160 + 28 * 96));
         assert_eq!(&bytes[..4], b"VRLT");
         let lib = Library::parse(&bytes).unwrap();
         assert_eq!((lib.n(), lib.m(), lib.k(), lib.omega(), lib.len()), (64, 96, 4, 0.5, 2));
@@ -651,11 +714,55 @@ mod tests {
     #[test]
     fn bad_version() {
         let (mut bytes, _) = library();
-        bytes[4..6].copy_from_slice(&2u16.to_le_bytes());
-        assert_eq!(
-            Library::parse(&bytes).unwrap_err(),
-            Error::UnsupportedVersion { found: 2, supported: 1 }
-        );
+        for version in [0u16, 3, 0xFFFF] {
+            bytes[4..6].copy_from_slice(&version.to_le_bytes());
+            assert_eq!(
+                Library::parse(&bytes).unwrap_err(),
+                Error::UnsupportedVersion {
+                    found: version,
+                    supported: 2
+                }
+            );
+        }
+    }
+
+    /// A washer-like square ring: its hole is kept and read back; a version 1 library (the
+    /// same records without their hole blocks) is read too, its templates without holes.
+    #[test]
+    fn holes_round_trip_and_version_1_is_read() {
+        let p = Params::DEFAULT;
+        let hole: Vec<Point> = rectangle(10, 10)
+            .iter()
+            .map(|q| Point {
+                x: q.x + 10,
+                y: q.y + 10,
+            })
+            .collect();
+        let ring = Template::<96>::from_border(&rectangle(30, 30), [&hole[..]].into_iter(), &p).unwrap();
+        // The hole border runs through the ring's pixels around a 9×9 hole centred at (15, 15);
+        // the ring's area centroid is (15, 15) too.
+        assert_eq!(ring.holes().len(), 1);
+        let h = ring.holes().as_slice()[0];
+        assert_eq!(h.area, 81.0);
+        assert!(h.centre[0].abs() < 1e-4 && h.centre[1].abs() < 1e-4);
+        let mut bytes = vec![0u8; encoded_len(1, p.m)];
+        write_library(&mut bytes, &p, [("ring", &ring)]).unwrap();
+        let lib = Library::parse(&bytes).unwrap();
+        assert_eq!(lib.template::<96>(0).unwrap(), ring);
+        // Version 1: drop the hole block, fix the header's version, length and CRC.
+        let v1_len = 60 + 28 * p.m;
+        let mut v1 = bytes[..HEADER_LEN + PARAMS_LEN + v1_len].to_vec();
+        v1[4..6].copy_from_slice(&1u16.to_le_bytes());
+        v1[8..12].copy_from_slice(&((PARAMS_LEN + v1_len) as u32).to_le_bytes());
+        reseal(&mut v1);
+        let old = Library::parse(&v1).unwrap().template::<96>(0).unwrap();
+        assert!(old.holes().is_empty());
+        assert_eq!(old.points(), ring.points());
+        // A hole count over 8 is corrupt.
+        let count_at = HEADER_LEN + PARAMS_LEN + 60 + 28 * p.m;
+        bytes[count_at..count_at + 4].copy_from_slice(&9u32.to_le_bytes());
+        reseal(&mut bytes);
+        assert!(matches!(Library::parse(&bytes), Err(Error::Corrupt { .. })));
     }
 
     #[test]

@@ -222,7 +222,7 @@ pub(crate) fn closest_on_segment(q: [f32; 2], a: [f32; 2], b: [f32; 2]) -> [f32;
 
 /// Twice the signed area and the first moments of a closed polygon (shoelace), exact in
 /// integers: `(2A, Σ(x_i+x_{i+1})·cross_i, Σ(y_i+y_{i+1})·cross_i)`.
-fn polygon_moments(points: &[Point]) -> (i64, i64, i64) {
+pub(crate) fn polygon_moments(points: &[Point]) -> (i64, i64, i64) {
     let n = points.len();
     let (mut a2, mut mx, mut my) = (0i64, 0i64, 0i64);
     for (i, p) in points.iter().enumerate() {

@@ -42,6 +42,7 @@ use crate::contour::{clear_labels, trace_borders_in, BorderKind, ContourStore, T
 use crate::descriptor::describe;
 use crate::error::{Error, Result};
 use crate::frame::Frame;
+use crate::holes::{agreement, pose_from_holes, HoleAgreement, Holes, MIN_HOLE_FRACTION};
 use crate::mask::{foreground_mask_spans, MaskStats, RowSpans};
 use crate::matching::{best_match, sorted_lower_bound, sorted_window_bound, table_cells, Match};
 use crate::math;
@@ -93,6 +94,9 @@ pub struct Detection {
     /// The aligned pose of [`Self::best_template`] (`None` when not aligned): where its
     /// outline lies in the frame ([`Pose::apply`] on [`Template::edge`]).
     pub pose: Option<Pose>,
+    /// How many of [`Self::best_template`]'s holes the part shows where the aligned pose puts
+    /// them ([`crate::holes`]; zero expected when not aligned or the template has none).
+    pub holes: HoleAgreement,
     /// Index of the part's border in the recognizer's contour store.
     pub contour: u16,
     /// Polygon area of the border, px².
@@ -416,6 +420,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             );
         }
         let bbox = Rect { x0, y0, x1, y1 };
+        let part_holes = Holes::from_borders(self.store.holes_of(index).map(|i| self.store.points(i)), 0.0);
         let seed_pixel = border.first().map(|p| (p.x as usize, p.y as usize));
         let points = self.points.get_mut(..n).unwrap_or(&mut []);
         let descriptor = self.descriptor.get_mut(..n).unwrap_or(&mut []);
@@ -436,6 +441,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             verify_limit: params.verify_threshold,
             scale: 1.0,
             pose: None,
+            holes: HoleAgreement::default(),
             contour: index as u16,
             area: contour.area(),
             touches_edge: contour.touches_edge,
@@ -459,6 +465,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 [x, y],
                 contour.area(),
                 contour.area2 < 0,
+                &part_holes,
                 &diff,
                 &refine_params,
                 &mut detection,
@@ -470,6 +477,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 [x, y],
                 contour.area(),
                 contour.area2 < 0,
+                &part_holes,
                 &diff,
                 &mut detection,
             )
@@ -479,7 +487,14 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             detection.scale = pose.scale;
             detection.pose = Some(pose);
             if params.refine == Refine::Verify {
-                detection.template = (detection.verify < detection.verify_limit).then_some(ti as u16);
+                detection.template = accepted(Fit {
+                    pose,
+                    verify: detection.verify,
+                    limit: detection.verify_limit,
+                    holes: detection.holes,
+                    family: detection.score < params.epsilon,
+                })
+                .then_some(ti as u16);
             }
             if params.position == Position::Pose {
                 if let Some(t) = self.templates.get(ti) {
@@ -511,6 +526,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         position: [f32; 2],
         area: f32,
         counter_clockwise: bool,
+        part_holes: &Holes,
         diff: &Difference<'_, B>,
         detection: &mut Detection,
     ) -> Option<(usize, Pose)> {
@@ -532,19 +548,32 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             return None;
         }
         self.part_edge(n, counter_clockwise, diff);
-        let (pose, verify, limit) =
-            self.align_and_verify(n, position, signed, area, ti, diff, &RefineParams::DEFAULT)?;
-        detection.verify = verify;
-        detection.verify_limit = limit;
-        Some((ti, pose))
+        let family = m.normalized < params.epsilon;
+        let fit = self.align_and_verify(
+            n,
+            position,
+            signed,
+            area,
+            ti,
+            family,
+            part_holes,
+            diff,
+            &RefineParams::DEFAULT,
+        )?;
+        detection.verify = fit.verify;
+        detection.verify_limit = fit.limit;
+        detection.holes = fit.holes;
+        Some((ti, fit.pose))
     }
 
     /// Template `ti` aligned on the frame from the DP's pose (the part's `position`, the
     /// `signed` angle in degrees, the scale of the areas), and its verification score against
-    /// the part's edge (`self.part_edges`) with the score's limit for the aligned part's size.
+    /// the part's edge (`self.part_edges`) with the score's limit for the aligned part's size,
+    /// and which of its holes `part_holes` shows there.
     /// A template whose outline is nearly but not exactly 2-fold ([`Template::half_turn`]
     /// between [`HALF_TURN_SYMMETRIC`] and [`HALF_TURN_AMBIGUOUS`]: a connecting rod) is
-    /// aligned half a turn on too, and the better of the two kept.
+    /// aligned half a turn on too, and the better of the two kept ([`Fit::better_than`]: the
+    /// holes decide where they can, a rod's two eyes of different size).
     #[allow(clippy::too_many_arguments)]
     fn align_and_verify<B: AsRef<[u8]>>(
         &self,
@@ -553,9 +582,11 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         signed: f32,
         area: f32,
         ti: usize,
+        family: bool,
+        part_holes: &Holes,
         diff: &Difference<'_, B>,
         refine_params: &RefineParams,
-    ) -> Option<(Pose, f32, f32)> {
+    ) -> Option<Fit> {
         let t = self.templates.get(ti)?;
         let params = &self.params;
         let part_edges = self.part_edges.get(..n).unwrap_or(&[]);
@@ -584,36 +615,53 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             offset_max: params.offset_relative * t.size() * seed.scale,
             ..rp
         };
-        let once = |angle_deg: f32| {
-            let s = seed_pose(position, angle_deg, area, t);
+        let once = |s: Pose| {
             let mut distances = [0.0f32; M];
             let aligned = align_recording(diff, t.edge(), t.normals(), s, &rp, &mut distances);
             let verify = verify_score(&aligned, &mut distances, t, part_edges, diff, &rp, params);
-            let first = (aligned.pose, verify, limit_at(aligned.pose.scale));
-            let near_miss = verify < NEAR_MISS * first.2;
-            if verify < CONFIDENT * first.2 || !near_miss || !(with_offset.offset_max > 0.0) || aligned.gave_up {
+            let fit = |pose: Pose, verify: f32| Fit {
+                pose,
+                verify,
+                limit: limit_at(pose.scale),
+                holes: agreement(t.holes(), &pose, part_holes),
+                family,
+            };
+            let first = fit(aligned.pose, verify);
+            let near_miss = verify < NEAR_MISS * first.limit;
+            if verify < CONFIDENT * first.limit || !near_miss || !(with_offset.offset_max > 0.0) || aligned.gave_up {
                 return first;
             }
             let again = align_recording(diff, t.edge(), t.normals(), aligned.pose, &with_offset, &mut distances);
             let verify = verify_score(&again, &mut distances, t, part_edges, diff, &with_offset, params);
-            let second = (again.pose, verify, limit_at(again.pose.scale));
-            if second.1 / second.2 < first.1 / first.2 {
+            let second = fit(again.pose, verify);
+            if second.ratio() < first.ratio() {
                 second
             } else {
                 first
             }
         };
-        let first = once(signed);
-        // A 2-fold symmetric outline (a gear of even teeth, a washer) is the same half a turn on.
-        if !(t.half_turn() < HALF_TURN_AMBIGUOUS) || t.half_turn() < HALF_TURN_SYMMETRIC {
-            return Some(first);
+        let mut best = once(seed_pose(position, signed, area, t));
+        // A 2-fold symmetric outline (a gear of even teeth, a washer) is the same half a turn on,
+        // unless its holes say otherwise (a bar with one eye at one end).
+        let symmetric = t.half_turn() < HALF_TURN_SYMMETRIC;
+        if t.half_turn() < HALF_TURN_AMBIGUOUS && (!symmetric || !best.holes.all_found()) {
+            let second = once(seed_pose(position, signed + 180.0, area, t));
+            if second.better_than(&best) {
+                best = second;
+            }
         }
-        let second = once(signed + 180.0);
-        Some(if second.1 / second.2 < first.1 / first.2 {
-            second
-        } else {
-            first
-        })
+        // Holes that are not where the outline's pose puts them: the outline may have pulled
+        // the pose off (a part whose outline departs from its template's); a template with two
+        // or more holes is aligned once more from the pose its two largest holes give.
+        if !best.holes.all_found() {
+            if let Some(seed) = pose_from_holes(t.holes(), part_holes) {
+                let third = once(seed);
+                if third.better_than(&best) {
+                    best = third;
+                }
+            }
+        }
+        Some(best)
     }
 
     /// `refine = Verify`: the candidates of [`Self::next_candidate`], each aligned on the
@@ -627,6 +675,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         position: [f32; 2],
         area: f32,
         counter_clockwise: bool,
+        part_holes: &Holes,
         diff: &Difference<'_, B>,
         refine_params: &RefineParams,
         detection: &mut Detection,
@@ -638,6 +687,11 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         if whole {
             self.leave_out_by_size(&mut scan, area);
         }
+        let significant_holes = part_holes
+            .as_slice()
+            .iter()
+            .filter(|h| h.area >= MIN_HOLE_FRACTION * area)
+            .count();
         let mut best = None;
         // The cost records of the bound order first; unless one of them verified with a score
         // below CONFIDENT times its limit, the next templates of that order within
@@ -650,7 +704,11 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         loop {
             let Some((ti, m)) = self.next_candidate(&mut scan, n, limit, ratio) else {
                 let near_miss = detection.verify < NEAR_MISS * detection.verify_limit;
-                let confident = detection.verify < CONFIDENT * detection.verify_limit;
+                // Confident: well within the limit, every template hole found, and no hole of
+                // the part's size left that another template might have.
+                let confident = detection.verify < CONFIDENT * detection.verify_limit
+                    && detection.holes.all_found()
+                    && usize::from(detection.holes.found) >= significant_holes;
                 if ratio < FALLBACK_RATIO
                     && scan.found < k
                     && !confident
@@ -688,6 +746,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 area,
                 ti,
                 m,
+                part_holes,
                 diff,
                 refine_params,
                 detection,
@@ -841,6 +900,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         area: f32,
         ti: usize,
         m: Match,
+        part_holes: &Holes,
         diff: &Difference<'_, B>,
         refine_params: &RefineParams,
         detection: &mut Detection,
@@ -849,15 +909,24 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let Some((signed, paper)) = self.angles(n, centroid, ti) else {
             return;
         };
-        let Some((pose, verify, limit)) = self.align_and_verify(n, position, signed, area, ti, diff, refine_params)
+        let epsilon = self.params.epsilon;
+        let family = m.normalized < epsilon;
+        let Some(fit) = self.align_and_verify(n, position, signed, area, ti, family, part_holes, diff, refine_params)
         else {
             return;
         };
-        // Candidates compete by their score over its limit (the same meaning for every size).
-        if best.is_none() || verify / limit < detection.verify / detection.verify_limit {
-            *best = Some((ti, pose));
-            detection.verify = verify;
-            detection.verify_limit = limit;
+        let so_far = Fit {
+            pose: fit.pose,
+            verify: detection.verify,
+            limit: detection.verify_limit,
+            holes: detection.holes,
+            family: detection.score < epsilon,
+        };
+        if best.is_none() || fit.better_than(&so_far) {
+            *best = Some((ti, fit.pose));
+            detection.verify = fit.verify;
+            detection.verify_limit = fit.limit;
+            detection.holes = fit.holes;
             detection.best_template = Some(ti as u16);
             detection.score = m.normalized;
             detection.angle_paper_deg = paper;
@@ -954,6 +1023,67 @@ impl<const T: usize, const M: usize> CandidateScan<T, M> {
             *s = listing;
         }
     }
+}
+
+/// One candidate's alignment: the aligned pose, its verification score and the score's limit
+/// (px), which of the template's holes the part shows there, and whether the DP puts the part
+/// in the template's family (the paper's decision, `f' < ε`, eq. 5.2).
+#[derive(Debug, Clone, Copy)]
+struct Fit {
+    pose: Pose,
+    verify: f32,
+    limit: f32,
+    holes: HoleAgreement,
+    family: bool,
+}
+
+impl Fit {
+    /// The score over its limit (the same meaning for every size; NaN counts as infinite).
+    fn ratio(&self) -> f32 {
+        let r = self.verify / self.limit;
+        if r.is_nan() {
+            f32::INFINITY
+        } else {
+            r
+        }
+    }
+
+    /// Whether this fit beats `other` for the same part: one that is [`accepted`] beats one
+    /// that is not; of two accepted, the one with fewer of its template's holes missing, then
+    /// the one whose template's holes explain more of the part's (a rod with two eyes is the
+    /// two-eyed template's, even when the one-eyed template's outline fits it as well), then
+    /// the lower [`Self::ratio`]; of two that are not, one whose template's holes are all
+    /// found, then the lower ratio.
+    fn better_than(&self, other: &Fit) -> bool {
+        let (a, b) = (accepted(*self), accepted(*other));
+        if a != b {
+            return a;
+        }
+        let (h, g) = (self.holes, other.holes);
+        if a && h.missing() != g.missing() {
+            return h.missing() < g.missing();
+        }
+        if a && h.found != g.found {
+            return h.found > g.found;
+        }
+        if !a && h.all_found() != g.all_found() {
+            return h.all_found();
+        }
+        self.ratio() < other.ratio()
+    }
+}
+
+/// Whether an aligned candidate is the part: its verification score is below its limit — or,
+/// for a template with holes, all of them found where the pose puts them and the DP's `f' < ε`,
+/// below [`NEAR_MISS`] times its limit. The holes and the DP's family are two cues the rigid
+/// outline fit lacks: a part of one type may depart from its template's outline over a shaft
+/// or a head (real rods), and a distractor that fits the outline that loosely does not also
+/// have the template's descriptor profile and its holes in place. Holes never veto an outline
+/// that verifies (the holes of small parts close in the mask, and a close lens's walls shrink
+/// and move them); they rank the candidates ([`Fit::better_than`]).
+fn accepted(fit: Fit) -> bool {
+    let r = fit.ratio();
+    r < 1.0 || (fit.family && fit.holes.expected > 0 && fit.holes.all_found() && r < NEAR_MISS)
 }
 
 /// Relative margin by which a template's sorted lower bound must exceed the `k`-th best DP cost

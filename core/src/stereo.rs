@@ -1213,6 +1213,7 @@ mod tests {
             verify_limit: 0.6,
             scale: 1.0,
             pose: None,
+            holes: crate::holes::HoleAgreement::default(),
             contour: 0,
             area: 100.0,
             touches_edge: false,

@@ -6,12 +6,14 @@
 //! [`Template::from_silhouette`] takes the largest outer border of a silhouette image (part 255,
 //! rest 0; `docs/pipeline-spec.md` §9).
 //!
-//! Memory: `32·M + 40` bytes per template of capacity `M` (see `vorl budget`).
+//! Memory: `32·M + 140` bytes per template of capacity `M` on a 32-bit camera, its holes included
+//! (see `vorl budget`).
 
 use crate::contour::{trace_borders, BorderFilter, ContourStore, Point};
 use crate::descriptor::describe;
 use crate::error::{Error, Result};
 use crate::frame::Frame;
+use crate::holes::{Holes, MIN_HOLE_FRACTION};
 use crate::params::Params;
 use crate::pose::area_centroid;
 use crate::resample::resample;
@@ -38,6 +40,8 @@ pub struct Template<const M: usize> {
     /// Mean distance of the edge turned by 180° about the area centroid to the edge itself,
     /// over [`Self::size`] (0 for a 2-fold symmetric part).
     half_turn: f32,
+    /// The silhouette's holes, centres as offsets from `area_centroid`.
+    holes: Holes,
 }
 
 impl<const M: usize> Template<M> {
@@ -55,17 +59,19 @@ impl<const M: usize> Template<M> {
             normals: [[0.0; 2]; M],
             position: [0.0; 2],
             half_turn: f32::INFINITY,
+            holes: Holes::new(),
         }
     }
 
-    /// A template from an outer border (and its holes, for the area centroid).
+    /// A template from an outer border and its hole borders (for the area centroid and the
+    /// template's [`Self::holes`]).
     ///
     /// # Errors
     /// [`Error::PointCounts`] when `params.m > M`, [`Error::DegenerateContour`] for a border
     /// that cannot be resampled or described.
     pub fn from_border<'a>(
         border: &[Point],
-        holes: impl Iterator<Item = &'a [Point]>,
+        holes: impl Iterator<Item = &'a [Point]> + Clone,
         params: &Params,
     ) -> Result<Self> {
         let m = params.m;
@@ -77,7 +83,7 @@ impl<const M: usize> Template<M> {
         resample(border, &mut t.points[..m])?;
         t.centroid = describe(&t.points[..m], params.descriptor(m), &mut t.descriptor[..m])?;
         t.sort_descriptor();
-        let ac = area_centroid(border, holes).ok_or(Error::DegenerateContour { points: border.len() })?;
+        let ac = area_centroid(border, holes.clone()).ok_or(Error::DegenerateContour { points: border.len() })?;
         t.area_centroid = ac;
         let mut a2 = 0i64;
         for (i, p) in border.iter().enumerate() {
@@ -85,6 +91,7 @@ impl<const M: usize> Template<M> {
             a2 += p.x as i64 * q.y as i64 - q.x as i64 * p.y as i64;
         }
         t.area = a2.unsigned_abs() as f32 * 0.5;
+        t.holes = Holes::from_borders(holes, MIN_HOLE_FRACTION * t.area).relative_to(ac);
         t.derive_edge(a2 < 0, |_, _| None);
         Ok(t)
     }
@@ -129,6 +136,18 @@ impl<const M: usize> Template<M> {
     /// both ways.
     pub fn half_turn(&self) -> f32 {
         self.half_turn
+    }
+
+    /// The template's holes (the largest, each at least [`MIN_HOLE_FRACTION`] of its area),
+    /// centres as offsets from [`Self::area_centroid`] ([`crate::holes`]).
+    pub fn holes(&self) -> &Holes {
+        &self.holes
+    }
+
+    /// Replaces the template's holes (centres as offsets from the area centroid), as stored by
+    /// a template library.
+    pub fn set_holes(&mut self, holes: Holes) {
+        self.holes = holes;
     }
 
     /// The template's size, px: the radius of the disc of its area, `√(area/π)`. Tolerances

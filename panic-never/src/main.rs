@@ -32,6 +32,7 @@ use vorl_core::contour::{self, BorderFilter, ContourStore, Point};
 use vorl_core::descriptor::{self, DescriptorParams};
 use vorl_core::enhance::{self, Alpha};
 use vorl_core::frame::{Frame, FrameBuffer};
+use vorl_core::holes;
 use vorl_core::library::{self, Library};
 use vorl_core::mask::{self, Cleanup, RowSpans, Threshold};
 use vorl_core::matching;
@@ -453,8 +454,18 @@ fn borders() {
     black_box(params().filter());
     black_box(params().alpha());
     let p = params();
+    // Holes: measured from any border, matched through any pose.
+    black_box(holes::Hole::from_border(hole));
+    let mut part_holes = holes::Holes::from_borders(core::iter::once(&*hole), f());
+    part_holes.insert(holes::Hole { centre: p2(), area: f() });
+    let moved = part_holes.relative_to(p2());
+    black_box(holes::agreement(&moved, &pose_(), &part_holes).missing());
+    black_box(holes::pose_from_holes(&moved, &part_holes));
+    black_box((part_holes.as_slice(), part_holes.len(), part_holes.is_empty()));
     if let Ok(mut t) = Template::<96>::from_border(border, core::iter::once(&*hole), &p) {
         let _ = black_box(t.set_edge(pairs2(), pairs2(), p2()));
+        t.set_holes(part_holes);
+        black_box(t.holes());
         black_box((t.edge(), t.normals(), t.position_offset(), t.points(), t.descriptor()));
         black_box((
             t.sorted_descriptor(),

@@ -197,6 +197,12 @@ pub fn to_json(result: &FrameResult) -> Vec<PartJson> {
                     serde_json::json!(round6(d.core.verify_limit as f64)),
                 );
             }
+            if d.core.holes.expected > 0 {
+                extra.insert(
+                    "holes".into(),
+                    serde_json::json!({"expected": d.core.holes.expected, "found": d.core.holes.found}),
+                );
+            }
             if let Some(b) = &d.best_class {
                 extra.insert("best_class".into(), serde_json::json!(b));
             }

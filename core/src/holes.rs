@@ -1,0 +1,327 @@
+//! Hole signatures: the holes of a silhouette, and whether a template's holes lie where its
+//! aligned pose puts them in a part.
+//!
+//! The DP (eqs. 4.4–4.9) and the verification look at the outer border only, but two parts of
+//! nearly one outline may differ in their holes alone: a connecting rod with one eye or with
+//! two, a washer and a disc. The holes are a second cue, independent of the outline, and it
+//! does not depend on how closely a part's outline follows its template: two rods of one type
+//! differ along their shafts and heads (real rods: 0.6–0.85 IoU between two of one type), but
+//! their eyes stay round and where they are. So the recognizer holds a part to its template's
+//! holes ([`agreement`]): a candidate whose holes are not found is not that part, and one
+//! whose holes are all found may be accepted with an outline a little further off
+//! (`recognizer::NEAR_MISS`), for templates that have holes at all.
+//!
+//! - A hole is measured from its hole border (the part's pixels around it, as Suzuki–Abe
+//!   traces them): by Pick's theorem the border's polygon, through the centres of those
+//!   pixels, encloses `A − B/2 + 1` pixels that are not on it (`A` its area, `B` its points);
+//!   for a hole border those are the hole's own pixels. The centre is the polygon's area
+//!   centroid (the points' mean when the area is 0).
+//! - [`Holes`] keeps the [`MAX_HOLES`] largest holes of at least [`MIN_HOLE_PIXELS`]; a
+//!   template keeps only those of at least [`MIN_HOLE_FRACTION`] of its outer area, so a speck
+//!   of dust in a teach shot does not become a hole the parts must have.
+//! - A template hole is *found* when a part hole that no other template hole took lies within
+//!   [`HOLE_REACH`] of its radius, plus [`HOLE_STRETCH`] of its distance from the centre, plus
+//!   one pixel for blur, of where the pose puts it, with an
+//!   area within a factor [`HOLE_AREA_RATIO`] of the template hole's, scaled by the pose.
+//!   Part holes that no template hole explains (print, texture, a light patch) are not
+//!   evidence against the template.
+//!
+//! Time: O(B) per hole border; [`agreement`] and [`pose_from_holes`] are O(H²) for
+//! `H ≤` [`MAX_HOLES`]. Memory: [`Holes`] is `12·MAX_HOLES + 4` = 100 bytes (in each template,
+//! and once on the stack for the part being matched).
+//!
+//! ```
+//! use vorl_core::contour::Point;
+//! use vorl_core::holes::{agreement, Hole, Holes};
+//! use vorl_core::refine::Pose;
+//! // The border of a 2×2 hole at columns 1–2, rows 1–2 of a 4×4 block (8-connected, as traced).
+//! let p = |x, y| Point { x, y };
+//! let border = [p(1, 0), p(0, 1), p(0, 2), p(1, 3), p(2, 3), p(3, 2), p(3, 1), p(2, 0)];
+//! let hole = Hole::from_border(&border).unwrap();
+//! assert_eq!(hole.area, 4.0);
+//! assert_eq!(hole.centre, [1.5, 1.5]);
+//! // A template with that hole 10 px right of its centroid, found in a part turned by 90°.
+//! let mut template = Holes::new();
+//! template.insert(Hole { centre: [10.0, 0.0], area: 40.0 });
+//! let mut part = Holes::new();
+//! part.insert(Hole { centre: [50.0, 40.0], area: 42.0 }); // x right, y down: 90° ccw is up
+//! let pose = Pose { x: 50.0, y: 50.0, angle: core::f32::consts::FRAC_PI_2, scale: 1.0 };
+//! let a = agreement(&template, &pose, &part);
+//! assert_eq!((a.expected, a.found), (1, 1));
+//! ```
+
+use crate::contour::Point;
+use crate::pose::polygon_moments;
+use crate::refine::Pose;
+
+/// Most holes a [`Holes`] keeps (the largest).
+pub const MAX_HOLES: usize = 8;
+
+/// Fewest pixels of a hole that counts (smaller ones are noise of the mask).
+pub const MIN_HOLE_PIXELS: f32 = 4.0;
+
+/// Smallest hole a template keeps, as a fraction of its outer area (0.5 %: a 2 px speck in a
+/// part of 800 px² is no hole; the smaller eye of a connecting rod is about 3 % of its area).
+pub const MIN_HOLE_FRACTION: f32 = 0.005;
+
+/// How far a part hole's centre may lie from where the pose puts the template hole's, in
+/// radii of the template hole (scaled): within one radius the two overlap by most of their
+/// area. Real rods of one type put their eyes within 0.1–0.6 radii of the template's after
+/// the outline's alignment.
+pub const HOLE_REACH: f32 = 1.0;
+
+/// How much nearer to or farther from the part's centre than the pose puts it a part hole may
+/// lie, as a fraction of that distance: parts of one type differ in length (real connecting
+/// rods by up to 15 %), and the outline's aligned scale follows their outline, which a close
+/// lens's view of the walls and blur make look larger than the holes' spacing says (real rods:
+/// 1.19 against 0.96).
+pub const HOLE_STRETCH: f32 = 0.3;
+
+/// How much larger or smaller than the template hole (scaled by the pose) a part hole may be.
+pub const HOLE_AREA_RATIO: f32 = 2.0;
+
+/// One hole: its centre and its area in pixels.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Hole {
+    /// Centre, px (for a template: an offset from its area centroid).
+    pub centre: [f32; 2],
+    /// Pixels of the hole.
+    pub area: f32,
+}
+
+impl Hole {
+    /// The hole inside a hole border (see the module doc); `None` for an empty border or a
+    /// hole of no pixel.
+    pub fn from_border(points: &[Point]) -> Option<Hole> {
+        if points.is_empty() {
+            return None;
+        }
+        // (2A, Σ(x_i + x_{i+1})·cross_i, Σ(y_i + y_{i+1})·cross_i), signed by the orientation.
+        let (a2, mx, my) = polygon_moments(points);
+        // Pick's theorem: interior lattice points = A − B/2 + 1.
+        let area = 0.5 * a2.unsigned_abs() as f32 - 0.5 * points.len() as f32 + 1.0;
+        if !(area > 0.0) {
+            return None;
+        }
+        let centre = if a2 != 0 {
+            let den = 3.0 * a2 as f32;
+            [mx as f32 / den, my as f32 / den]
+        } else {
+            let len = points.len() as f32;
+            let (sx, sy) = points
+                .iter()
+                .fold((0.0f32, 0.0f32), |(sx, sy), p| (sx + p.x as f32, sy + p.y as f32));
+            [sx / len, sy / len]
+        };
+        Some(Hole { centre, area })
+    }
+}
+
+/// The largest holes of a silhouette (at most [`MAX_HOLES`], largest first).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Holes {
+    /// The holes, largest first; the slots after `len` stay zero.
+    holes: [Hole; MAX_HOLES],
+    len: u32,
+}
+
+impl Default for Holes {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Holes {
+    /// No holes (`const`, for `static` storage).
+    pub const fn new() -> Self {
+        Holes {
+            holes: [Hole {
+                centre: [0.0; 2],
+                area: 0.0,
+            }; MAX_HOLES],
+            len: 0,
+        }
+    }
+
+    /// The holes inside `borders` (hole borders of one part) of at least `min_area` pixels
+    /// (and [`MIN_HOLE_PIXELS`]), the largest [`MAX_HOLES`] of them.
+    pub fn from_borders<'a>(borders: impl Iterator<Item = &'a [Point]>, min_area: f32) -> Holes {
+        let mut holes = Holes::new();
+        for h in borders.filter_map(Hole::from_border) {
+            if h.area >= min_area && h.area >= MIN_HOLE_PIXELS {
+                holes.insert(h);
+            }
+        }
+        holes
+    }
+
+    /// Adds a hole, keeping the [`MAX_HOLES`] largest in descending order of area (a hole
+    /// with an area that is not a number is not kept).
+    pub fn insert(&mut self, hole: Hole) {
+        if !hole.area.is_finite() || !hole.centre.iter().all(|v| v.is_finite()) {
+            return;
+        }
+        let len = self.len().min(MAX_HOLES);
+        let at = self
+            .holes
+            .get(..len)
+            .unwrap_or(&[])
+            .iter()
+            .position(|h| hole.area > h.area)
+            .unwrap_or(len);
+        if at >= MAX_HOLES {
+            return;
+        }
+        // Shift the smaller ones down by one (the last falls off when full).
+        let mut carry = hole;
+        for slot in self.holes.iter_mut().take(len + 1).skip(at) {
+            core::mem::swap(slot, &mut carry);
+        }
+        self.len = (len + 1).min(MAX_HOLES) as u32;
+    }
+
+    /// The holes, largest first.
+    pub fn as_slice(&self) -> &[Hole] {
+        self.holes.get(..self.len()).unwrap_or(&[])
+    }
+
+    /// Number of holes.
+    pub fn len(&self) -> usize {
+        self.len as usize
+    }
+
+    /// Whether there is no hole.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// The same holes with `origin` subtracted from their centres.
+    pub fn relative_to(&self, origin: [f32; 2]) -> Holes {
+        let mut out = *self;
+        for h in out.holes.iter_mut().take(self.len()) {
+            h.centre = [h.centre[0] - origin[0], h.centre[1] - origin[1]];
+        }
+        out
+    }
+}
+
+/// How many of a template's holes a part shows where the pose puts them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct HoleAgreement {
+    /// The template's holes.
+    pub expected: u8,
+    /// Those found in the part.
+    pub found: u8,
+}
+
+impl HoleAgreement {
+    /// Every hole of the template was found (true for a template without holes).
+    pub fn all_found(&self) -> bool {
+        self.found >= self.expected
+    }
+
+    /// The template's holes that were not found.
+    pub fn missing(&self) -> u8 {
+        self.expected.saturating_sub(self.found)
+    }
+}
+
+/// Which of `template`'s holes (centres as offsets from its area centroid) `part`'s holes
+/// (centres in the frame) show where `pose` puts them (see the module doc). Each part hole
+/// serves at most one template hole; the template's holes are taken largest first, each the
+/// nearest free part hole that fits.
+pub fn agreement(template: &Holes, pose: &Pose, part: &Holes) -> HoleAgreement {
+    let mut used = [false; MAX_HOLES];
+    let mut found = 0u8;
+    let scale = pose.scale;
+    let expected = template.as_slice();
+    for h in expected {
+        let at = pose.apply(h.centre);
+        let area = h.area * scale * scale;
+        let from_centre = crate::math::sqrt(h.centre[0] * h.centre[0] + h.centre[1] * h.centre[1]) * scale;
+        let reach =
+            HOLE_REACH * crate::math::sqrt(area.max(0.0) / core::f32::consts::PI) + HOLE_STRETCH * from_centre + 1.0;
+        let mut best: Option<(f32, usize)> = None;
+        for (j, (q, u)) in part.as_slice().iter().zip(used.iter()).enumerate() {
+            if *u {
+                continue;
+            }
+            let (dx, dy) = (q.centre[0] - at[0], q.centre[1] - at[1]);
+            let d2 = dx * dx + dy * dy;
+            let fits = d2 <= reach * reach && q.area * HOLE_AREA_RATIO >= area && q.area <= HOLE_AREA_RATIO * area;
+            if fits && best.is_none_or(|(b, _)| d2 < b) {
+                best = Some((d2, j));
+            }
+        }
+        if let Some((_, j)) = best {
+            if let Some(u) = used.get_mut(j) {
+                *u = true;
+            }
+            found = found.saturating_add(1);
+        }
+    }
+    HoleAgreement {
+        expected: expected.len().min(u8::MAX as usize) as u8,
+        found,
+    }
+}
+
+/// The pose that puts `template`'s two largest holes (centres as offsets from its area
+/// centroid) onto two of `part`'s holes: of every ordered pair of part holes, the one whose
+/// areas fit the template holes' (scaled by the pair's spacing) best, each within
+/// [`HOLE_AREA_RATIO`]. `None` for a template with fewer than two holes, or no pair that fits.
+/// Angles as [`Pose`]: counter-clockwise on screen.
+pub fn pose_from_holes(template: &Holes, part: &Holes) -> Option<Pose> {
+    let (h0, h1) = match template.as_slice() {
+        [a, b, ..] => (*a, *b),
+        _ => return None,
+    };
+    let u = [h1.centre[0] - h0.centre[0], h1.centre[1] - h0.centre[1]];
+    let len_u = crate::math::sqrt(u[0] * u[0] + u[1] * u[1]);
+    if !(len_u > 0.0) {
+        return None;
+    }
+    let misfit = |a: f32, b: f32| {
+        let r = a / b;
+        if r >= 1.0 {
+            r
+        } else {
+            1.0 / r
+        }
+    };
+    let mut best: Option<(f32, Pose)> = None;
+    for (i, p0) in part.as_slice().iter().enumerate() {
+        for (j, p1) in part.as_slice().iter().enumerate() {
+            if i == j {
+                continue;
+            }
+            let v = [p1.centre[0] - p0.centre[0], p1.centre[1] - p0.centre[1]];
+            let scale = crate::math::sqrt(v[0] * v[0] + v[1] * v[1]) / len_u;
+            let (f0, f1) = (
+                misfit(p0.area, h0.area * scale * scale),
+                misfit(p1.area, h1.area * scale * scale),
+            );
+            let cost = f0 * f1;
+            if !(f0 <= HOLE_AREA_RATIO && f1 <= HOLE_AREA_RATIO) || best.is_some_and(|(b, _)| !(cost < b)) {
+                continue;
+            }
+            // Screen angles (y down, counter-clockwise positive) of both spacings.
+            let angle = crate::math::atan2(-v[1], v[0]) - crate::math::atan2(-u[1], u[0]);
+            let turned = Pose {
+                x: 0.0,
+                y: 0.0,
+                angle,
+                scale,
+            }
+            .apply(h0.centre);
+            let pose = Pose {
+                x: p0.centre[0] - turned[0],
+                y: p0.centre[1] - turned[1],
+                angle,
+                scale,
+            };
+            best = Some((cost, pose));
+        }
+    }
+    best.map(|(_, p)| p)
+}
