@@ -7,6 +7,7 @@
 #   bash scripts/fuzz.sh matching library      # only these
 #   VORL_FUZZ_SECONDS=300 bash scripts/fuzz.sh # longer
 #   VORL_FUZZ_RUNS=1000000 bash scripts/fuzz.sh  # the long run: 10^6 executions per target
+#   VORL_FUZZ_BUILD_ONLY=1 bash scripts/fuzz.sh  # build the targets, run none
 #
 # Inputs: fuzz/seeds/<target>/ (committed, read only) and fuzz/corpus/<target>/ (what the runs
 # found, kept between runs, not committed). A crash leaves its input in fuzz/artifacts/<target>/
@@ -52,6 +53,10 @@ max_len() {
 say "building the targets (nightly, no sanitizer, debug assertions)"
 (cd fuzz && cargo +nightly fuzz build -s none --target-dir "$TARGET_DIR")
 BIN="$TARGET_DIR/$(rustc -vV | sed -n 's/^host: //p')/release"
+if [ "${VORL_FUZZ_BUILD_ONLY:-0}" = "1" ]; then
+    say "built; not run (VORL_FUZZ_BUILD_ONLY=1)"
+    exit 0
+fi
 
 mkdir -p "$LOGS"
 failed=()

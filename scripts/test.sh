@@ -38,8 +38,21 @@ cargo bench --workspace --no-run
 if [ "${VORL_SKIP_FUZZ:-0}" = "1" ]; then
     step "fuzz targets: skipped (VORL_SKIP_FUZZ=1)"
 else
-    step "fuzz targets, ${VORL_CI_FUZZ_SECONDS:-5} s each (scripts/fuzz.sh; any crash fails)"
-    VORL_FUZZ_SECONDS="${VORL_CI_FUZZ_SECONDS:-5}" bash scripts/fuzz.sh
+    step "fuzz targets, ${VORL_CI_FUZZ_SECONDS:-30} s each in two lanes (scripts/fuzz.sh; any crash fails)"
+    # Built once, then two lanes of four targets side by side (one per core).
+    export VORL_FUZZ_SECONDS="${VORL_CI_FUZZ_SECONDS:-30}"
+    VORL_FUZZ_BUILD_ONLY=1 bash scripts/fuzz.sh
+    bash scripts/fuzz.sh recognizer borders library matching >target/fuzz-lane-1.log 2>&1 &
+    lane=$!
+    lane2=0
+    bash scripts/fuzz.sh partial_volume geometry stereo calibration || lane2=$?
+    lane1=0
+    wait "$lane" || lane1=$?
+    cat target/fuzz-lane-1.log
+    if [ "$lane1" -ne 0 ] || [ "$lane2" -ne 0 ]; then
+        echo "a fuzz target crashed (see above)" >&2
+        exit 1
+    fi
 fi
 
 printf '\nall checks passed\n'
