@@ -139,6 +139,35 @@ pub fn partial_volume_centroid<B: AsRef<[u8]>>(
     seed: (usize, usize),
     bbox: Rect,
 ) -> Option<[f32; 2]> {
+    partial_volume_moments(diff, mask, seed, bbox).map(|m| m.centroid)
+}
+
+/// The partial-volume centroid and the weight it is the centroid of.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Moments {
+    /// The sum of the pixels' weights: the part's area in px², by coverage.
+    pub mass: f32,
+    /// The weighted centroid, px.
+    pub centroid: [f32; 2],
+}
+
+impl Moments {
+    fn of(r: Rect, [sw, sx, sy]: [f32; 3]) -> Option<Moments> {
+        (sw > 0.0).then(|| Moments {
+            mass: sw,
+            centroid: [r.x0 as f32 + sx / sw, r.y0 as f32 + sy / sw],
+        })
+    }
+}
+
+/// [`partial_volume_centroid`] with its mass ([`Moments`]), for a caller that adds to the
+/// part what the mask left out (the recognizer fills the holes its template does not have).
+pub fn partial_volume_moments<B: AsRef<[u8]>>(
+    diff: &Difference<'_, B>,
+    mask: &mut [u8],
+    seed: (usize, usize),
+    bbox: Rect,
+) -> Option<Moments> {
     let (w, h) = (diff.width(), diff.height());
     if mask.len() < w * h || seed.0 >= w || seed.1 >= h {
         return None;
@@ -158,7 +187,7 @@ pub fn partial_volume_centroid<B: AsRef<[u8]>>(
     let width = r.x1 - r.x0;
     if !(MIN_WIDTH..=MAX_WIDTH).contains(&width) {
         mark_component(mask, w, r, seed);
-        return per_pixel::centroid(diff, mask, w, r);
+        return per_pixel::moments(diff, mask, w, r);
     }
     let seed = (seed.0 - r.x0, seed.1 - r.y0);
     // Every row of the box has its D from the frame's and background's rows when the last has
@@ -180,7 +209,7 @@ pub fn partial_volume_centroid<B: AsRef<[u8]>>(
 /// The bit-row path with rows of `N` words: the component from the seed (box column, box row),
 /// its inside, band and ring and the ring's median `D`, then the weights; the plane holds its
 /// mask again afterwards.
-fn bit_rows<S: Source, const N: usize>(src: &S, mut plane: Plane<'_>, (x, q): (usize, usize)) -> Option<[f32; 2]> {
+fn bit_rows<S: Source, const N: usize>(src: &S, mut plane: Plane<'_>, (x, q): (usize, usize)) -> Option<Moments> {
     let comp = mark::<N>(&mut plane, x, q);
     // Rows with inside or band pixels: the component's, and 2 more above and below.
     let rows = comp.start.saturating_sub(2)..(comp.end + 2).min(plane.height);
@@ -191,9 +220,7 @@ fn bit_rows<S: Source, const N: usize>(src: &S, mut plane: Plane<'_>, (x, q): (u
         [0.0; 3]
     };
     plane.restore::<N>();
-    let [sw, sx, sy] = sums;
-    let r = plane.r;
-    (sw > 0.0).then(|| [r.x0 as f32 + sx / sw, r.y0 as f32 + sy / sw])
+    Moments::of(plane.r, sums)
 }
 
 /// The box in the mask plane while bit rows are measured. A box row whose fields are set up
@@ -1991,12 +2018,23 @@ mod per_pixel {
 
     /// [`super::partial_volume_centroid`] after the component is marked; clears bits 1–7 in the
     /// box.
+    #[cfg(test)]
     pub(super) fn centroid<B: AsRef<[u8]>>(
         diff: &Difference<'_, B>,
         mask: &mut [u8],
         w: usize,
         r: Rect,
     ) -> Option<[f32; 2]> {
+        moments(diff, mask, w, r).map(|m| m.centroid)
+    }
+
+    /// [`centroid`] with its mass.
+    pub(super) fn moments<B: AsRef<[u8]>>(
+        diff: &Difference<'_, B>,
+        mask: &mut [u8],
+        w: usize,
+        r: Rect,
+    ) -> Option<super::Moments> {
         // Band = grown by 2 minus shrunk by 2; ring = shrunk by 3 minus shrunk by 5.
         morph_bits(mask, w, r, COMPONENT, GROWN, false);
         morph_bits(mask, w, r, GROWN, SCRATCH, false);
@@ -2071,7 +2109,7 @@ mod per_pixel {
                 super::keep_mask_bit(row);
             }
         }
-        (sw > 0.0).then(|| [r.x0 as f32 + sx / sw, r.y0 as f32 + sy / sw])
+        super::Moments::of(r, [sw, sx, sy])
     }
 
     /// Mean `D` of the ring pixels (bit `SCRATCH` set, `RING` clear) within 4 px of `(x, y)`.

@@ -42,12 +42,12 @@ use crate::contour::{clear_labels, trace_borders_in, BorderKind, ContourStore, T
 use crate::descriptor::describe;
 use crate::error::{Error, Result};
 use crate::frame::Frame;
-use crate::holes::{agreement, pose_from_holes, HoleAgreement, Holes, MIN_HOLE_FRACTION};
+use crate::holes::{agreement, fill_unexplained, pose_from_holes, HoleAgreement, Holes, MIN_HOLE_FRACTION};
 use crate::mask::{foreground_mask_spans, MaskStats, RowSpans};
 use crate::matching::{best_match, sorted_lower_bound, sorted_window_bound, table_cells, Match};
 use crate::math;
 use crate::params::{AngleEstimator, Params, Position, Refine};
-use crate::partial_volume::{partial_volume_centroid, Rect};
+use crate::partial_volume::{partial_volume_moments, Rect};
 use crate::pose::{angle_paper, angle_signed_refined, area_centroid};
 use crate::refine::{
     align_recording, edge_distances, outward_normal, Alignment, Difference, Outline, Pose, RefineParams,
@@ -506,7 +506,13 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         }
         if params.position == Position::PartialVolume {
             if let Some(seed) = seed_pixel {
-                if let Some([px, py]) = partial_volume_centroid(&diff, mask, seed, bbox) {
+                if let Some(m) = partial_volume_moments(&diff, mask, seed, bbox) {
+                    // A known part's holes that its template does not have are print: filled.
+                    let [px, py] = if detection.template.is_some() && detection.holes.all_found() {
+                        fill_unexplained(m.centroid, m.mass, &part_holes, &detection.holes)
+                    } else {
+                        m.centroid
+                    };
                     detection.x = px;
                     detection.y = py;
                 }

@@ -212,3 +212,37 @@ fn the_holes_give_the_pose_they_were_drawn_at() {
     });
     assert_eq!(pose_from_holes(&one, &one), None);
 }
+
+#[test]
+fn a_hole_the_template_does_not_have_does_not_move_the_position() {
+    // Template: the plain bar. Part: the same bar with a light 9×9 patch (print) 20 px right of
+    // its centre: a hole in the mask that the template does not have.
+    let mut rec = Rec::new();
+    rec.set_params(Params::DEFAULT).unwrap();
+    let mut labels = vec![0u8; W * H];
+    let s = silhouette(&[]);
+    rec.teach(&Frame::new_checked(&s[..], W, H).unwrap(), &mut labels)
+        .unwrap();
+    assert!(rec.templates()[0].holes().is_empty());
+    let platform = vec![200u8; W * H];
+    let mut scene = platform.clone();
+    bar(&mut scene, 100, 60, &[20], 0, 40);
+    let mut bg = Background::new(vec![0u8; W * H], W, H).unwrap();
+    bg.set_from_frame(
+        &Frame::new_checked(&platform[..], W, H).unwrap(),
+        Params::DEFAULT.alpha(),
+    )
+    .unwrap();
+    let report = rec
+        .process(&Frame::new_checked(&scene[..], W, H).unwrap(), &bg, &mut labels)
+        .unwrap();
+    assert_eq!(report.detections.len(), 1);
+    let d = report.detections[0];
+    assert_eq!(d.template, Some(0), "{d:?}");
+    assert_eq!((d.holes.expected, d.holes.found, d.holes.matched), (0, 0, 0));
+    // The whole bar's pixel centroid: columns 68..=131, rows 50..=69.
+    assert!((d.x - 99.5).abs() < 0.02 && (d.y - 59.5).abs() < 0.02, "{d:?}");
+    // Without the fill it would lie 81·20.5/(1280 − 81) = 1.38 px left of it (the polygon
+    // centroid, holes subtracted, says so).
+    assert!(d.polygon_centroid[0] < 99.5 - 1.0, "{d:?}");
+}
