@@ -14,7 +14,7 @@
 //! | label plane | `w·h` |
 //! | contour points | `4·P` |
 //! | contour records | `C·size_of::<Contour>()` + the vector's length word + the store's counter |
-//! | templates | `T·size_of::<Template<M>>()` + the vector's length word, `size_of::<Template<M>>() = word + 32·M + 28 + 100` (the holes, [`HOLES_BYTES`]) rounded up to the word |
+//! | templates | `T·size_of::<Template<M>>()` + the vector's length word, `size_of::<Template<M>>() = word + 32·M + 28 + 100 + 12` (the holes, [`HOLES_BYTES`], and the class's tolerance) rounded up to the word |
 //! | DP table | `4·D` (`D ≥ n·(m − n + 1)`) |
 //! | part buffers | `22·M`: points `8·M`, descriptor `4·M`, correspondence `2·M`, sub-pixel edge `8·M` |
 //! | parameters, padding | `size_of::<Params>()` and the rounding of the recognizer to its alignment |
@@ -183,7 +183,7 @@ pub const fn template_bytes(layout: Layout, m: usize) -> usize {
         layout
             .word
             .saturating_add(m.saturating_mul(32))
-            .saturating_add(32 + HOLES_BYTES),
+            .saturating_add(32 + HOLES_BYTES + 12),
         max(layout.word, 4),
     )
 }
@@ -343,8 +343,9 @@ mod tests {
             let fixed = layout.params;
             assert!(b.other >= fixed && b.other < fixed + 16);
         }
-        // 32-bit: 8 templates of (4 + 32·96 + 32 + 100 for the holes) bytes and the length word.
-        assert_eq!(budget(Layout::CORTEX_M, caps).templates, 4 + 8 * 3208);
+        // 32-bit: 8 templates of (4 + 32·96 + 32 + 100 for the holes + 12 for the tolerance)
+        // bytes and the length word.
+        assert_eq!(budget(Layout::CORTEX_M, caps).templates, 4 + 8 * 3220);
     }
 
     #[test]

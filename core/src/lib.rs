@@ -75,4 +75,4 @@ pub use error::{Error, Result};
 pub use frame::{Frame, FrameBuffer};
 pub use params::{AngleEstimator, Params, Position, Refine};
 pub use recognizer::{Detection, Recognizer, Report};
-pub use template::Template;
+pub use template::{Template, Tolerance};

@@ -28,10 +28,10 @@
 //! | 20 | 2 | `k`, neighbourhood of the angle term for parts, `u16` (`1 ≤ k`, `2k < n`) |
 //! | 22 | 2 | `T`, number of templates, `u16` |
 //! | 24 | 4 | `ω`, weight of the angle term, `f32` in `[0, 1]` |
-//! | 28 | `T·(160 + 28·m)` | `T` template records, below |
+//! | 28 | `T·(172 + 28·m)` | `T` template records, below |
 //!
-//! One template record ([`record_len`]`(m) = 160 + 28·m` bytes, at `28 + i·record_len(m)`;
-//! in version 1, `60 + 28·m` bytes: the same without the holes):
+//! One template record ([`record_len`]`(m) = 172 + 28·m` bytes, at `28 + i·record_len(m)`;
+//! in version 1, `60 + 28·m` bytes: the same without the holes and the tolerance):
 //!
 //! | offset | bytes | field |
 //! |---:|---:|---|
@@ -47,9 +47,10 @@
 //! | +60 + 20·m | `8·m` | the `m` unit outward normals at the edge points: x, y, … |
 //! | +60 + 28·m | 4 | number of holes `h`, `u32` ≤ [`MAX_HOLES`] (8) |
 //! | +64 + 28·m | 96 | 8 holes, largest first: centre as an offset from the area centroid x, y, and area in px², `f32`; the slots after the first `h` are 0 |
+//! | +160 + 28·m | 12 | the class's [`Tolerance`]: factor on the verification limit (≥ 1), scale range low (≤ 1) and high (≥ 1), `f32`; 1, 1, 1 for a single-example class |
 //!
-//! So `L = 12 + T·(160 + 28·m)` exactly, and the file is `16 + L` bytes ([`encoded_len`]); for
-//! 8 templates of `m = 96` points that is 22 812 bytes. A template read back is equal, field for
+//! So `L = 12 + T·(172 + 28·m)` exactly, and the file is `16 + L` bytes ([`encoded_len`]); for
+//! 8 templates of `m = 96` points that is 22 908 bytes. A template read back is equal, field for
 //! field, to the one that was written (`Template`'s `PartialEq`).
 //!
 //! # Checks, in order
@@ -61,7 +62,7 @@
 //! | version is not 1 or 2 | [`Error::UnsupportedVersion`] |
 //! | fewer than `16 + L` bytes | [`Error::Truncated`] |
 //! | CRC-32 of the payload differs from the stored one | [`Error::Checksum`] |
-//! | reserved field not 0, bytes after the payload, `L` not `12 + T·record_len(m)`, parameters out of range, a name too long or not UTF-8, a value not finite, more than 8 holes or a hole of no area | [`Error::Corrupt`] |
+//! | reserved field not 0, bytes after the payload, `L` not `12 + T·record_len(m)`, parameters out of range, a name too long or not UTF-8, a value not finite, more than 8 holes or a hole of no area, a tolerance out of range | [`Error::Corrupt`] |
 //!
 //! ```
 //! use vorl_core::library::{encoded_len, write_library, Library};
@@ -89,7 +90,7 @@ use crate::holes::{Hole, Holes, MAX_HOLES};
 use crate::params::Params;
 use crate::recognizer::Recognizer;
 use crate::resample::check_counts;
-use crate::template::Template;
+use crate::template::{Template, Tolerance};
 
 /// The four bytes a library starts with.
 pub const MAGIC: [u8; 4] = *b"VRLT";
@@ -106,10 +107,11 @@ pub const MAX_NAME_LEN: usize = NAME_FIELD_LEN - 1;
 /// Bytes of a record before its points: name field, centroid, area centroid, area, position.
 const RECORD_HEAD_LEN: usize = NAME_FIELD_LEN + 28;
 
-/// Bytes of a record's hole block: the count and [`MAX_HOLES`] slots of three `f32`.
-const HOLES_LEN: usize = 4 + 12 * MAX_HOLES;
+/// Bytes of a record's hole block (the count and [`MAX_HOLES`] slots of three `f32`) and its
+/// tolerance (three `f32`).
+const HOLES_LEN: usize = 4 + 12 * MAX_HOLES + 12;
 
-/// Bytes of one template record with `m` points: `160 + 28·m` (saturating at `usize::MAX`).
+/// Bytes of one template record with `m` points: `172 + 28·m` (saturating at `usize::MAX`).
 pub const fn record_len(m: usize) -> usize {
     record_len_of(VERSION, m)
 }
@@ -124,7 +126,7 @@ const fn record_len_of(version: u16, m: usize) -> usize {
     }
 }
 
-/// Bytes of a whole library of `templates` templates of `m` points: `28 + T·(160 + 28·m)`
+/// Bytes of a whole library of `templates` templates of `m` points: `28 + T·(172 + 28·m)`
 /// (saturating at `usize::MAX`).
 pub const fn encoded_len(templates: usize, m: usize) -> usize {
     encoded_len_of(VERSION, templates, m)
@@ -391,6 +393,11 @@ impl<'a> Library<'a> {
                 });
             }
             t.set_holes(holes);
+            let at = holes_at + 4 + 12 * MAX_HOLES;
+            t.set_tolerance(Tolerance {
+                verify: f(at),
+                scale: pair(at + 4),
+            })?;
         }
         Ok(t)
     }
@@ -469,6 +476,19 @@ fn check_record(record: &[u8], m: usize) -> Result<()> {
                 });
             }
         }
+        let at = 12 * MAX_HOLES;
+        let tolerance = Tolerance {
+            verify: f32_at(hole_values, at).unwrap_or(f32::NAN),
+            scale: [
+                f32_at(hole_values, at + 4).unwrap_or(f32::NAN),
+                f32_at(hole_values, at + 8).unwrap_or(f32::NAN),
+            ],
+        };
+        if !tolerance.is_valid() {
+            return Err(Error::Corrupt {
+                what: "template tolerance out of range",
+            });
+        }
     }
     Ok(())
 }
@@ -543,6 +563,11 @@ pub fn write_library<'t, const M: usize>(
             w.f32(h.centre[0]);
             w.f32(h.centre[1]);
             w.f32(h.area);
+        }
+        w.at = RECORD_HEAD_LEN + 28 * m + 4 + 12 * MAX_HOLES;
+        let tolerance = t.tolerance();
+        for v in [tolerance.verify, tolerance.scale[0], tolerance.scale[1]] {
+            w.f32(v);
         }
         count += 1;
         at = end;
@@ -661,7 +686,7 @@ mod tests {
     #[test]
     fn round_trip_is_exact() {
         let (bytes, ts) = library();
-        assert_eq!(bytes.len(), 16 + 12 + 2 * (160 + 28 * 96));
+        assert_eq!(bytes.len(), 16 + 12 + 2 * (172 + 28 * 96));
         assert_eq!(&bytes[..4], b"VRLT");
         let lib = Library::parse(&bytes).unwrap();
         assert_eq!((lib.n(), lib.m(), lib.k(), lib.omega(), lib.len()), (64, 96, 4, 0.5, 2));

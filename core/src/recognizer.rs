@@ -288,6 +288,22 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         self.add_template(t)
     }
 
+    /// Sets template `index`'s class tolerance ([`Template::set_tolerance`]).
+    ///
+    /// # Errors
+    /// [`Error::Capacity`] for an index past the last template; [`Template::set_tolerance`]'s.
+    pub fn set_tolerance(&mut self, index: usize, tolerance: crate::template::Tolerance) -> Result<()> {
+        let count = self.templates.len();
+        self.templates
+            .get_mut(index)
+            .ok_or(Error::Capacity {
+                what: "templates",
+                capacity: count,
+                requested: index.saturating_add(1),
+            })?
+            .set_tolerance(tolerance)
+    }
+
     /// The templates.
     pub fn templates(&self) -> &[Template<M>] {
         &self.templates
@@ -597,7 +613,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let params = &self.params;
         let part_edges = self.part_edges.get(..n).unwrap_or(&[]);
         let seed = seed_pose(position, signed, area, t);
-        let limit_at = |scale: f32| params.verify_limit(t.size() * scale);
+        let limit_at = |scale: f32| params.verify_limit(t.size() * scale) * t.tolerance().verify;
         // The alignment gives up at the limit for the seed's size, at least the caller's
         // (unless the caller never gives up).
         // The distance cap grows with the limit (a large part's edge may lie farther from its
@@ -769,8 +785,9 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
     /// for them: an integrator's catalogue holds parts of many sizes, and a distractor far
     /// from every size costs no search at all (it stays unknown, without a nearest template).
     fn leave_out_by_size(&self, scan: &mut CandidateScan<T, M>, area: f32) {
-        let (lo, hi) = (self.params.scale_min / SCALE_SLACK, self.params.scale_max * SCALE_SLACK);
         for (t, state) in self.templates.iter().zip(scan.state.iter_mut()) {
+            let (lo, hi) = t.tolerance().scale_range(self.params.scale_min, self.params.scale_max);
+            let (lo, hi) = (lo / SCALE_SLACK, hi * SCALE_SLACK);
             let ratio = if t.area() > 0.0 { area / t.area() } else { f32::NAN };
             // Compared squared (no square root): NaN is left out too.
             if !(ratio >= lo * lo && ratio <= hi * hi) {
@@ -1129,7 +1146,8 @@ fn verify_score<const M: usize, B: AsRef<[u8]>>(
 ) -> f32 {
     let edge = t.edge();
     let pose = a.pose;
-    if !(pose.scale >= limits.scale_min && pose.scale <= limits.scale_max) {
+    let (lo, hi) = t.tolerance().scale_range(limits.scale_min, limits.scale_max);
+    if !(pose.scale >= lo && pose.scale <= hi) {
         return f32::INFINITY;
     }
     let dist = distances;

@@ -6,7 +6,8 @@
 //! [`Template::from_silhouette`] takes the largest outer border of a silhouette image (part 255,
 //! rest 0; `docs/pipeline-spec.md` §9).
 //!
-//! Memory: `32·M + 140` bytes per template of capacity `M` on a 32-bit camera, its holes included
+//! Memory: `32·M + 152` bytes per template of capacity `M` on a 32-bit camera, its holes and
+//! tolerance included
 //! (see `vorl budget`).
 
 use crate::contour::{trace_borders, BorderFilter, ContourStore, Point};
@@ -42,6 +43,45 @@ pub struct Template<const M: usize> {
     half_turn: f32,
     /// The silhouette's holes, centres as offsets from `area_centroid`.
     holes: Holes,
+    /// What a class taught from several examples needs beyond the parameters' limits.
+    tolerance: Tolerance,
+}
+
+/// What a class taught from several examples needs beyond the parameters' verification limit
+/// and scale range: the spread of its own examples, measured when it is taught (each example
+/// aligned on each other one). A single-example template has [`Tolerance::NONE`]. The
+/// parameters stay the floor: the limit is never lower than `Params::verify_limit`, the
+/// scale range never narrower than `[scale_min, scale_max]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Tolerance {
+    /// Factor on the verification limit (≥ 1).
+    pub verify: f32,
+    /// Part size over template size that the examples need: `[low, high]`.
+    pub scale: [f32; 2],
+}
+
+impl Tolerance {
+    /// Nothing beyond the parameters.
+    pub const NONE: Tolerance = Tolerance {
+        verify: 1.0,
+        scale: [1.0, 1.0],
+    };
+
+    /// Whether every value is finite, the factor at least 1 and the range ordered around 1.
+    pub fn is_valid(&self) -> bool {
+        self.verify.is_finite()
+            && self.verify >= 1.0
+            && self.scale[0].is_finite()
+            && self.scale[1].is_finite()
+            && self.scale[0] > 0.0
+            && self.scale[0] <= 1.0
+            && self.scale[1] >= 1.0
+    }
+
+    /// `[lo, hi]` widened to take this tolerance's scale range in.
+    pub fn scale_range(&self, lo: f32, hi: f32) -> (f32, f32) {
+        (lo.min(self.scale[0]), hi.max(self.scale[1]))
+    }
 }
 
 impl<const M: usize> Template<M> {
@@ -60,6 +100,7 @@ impl<const M: usize> Template<M> {
             position: [0.0; 2],
             half_turn: f32::INFINITY,
             holes: Holes::new(),
+            tolerance: Tolerance::NONE,
         }
     }
 
@@ -148,6 +189,26 @@ impl<const M: usize> Template<M> {
     /// a template library.
     pub fn set_holes(&mut self, holes: Holes) {
         self.holes = holes;
+    }
+
+    /// What the template's class needs beyond the parameters ([`Tolerance::NONE`] unless set).
+    pub fn tolerance(&self) -> Tolerance {
+        self.tolerance
+    }
+
+    /// Sets the class's tolerance (as measured when a class is taught from several examples,
+    /// or stored by a template library).
+    ///
+    /// # Errors
+    /// [`Error::Corrupt`] for a tolerance that is not [`Tolerance::is_valid`].
+    pub fn set_tolerance(&mut self, tolerance: Tolerance) -> Result<()> {
+        if !tolerance.is_valid() {
+            return Err(Error::Corrupt {
+                what: "template tolerance out of range (factor ≥ 1, scale low ≤ 1 ≤ high, finite)",
+            });
+        }
+        self.tolerance = tolerance;
+        Ok(())
     }
 
     /// The template's size, px: the radius of the disc of its area, `√(area/π)`. Tolerances

@@ -80,26 +80,115 @@ pub struct FrameResult {
     pub height: usize,
 }
 
-/// Loads every silhouette (`*.png`, `*.gif`, `*.bmp`) in a folder; names are file stems.
+/// Loads every silhouette (`*.png`, `*.gif`, `*.bmp`) in a folder: `<class>.png` is a class of
+/// one example, and a subfolder `<class>/` holds several examples of one class (any file names;
+/// the class then carries the tolerance its examples need, [`Engine::add_silhouettes`]).
 ///
 /// # Errors
-/// The folder is missing or holds no image, or one image cannot be read.
+/// The folder is missing or holds no image, a class folder holds no image, or one image cannot
+/// be read (named: a class folder mixing good and unreadable examples is refused, not
+/// silently taught from the good ones).
 pub fn load_silhouettes(dir: &Path) -> Result<Vec<NamedSilhouette>, InputError> {
-    let files = list_files(dir, &["png", "gif", "bmp"])?;
-    if files.is_empty() {
+    const EXTS: [&str; 3] = ["png", "gif", "bmp"];
+    let mut entries: Vec<(String, std::path::PathBuf)> = list_files(dir, &EXTS)?
+        .into_iter()
+        .map(|p| (file_stem(&p), p))
+        .collect();
+    let mut classes: Vec<std::path::PathBuf> = std::fs::read_dir(dir)
+        .map_err(|e| InputError::new(dir, e.to_string()))?
+        .filter_map(|e| e.ok())
+        .map(|e| e.path())
+        .filter(|p| p.is_dir())
+        .collect();
+    classes.sort();
+    for class in classes {
+        let files = list_files(&class, &EXTS)?;
+        if files.is_empty() {
+            return Err(InputError::new(&class, "class folder holds no PNG, GIF or BMP image"));
+        }
+        let name = crate::io::file_name(&class);
+        if entries.iter().any(|(n, _)| *n == name) {
+            return Err(InputError::new(
+                &class,
+                format!("class {name:?} is both a file and a folder of examples; keep one"),
+            ));
+        }
+        entries.extend(files.into_iter().map(|p| (name.clone(), p)));
+    }
+    if entries.is_empty() {
         return Err(InputError::new(dir, "template folder holds no PNG, GIF or BMP image"));
     }
-    files
-        .iter()
-        .map(|p| {
-            load_gray(p).map(|l| NamedSilhouette {
-                name: file_stem(p),
-                path: p.clone(),
+    entries
+        .into_iter()
+        .map(|(name, p)| {
+            load_gray(&p).map(|l| NamedSilhouette {
+                name,
                 note: l.note.map(|n| format!("{}: {n}", p.display())),
+                path: p,
                 image: l.image,
             })
         })
         .collect()
+}
+
+/// The largest factor on the verification limit a class's examples may ask for
+/// ([`Engine::add_silhouettes`]); examples further apart are reported, and the factor capped.
+pub const MAX_CLASS_TOLERANCE: f32 = 4.0;
+
+/// How one example of a class verified against another: the score over its limit, and the
+/// scale of the second against the first (`None`: it could not be aligned at all).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CrossFit {
+    /// Verification score over its limit.
+    pub ratio: f32,
+    /// Scale of the second example over the first.
+    pub scale: f32,
+}
+
+/// The tolerance a class of several examples needs (see [`vorl_core::Tolerance`]): each example
+/// is taught alone and the others are recognised against it (`fits[i][j]`: example `j` against
+/// template `i`); the factor is the largest, over the examples, of the lowest ratio to any
+/// other (a part of the class lies nearer to one of its examples than the examples lie to each
+/// other), at least 1 and at most [`MAX_CLASS_TOLERANCE`]; the scale range spans every pair's
+/// scale. Returns the tolerance and whether the cap was reached.
+pub fn class_tolerance(fits: &[Vec<Option<CrossFit>>]) -> (vorl_core::Tolerance, bool) {
+    let k = fits.len();
+    let mut factor = 1.0f32;
+    let (mut lo, mut hi) = (1.0f32, 1.0f32);
+    let mut capped = false;
+    for j in 0..k {
+        let nearest = (0..k)
+            .filter(|&i| i != j)
+            .filter_map(|i| fits.get(i).and_then(|row| row.get(j)).copied().flatten())
+            .map(|f| f.ratio)
+            .fold(f32::INFINITY, f32::min);
+        if k > 1 {
+            if nearest.is_finite() {
+                factor = factor.max(nearest);
+            } else {
+                capped = true;
+            }
+        }
+    }
+    for row in fits {
+        for f in row.iter().flatten() {
+            if f.scale.is_finite() && f.scale > 0.0 {
+                lo = lo.min(f.scale);
+                hi = hi.max(f.scale);
+            }
+        }
+    }
+    if factor > MAX_CLASS_TOLERANCE || capped {
+        capped = true;
+        factor = factor.min(MAX_CLASS_TOLERANCE);
+    }
+    (
+        vorl_core::Tolerance {
+            verify: factor,
+            scale: [lo, hi],
+        },
+        capped,
+    )
 }
 
 /// Checks that a silhouette holds exactly one part.
@@ -189,6 +278,97 @@ impl Engine {
     /// The core templates.
     pub fn templates(&self) -> &[Template<HOST_M>] {
         self.rec.templates()
+    }
+
+    /// Teaches every silhouette, in order, each under its name; a class of several examples
+    /// (several silhouettes of one name) gets the [`class_tolerance`] of its examples, measured
+    /// here by recognising each example against each other one. Returns one line per class of
+    /// several examples, saying its tolerance (and when its examples lie further apart than
+    /// [`MAX_CLASS_TOLERANCE`]).
+    ///
+    /// # Errors
+    /// As [`Self::add_silhouette`], naming the file.
+    pub fn add_silhouettes(&mut self, silhouettes: &[NamedSilhouette]) -> Result<Vec<String>, String> {
+        let first = self.names.len();
+        for t in silhouettes {
+            self.add_silhouette(&t.name, &t.image)
+                .map_err(|e| format!("{}: {e}", t.path.display()))?;
+        }
+        let mut notes = Vec::new();
+        let mut done: Vec<&str> = Vec::new();
+        for t in silhouettes {
+            if done.contains(&t.name.as_str()) {
+                continue;
+            }
+            done.push(&t.name);
+            let examples: Vec<&NamedSilhouette> = silhouettes.iter().filter(|s| s.name == t.name).collect();
+            if examples.len() < 2 {
+                continue;
+            }
+            let fits = self.cross_fits(&examples)?;
+            let (tolerance, capped) = class_tolerance(&fits);
+            let indices: Vec<usize> = (first..self.names.len()).filter(|&i| self.names[i] == t.name).collect();
+            for i in indices {
+                self.rec
+                    .set_tolerance(i, tolerance)
+                    .map_err(|e| format!("class {}: {e}", t.name))?;
+            }
+            notes.push(format!(
+                "class {}: {} examples; verification limit ×{:.2}, scale {:.2}–{:.2}{}",
+                t.name,
+                examples.len(),
+                tolerance.verify,
+                tolerance.scale[0],
+                tolerance.scale[1],
+                if capped {
+                    format!(
+                        " (capped: some examples lie further from every other than ×{MAX_CLASS_TOLERANCE} the limit; teach them as a class of their own)"
+                    )
+                } else {
+                    String::new()
+                }
+            ));
+        }
+        Ok(notes)
+    }
+
+    /// Each example recognised against each other one taught alone (`[i][j]`: example `j`
+    /// against example `i`), with this engine's parameters but any scale in 0.5–2.
+    fn cross_fits(&self, examples: &[&NamedSilhouette]) -> Result<Vec<Vec<Option<CrossFit>>>, String> {
+        let params = Params {
+            scale_min: 0.5,
+            scale_max: 2.0,
+            ..*self.rec.params()
+        };
+        let mut one = Engine::new(params)?;
+        let mut fits = Vec::new();
+        for (i, a) in examples.iter().enumerate() {
+            one.rec.clear_templates();
+            one.names.clear();
+            one.add_silhouette(&a.name, &a.image)
+                .map_err(|e| format!("{}: {e}", a.path.display()))?;
+            let mut row = Vec::new();
+            for (j, b) in examples.iter().enumerate() {
+                if i == j {
+                    row.push(None);
+                    continue;
+                }
+                let dark = GrayImage::new(b.image.width(), b.image.height());
+                one.set_background(&dark)?;
+                let result = one.detect(&b.image)?;
+                let best = result
+                    .detections
+                    .iter()
+                    .max_by(|x, y| x.core.area.total_cmp(&y.core.area))
+                    .map(|d| d.core);
+                row.push(best.filter(|d| d.verify.is_finite()).map(|d| CrossFit {
+                    ratio: d.verify / d.verify_limit,
+                    scale: d.scale,
+                }));
+            }
+            fits.push(row);
+        }
+        Ok(fits)
     }
 
     /// Teaches one silhouette under `name`.
@@ -417,4 +597,86 @@ pub fn frame_notes(result: &FrameResult) -> Vec<String> {
         }
     }
     notes
+}
+
+#[cfg(test)]
+mod class_tests {
+    use super::*;
+
+    fn fit(ratio: f32, scale: f32) -> Option<CrossFit> {
+        Some(CrossFit { ratio, scale })
+    }
+
+    #[test]
+    fn class_tolerance_is_the_farthest_example_from_its_nearest() {
+        // Three examples: 0 and 1 close (ratio 1.5 both ways), 2 nearest to 1 at 2.5.
+        let fits = vec![
+            vec![None, fit(1.5, 1.1), fit(3.0, 1.3)],
+            vec![fit(1.5, 0.9), None, fit(2.5, 1.2)],
+            vec![fit(3.2, 0.77), fit(2.6, 0.83), None],
+        ];
+        let (t, capped) = class_tolerance(&fits);
+        assert!(!capped);
+        assert_eq!(t.verify, 2.5);
+        assert_eq!(t.scale, [0.77, 1.3]);
+        // Examples within the limit of each other need nothing more than the parameters.
+        let close = vec![vec![None, fit(0.4, 1.0)], vec![fit(0.5, 1.0), None]];
+        assert_eq!(class_tolerance(&close), (vorl_core::Tolerance::NONE, false));
+        // One that aligns on no other, or too far: capped, and said so.
+        let apart = vec![vec![None, None], vec![None, None]];
+        let (t, capped) = class_tolerance(&apart);
+        assert!(capped && t.verify == 1.0);
+        let far = vec![vec![None, fit(9.0, 1.0)], vec![fit(7.0, 1.0), None]];
+        let (t, capped) = class_tolerance(&far);
+        assert!(capped && t.verify == MAX_CLASS_TOLERANCE);
+    }
+}
+
+#[cfg(test)]
+mod class_recognition_tests {
+    use super::*;
+
+    /// A 64 px bar `thick` px wide, centred, on a black canvas (a template silhouette) or dark
+    /// on a platform of 200 (a frame).
+    fn bar(thick: u32, silhouette: bool) -> GrayImage {
+        let (bg, part) = if silhouette { (0u8, 255u8) } else { (200, 40) };
+        let mut img = GrayImage::from_pixel(220, 120, image::Luma([bg]));
+        for y in (60 - thick / 2)..(60 - thick / 2 + thick) {
+            for x in 78..142 {
+                img.put_pixel(x, y, image::Luma([part]));
+            }
+        }
+        img
+    }
+
+    fn named(thick: u32) -> NamedSilhouette {
+        NamedSilhouette {
+            name: "bar".into(),
+            path: format!("bar{thick}.png").into(),
+            note: None,
+            image: bar(thick, true),
+        }
+    }
+
+    #[test]
+    fn a_part_between_a_classes_examples_is_that_class() {
+        let frame = bar(THICK, false);
+        let run = |examples: &[NamedSilhouette]| {
+            let mut e = Engine::new(Params::DEFAULT).unwrap();
+            let notes = e.add_silhouettes(examples).unwrap();
+            e.set_background(&GrayImage::from_pixel(220, 120, image::Luma([200]))).unwrap();
+            let d = e.detect(&frame).unwrap().detections[0].clone();
+            (notes, d)
+        };
+        // Taught from the 16 px thick bar alone, the thicker one is too far off.
+        let (notes, alone) = run(&[named(16)]);
+        assert!(notes.is_empty());
+        assert_eq!(alone.class, None, "{:?}", alone.core);
+        // Taught from a 16 and a 32 px thick bar, it lies between them: a bar.
+        let (notes, class) = run(&[named(16), named(32)]);
+        assert_eq!(notes.len(), 1, "{notes:?}");
+        assert_eq!(class.class.as_deref(), Some("bar"), "{:?} {notes:?}", class.core);
+    }
+
+    const THICK: u32 = 24;
 }

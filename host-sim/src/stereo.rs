@@ -195,12 +195,11 @@ impl StereoInputs {
             if let Some(n) = &t.note {
                 eprintln!("note: {n}");
             }
-            for engine in [&mut left, &mut right] {
-                engine
-                    .add_silhouette(&t.name, &t.image)
-                    .map_err(|e| format!("{}: {e}", t.path.display()))?;
-            }
         }
+        for n in left.add_silhouettes(&templates)? {
+            eprintln!("note: {n}");
+        }
+        right.add_silhouettes(&templates)?;
         let (pairs, other_frames) = list_pairs(root)?;
         Ok(StereoInputs {
             root: root.to_path_buf(),

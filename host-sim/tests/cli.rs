@@ -1318,3 +1318,93 @@ fn teach_lists_and_takes_one_part_without_an_empty_shot() {
     let err = teach(&["--at", "twelve"], "x").failure();
     assert!(err.errors().join(" ").contains("X,Y"), "{}", err.dump());
 }
+
+/// A 64×20 bar (with `long` more columns) centred at (`cx`, `cy`), along x or, `upright`, along
+/// y, drawn with `value`.
+fn draw_bar(img: &mut GrayImage, cx: i64, cy: i64, long: i64, upright: bool, value: u8) {
+    let half = (64 + long) / 2;
+    for v in -10..10i64 {
+        for u in -half..half {
+            let (x, y) = if upright { (cx + v, cy + u) } else { (cx + u, cy + v) };
+            img.put_pixel(x as u32, y as u32, Luma([value]));
+        }
+    }
+}
+
+#[test]
+fn teach_add_makes_a_class_of_several_examples_at_one_reference_pose() {
+    let scratch = Scratch::new("teachadd");
+    // Two bars of one class, the second 12 px longer and upright.
+    let mut frame = GrayImage::from_pixel(240, 200, Luma([200]));
+    draw_bar(&mut frame, 70, 30, 0, false, 40);
+    draw_bar(&mut frame, 170, 110, 12, true, 40);
+    let path = scratch.join("f.png");
+    frame.save(&path).unwrap();
+    let t = scratch.join("t");
+    let teach = |extra: &[&str]| {
+        let mut args: Vec<std::ffi::OsString> = vec!["teach".into(), path.clone().into()];
+        args.extend(extra.iter().map(Into::into));
+        args.extend(["--name".into(), "bar".into(), "--out".into(), t.clone().into()]);
+        vorl(args)
+    };
+    teach(&["--part", "1"]).success();
+    assert!(t.join("bar.png").is_file());
+    let out = teach(&["--part", "2", "--add"]).success();
+    assert!(!t.join("bar.png").exists(), "{}", out.dump());
+    let (first, second) = (gray(&t.join("bar/1.png")), gray(&t.join("bar/2.png")));
+    assert_eq!((blobs(&first), blobs(&second)), (1, 1));
+    // The upright bar was turned onto the first's pose: both lie along x (within a pixel of
+    // their drawn sizes, with the crop's 10 px margins).
+    let extent = |img: &GrayImage| {
+        let on: Vec<(u32, u32)> = img
+            .enumerate_pixels()
+            .filter(|p| p.2 .0[0] > 127)
+            .map(|p| (p.0, p.1))
+            .collect();
+        let w = on.iter().map(|p| p.0).max().unwrap() - on.iter().map(|p| p.0).min().unwrap() + 1;
+        let h = on.iter().map(|p| p.1).max().unwrap() - on.iter().map(|p| p.1).min().unwrap() + 1;
+        (w as i64, h as i64)
+    };
+    assert_eq!(extent(&first), (64, 20));
+    let (w, h) = extent(&second);
+    assert!((w - 76).abs() <= 1 && (h - 20).abs() <= 1, "{w}×{h}; {}", out.dump());
+    // The class's tolerance: its examples differ, so the limit grows; the scale spans 76/64.
+    let line = out
+        .stdout
+        .lines()
+        .find(|l| l.starts_with("class bar: 2 examples"))
+        .unwrap_or_else(|| panic!("{}", out.dump()));
+    let factor: f64 = line
+        .split('×')
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(factor > 1.0, "{line}");
+    // The library carries it, for both examples.
+    let lib = scratch.join("lib.vtl");
+    vorl([
+        OsStr::new("templates"),
+        OsStr::new("export"),
+        t.as_os_str(),
+        OsStr::new("--out"),
+        lib.as_os_str(),
+    ])
+    .success();
+    let info = vorl([OsStr::new("templates"), OsStr::new("info"), lib.as_os_str()]).success();
+    assert_eq!(info.stdout.matches("class tolerance").count(), 2, "{}", info.dump());
+    // A class folder mixing a good and an unreadable example is refused, naming the file.
+    std::fs::write(t.join("bar/3.png"), b"not a png").unwrap();
+    let err = vorl([
+        OsStr::new("templates"),
+        OsStr::new("export"),
+        t.as_os_str(),
+        OsStr::new("--out"),
+        lib.as_os_str(),
+    ])
+    .failure();
+    assert!(err.errors().join(" ").contains("3.png"), "{}", err.dump());
+}

@@ -102,9 +102,9 @@ pub fn prepare(
         if let Some(n) = &t.note {
             eprintln!("note: {n}");
         }
-        engine
-            .add_silhouette(&t.name, &t.image)
-            .map_err(|e| format!("{}: {e}", t.path.display()))?;
+    }
+    for n in engine.add_silhouettes(&tpls)? {
+        eprintln!("note: {n}");
     }
     Ok(Inputs { engine, frames })
 }

@@ -21,7 +21,8 @@ pub enum Format {
 #[command(
     after_help = "Row i, column j is f' of silhouette i seen as a part against silhouette j as a \
     template. Pairs below ε in either direction are warned about on stderr: the matcher cannot tell \
-    them apart at that ε.\n\n\
+    them apart at that ε (examples of one class, in a subfolder DIR/<class>/, are named \
+    <class>/<file> and not warned about; the tolerance each such class carries is printed).\n\n\
     Examples:\n  vorl similarity examples/plant/templates\n  \
     vorl similarity my_templates --format json --out sim.json --epsilon 0.05"
 )]
@@ -50,6 +51,16 @@ pub fn run(args: SimilarityArgs) -> Result<ExitCode, String> {
     for n in sils.iter().filter_map(|s| s.note.as_ref()) {
         eprintln!("note: {n}");
     }
+    // The tolerance of each class of several examples, as detect and export measure it.
+    let mut engine = crate::engine::Engine::new(params)?;
+    let classes = engine.add_silhouettes(&sils)?;
+    let class_of: Vec<String> = sils.iter().map(|s| s.name.clone()).collect();
+    let mut sils = sils;
+    for s in sils.iter_mut() {
+        if class_of.iter().filter(|c| **c == s.name).count() > 1 {
+            s.name = format!("{}/{}", s.name, crate::io::file_name(&s.path));
+        }
+    }
     let bar = crate::cli::progress(sils.len(), "similarity", "rows");
     let sim = similarity(&sils, &params, &|| bar.inc(1))?;
     bar.finish_and_clear();
@@ -62,22 +73,26 @@ pub fn run(args: SimilarityArgs) -> Result<ExitCode, String> {
         None => print!("{text}"),
     }
     const SHOWN: usize = 25;
-    for &(i, j, v) in sim.too_alike.iter().take(SHOWN) {
+    for c in &classes {
+        eprintln!("{c}");
+    }
+    let too_alike: Vec<_> = sim.too_alike.iter().filter(|&&(i, j, _)| class_of[i] != class_of[j]).collect();
+    for &&(i, j, v) in too_alike.iter().take(SHOWN) {
         eprintln!(
             "warning: {} and {} are too alike to tell apart at ε = {}: f' = {v:.4}",
             sim.names[i], sim.names[j], sim.epsilon
         );
     }
-    if sim.too_alike.len() > SHOWN {
+    if too_alike.len() > SHOWN {
         eprintln!(
             "warning: … and {} more pairs (all are listed by --format json)",
-            sim.too_alike.len() - SHOWN
+            too_alike.len() - SHOWN
         );
     }
     eprintln!(
-        "{} silhouettes, {} pair(s) below ε = {}",
+        "{} silhouettes, {} pair(s) of different classes below ε = {}",
         sim.names.len(),
-        sim.too_alike.len(),
+        too_alike.len(),
         sim.epsilon
     );
     Ok(ExitCode::SUCCESS)

@@ -21,7 +21,8 @@ use crate::set::load_background_frames;
     Examples:\n  vorl teach --list set/frames/f000.png                 (numbered parts, and f000_parts.png)\n  \
     vorl teach set/frames/f000.png --part 2 --name bracket --out set/templates\n  \
     vorl teach set/frames/f000.png --at 312,140 --name bracket --out set/templates\n  \
-    vorl teach --background set/background.png set/frames/f000.png --name bracket --out set/templates"
+    vorl teach --background set/background.png set/frames/f000.png --name bracket --out set/templates\n  \
+    vorl teach set/frames/f007.png --part 1 --name bracket --out set/templates --add   (another example of the class)"
 )]
 pub struct TeachArgs {
     /// The empty platform, or "auto" (the default): the platform estimated from the frame.
@@ -50,8 +51,13 @@ pub struct TeachArgs {
     #[arg(long, value_name = "DIR", required_unless_present = "list")]
     pub out: Option<PathBuf>,
     /// Overwrite an existing template of that name.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "add")]
     pub force: bool,
+    /// Add the part as another example of the class: into `DIR/<name>/` (an existing
+    /// `DIR/<name>.png` moves there first). A class of several examples carries the tolerance
+    /// its examples need (printed here, and by `vorl templates info` after an export).
+    #[arg(long)]
+    pub add: bool,
     /// Pipeline parameters (threshold, α, … used to segment the part).
     #[command(flatten)]
     pub params: ParamArgs,
@@ -103,10 +109,21 @@ pub fn run(args: TeachArgs) -> Result<ExitCode, String> {
     if name.is_empty() || name.contains(['/', '\\']) || name.starts_with('.') {
         return Err(format!("--name {name:?}: a class name must be a plain file name"));
     }
-    let target = out.join(format!("{name}.png"));
+    let folder = out.join(name);
+    let single = out.join(format!("{name}.png"));
+    let target = if args.add {
+        example_path(&folder, &single)?
+    } else if folder.is_dir() {
+        return Err(format!(
+            "{}: the class has several examples; use --add to add one more",
+            folder.display()
+        ));
+    } else {
+        single.clone()
+    };
     if target.exists() && !args.force {
         return Err(format!(
-            "{}: template exists already (use --force to replace it)",
+            "{}: template exists already (use --force to replace it, or --add for another example)",
             target.display()
         ));
     }
@@ -155,7 +172,22 @@ pub fn run(args: TeachArgs) -> Result<ExitCode, String> {
     let Some(&(sx, sy)) = part.border.first() else {
         return Err("the part has no border".into());
     };
-    let silhouette = component(engine.labels(), w, h, sx as usize, sy as usize);
+    let mut silhouette = component(engine.labels(), w, h, sx as usize, sy as usize);
+    if args.add {
+        // Turned to the class's reference pose: the pose of its first example.
+        let first = crate::engine::load_silhouettes(&folder)
+            .ok()
+            .and_then(|v| v.into_iter().find(|e| e.path != target));
+        if let Some(first) = first {
+            let (turned, angle) = to_reference_pose(&silhouette, &first.image, *engine.params())?;
+            println!(
+                "turned by {:.2}° onto the pose of the class's first example ({})",
+                -angle,
+                first.path.display()
+            );
+            silhouette = turned;
+        }
+    }
     std::fs::create_dir_all(out).map_err(|e| format!("{}: cannot create folder: {e}", out.display()))?;
     silhouette
         .save(&target)
@@ -174,7 +206,128 @@ pub fn run(args: TeachArgs) -> Result<ExitCode, String> {
         },
         target.display()
     );
+    if args.add {
+        let examples = crate::engine::load_silhouettes(&folder).map_err(|e| e.to_string())?;
+        let examples: Vec<_> = examples
+            .into_iter()
+            .map(|e| crate::engine::NamedSilhouette {
+                name: name.to_string(),
+                ..e
+            })
+            .collect();
+        let mut check = Engine::new(*engine.params())?;
+        for n in check.add_silhouettes(&examples)? {
+            println!("{n}");
+        }
+    }
     Ok(ExitCode::SUCCESS)
+}
+
+/// `silhouette` turned onto the reference pose of `first` (another example of its class): the
+/// angle at which `first`, taught alone, recognises `silhouette` (any scale in 0.5–2), undone
+/// about the silhouette's own pixel centroid on a canvas large enough for any turn, thresholded
+/// at half level and cropped with a 10 px margin. Returns the turned silhouette and the angle
+/// (degrees, counter-clockwise) that was undone.
+///
+/// # Errors
+/// `first` cannot be taught, or does not align on `silhouette` at all (then the two are
+/// probably not one class).
+pub fn to_reference_pose(
+    silhouette: &GrayImage,
+    first: &GrayImage,
+    params: vorl_core::Params,
+) -> Result<(GrayImage, f32), String> {
+    let mut one = Engine::new(vorl_core::Params {
+        scale_min: 0.5,
+        scale_max: 2.0,
+        ..params
+    })?;
+    one.add_silhouette("first", first)?;
+    one.set_background(&GrayImage::new(silhouette.width(), silhouette.height()))?;
+    let result = one.detect(silhouette)?;
+    let d = result
+        .detections
+        .iter()
+        .max_by(|a, b| a.core.area.total_cmp(&b.core.area))
+        .filter(|d| d.core.pose.is_some())
+        .ok_or("the new example does not align on the class's first example (another class?)")?;
+    let angle = d.core.angle_deg;
+    // A square canvas with the silhouette's pixel centroid at its centre.
+    let (mut sx, mut sy, mut n) = (0.0f64, 0.0f64, 0.0f64);
+    for (x, y, p) in silhouette.enumerate_pixels() {
+        if p.0[0] > 127 {
+            sx += x as f64;
+            sy += y as f64;
+            n += 1.0;
+        }
+    }
+    let (cx, cy) = (sx / n.max(1.0), sy / n.max(1.0));
+    let diag = ((silhouette.width().pow(2) + silhouette.height().pow(2)) as f64).sqrt();
+    let side = 2 * (diag.ceil() as u32) + 4;
+    let mut canvas = GrayImage::new(side, side);
+    let (ox, oy) = (side as f64 / 2.0 - cx, side as f64 / 2.0 - cy);
+    for (x, y, p) in silhouette.enumerate_pixels() {
+        let (tx, ty) = ((x as f64 + ox).round() as u32, (y as f64 + oy).round() as u32);
+        if tx < side && ty < side {
+            canvas.put_pixel(tx, ty, *p);
+        }
+    }
+    // imageproc turns clockwise on screen: by the part's counter-clockwise angle, to undo it.
+    let turned = imageproc::geometric_transformations::rotate(
+        &canvas,
+        (
+            (side as f64 / 2.0 - ox.fract()) as f32,
+            (side as f64 / 2.0 - oy.fract()) as f32,
+        ),
+        angle.to_radians(),
+        imageproc::geometric_transformations::Interpolation::Bilinear,
+        imageproc::geometric_transformations::Border::Constant(Luma([0u8])),
+    );
+    let mut labels: Vec<u8> = turned.as_raw().iter().map(|&v| (v > 127) as u8).collect();
+    let (w, h) = (side as usize, side as usize);
+    let Some(seed) = labels.iter().position(|&l| l != 0) else {
+        return Err("the turned example holds no part".into());
+    };
+    // The largest component only (a turn may leave a stray pixel at the edge).
+    let mut best = (0usize, seed);
+    let mut seen = vec![false; w * h];
+    for i in 0..w * h {
+        if labels[i] != 0 && !seen[i] {
+            let pixels = component_pixels(&labels, w, h, i % w, i / w);
+            for &j in &pixels {
+                seen[j] = true;
+            }
+            if pixels.len() > best.0 {
+                best = (pixels.len(), i);
+            }
+        }
+    }
+    let out = component(&labels, w, h, best.1 % w, best.1 / w);
+    labels.clear();
+    Ok((out, angle))
+}
+
+/// Where `--add` writes the next example of a class: `folder/<k>.png` for the first free `k`
+/// from 1; an existing single template `single` moves into the folder first.
+fn example_path(folder: &std::path::Path, single: &std::path::Path) -> Result<PathBuf, String> {
+    std::fs::create_dir_all(folder).map_err(|e| format!("{}: cannot create folder: {e}", folder.display()))?;
+    let next = || {
+        (1..)
+            .map(|k| folder.join(format!("{k}.png")))
+            .find(|p| !p.exists())
+            .unwrap_or_else(|| folder.join("1.png"))
+    };
+    if single.is_file() {
+        let first = next();
+        std::fs::rename(single, &first)
+            .map_err(|e| format!("{}: cannot move into {}: {e}", single.display(), folder.display()))?;
+        println!(
+            "moved {} → {} (the class's first example)",
+            single.display(),
+            first.display()
+        );
+    }
+    Ok(next())
 }
 
 /// `--list`: the numbered parts, and the overlay with their numbers.

@@ -114,10 +114,8 @@ pub fn export_library(dir: &Path, params: Params) -> Result<(Vec<u8>, Vec<String
     let dir = silhouette_dir(dir);
     let mut engine = Engine::new(params)?;
     let silhouettes = load_silhouettes(&dir).map_err(|e| e.to_string())?;
-    for s in &silhouettes {
-        engine
-            .add_silhouette(&s.name, &s.image)
-            .map_err(|e| format!("{}: {e}", dir.join(format!("{}.png", s.name)).display()))?;
+    for n in engine.add_silhouettes(&silhouettes)? {
+        eprintln!("note: {n}");
     }
     let bytes = library_bytes(&engine)?;
     Ok((bytes, engine.names().to_vec()))
@@ -186,10 +184,20 @@ fn info(args: InfoArgs) -> Result<ExitCode, String> {
             .template::<{ crate::engine::HOST_M }>(i)
             .map_err(|e| format!("{}: template {i}: {e}", args.file.display()))?;
         let [ax, ay] = t.area_centroid();
+        let tol = t.tolerance();
+        let tolerance = if tol == vorl_core::Tolerance::NONE {
+            "one example".to_string()
+        } else {
+            format!(
+                "class tolerance: limit ×{:.2}, scale {:.2}–{:.2}",
+                tol.verify, tol.scale[0], tol.scale[1]
+            )
+        };
         println!(
-            "  {i:>3}  {:<31}  area {:>9.1} px²  centroid ({ax:.2}, {ay:.2})",
+            "  {i:>3}  {:<31}  area {:>9.1} px²  centroid ({ax:.2}, {ay:.2})  holes {}  {tolerance}",
             lib.name(i).unwrap_or("?"),
-            t.area()
+            t.area(),
+            t.holes().len()
         );
     }
     Ok(ExitCode::SUCCESS)
