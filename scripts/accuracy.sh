@@ -37,7 +37,7 @@ for set in default noisy small border; do
     "$VORL" eval "$OUT/$set-noshot"
 done
 # The failure modes of real cameras (vorl gen variants of the real-photo issue).
-for v in sharp lens thick exposure paper printed backlit; do
+for v in sharp lens thick exposure paper printed backlit rods; do
     "$VORL" gen "$OUT/$v" --seed 3 --frames 60 --variant "$v" >/dev/null
     echo "### $v (defaults)"
     "$VORL" eval "$OUT/$v"

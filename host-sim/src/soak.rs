@@ -211,7 +211,7 @@ fn run_here(opts: &SoakOptions, mut progress: impl FnMut(&str)) -> Result<SoakRe
     let mut labels = vec![0u8; w * h];
     // Templates: one group per catalogue and scale (the variants share most), all in the one
     // recognizer.
-    let mut taught: Vec<(bool, u64)> = Vec::new();
+    let mut taught: Vec<(&str, u64)> = Vec::new();
     let mut sources = Vec::new();
     for (k, &(variant, shot)) in plan.iter().enumerate() {
         let gen = GenOptions {
@@ -228,7 +228,7 @@ fn run_here(opts: &SoakOptions, mut progress: impl FnMut(&str)) -> Result<SoakRe
             Variant::Stereo => crate::gen::STEREO_F_PX / crate::gen::STEREO_PLATFORM_Z_MM,
             _ => crate::gen::PX_PER_MM,
         };
-        let group = (variant == Variant::Sharp, px.to_bits());
+        let group = (variant.catalogue_name(), px.to_bits());
         if !taught.contains(&group) {
             for (name, img) in set.templates() {
                 let (tw, th) = (img.width() as usize, img.height() as usize);

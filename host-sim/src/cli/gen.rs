@@ -28,7 +28,12 @@ use crate::gen::{generate, GenOptions, Variant};
     printed   dark print, logo rings and light hole-like patches on parts; truth = the part's own\n            \
               centroid; texture \"print\", print_marks, print_patches\n  \
     backlit   dark parts on a vignetted backlight (250 centre, ~150 corners); no background.png\n            \
-              unless --with-background; truth adds level\n\
+              unless --with-background; truth adds level\n  \
+    rods      backlit connecting rods: rod_a (one eye) and rod_b (two eyes) of the same outline,\n            \
+              each rod with its own proportions (shaft ±15 %, heads ±8 %, eyes ±10 %) at 0.9–1.3×\n            \
+              the template's size; washers and screws as distractors; no background.png unless\n            \
+              --with-background; writes vorl.toml (scale_min 0.85, scale_max 1.4); truth adds\n            \
+              level, stretch and the rods' head and eye factors\n\
     The same seed and options give byte-identical sets.\n\n\
     Examples:\n  vorl gen out/plant --seed 7 --frames 60\n  vorl gen out/noisy --variant noisy --frames 20\n  \
     vorl gen out/stereo --variant stereo --frames 10\n  vorl gen out/lens --variant lens --frames 20 --no-background")]
@@ -43,7 +48,7 @@ pub struct GenArgs {
     #[arg(long, default_value_t = 60)]
     pub frames: usize,
     /// Kind of set: default, noisy, small, border, stereo, sharp, lens, thick, exposure, paper,
-    /// printed or backlit (see below).
+    /// printed, backlit or rods (see below).
     #[arg(long, default_value = "default")]
     pub variant: Variant,
     /// Frame width, px.
@@ -56,7 +61,8 @@ pub struct GenArgs {
     /// frames); frames and truth are the same as with them.
     #[arg(long, conflicts_with = "with_background")]
     pub no_background: bool,
-    /// Write background.png and backgrounds/ even for a variant that leaves them out (backlit).
+    /// Write background.png and backgrounds/ even for a variant that leaves them out (backlit,
+    /// rods).
     #[arg(long)]
     pub with_background: bool,
 }

@@ -15,6 +15,7 @@
 //!                             centroid lies in it, px per mm
 //! variant.json                the real-camera variants only: the variant and its set-wide
 //!                             parameters (lens, camera height, texture, vignette, …)
+//! vorl.toml                   `rods` only: the set's own parameters (the scale range its parts need)
 //! ```
 //!
 //! Stereo sets write `frames/left_f000.png` and `frames/right_f000.png`, `background_left.png`
@@ -23,7 +24,7 @@
 //! `disparity_px`.
 //!
 //! Without a background ([`GenOptions::background`] `Some(false)`, `vorl gen --no-background`;
-//! the default of `backlit`) no `background*.png` and no `backgrounds*/` are written: the contract
+//! the default of `backlit` and `rods`) no `background*.png` and no `backgrounds*/` are written: the contract
 //! allows that, the platform is then estimated from the frames.
 //!
 //! # Variants
@@ -41,6 +42,7 @@
 //! | `paper`    | a textured paper or belt platform: speckle correlated over about 2 px plus fibres, standard deviation 3–5 levels, part of the platform (in `background*.png` and every frame alike, hidden under the parts), plus the usual sensor noise | as `default` |
 //! | `printed`  | 70 % of the parts carry print: rows of dark text-like glyph blobs and a logo ring (on a dark part darker still, on a light part darker than the platform), and on dark parts light patches within 8 levels of the platform that a mask may cut as holes; templates plain | the part's own centroid (print ignored); `texture` `"print"`, adds `print_marks` and `print_patches` |
 //! | `backlit`  | dark opaque parts (gray 8–35) on a bright backlight with cos⁴ vignetting: 246–252 at the optical centre, 145–155 at the farthest corner; no `background.png` unless asked for | as `default`; `contrast` = level − backlight at the centroid, adds `level` |
+//! | `rods`     | its own catalogue ([`rods_catalogue`]) on the `backlit` backlight: connecting rods `rod_a` (one eye, in the big end) and `rod_b` (the same outline, a larger eye in the big end and a smaller one in the small end), each rod made with its own proportions (shaft length ×0.85–1.15, each head's radius ×0.92–1.08, each eye's ×0.9–1.1) and drawn at 0.9–1.3× the template's size; washers and screws (shank ×0.85–1.15) as distractors; templates the nominal rods; no `background.png` unless asked for; a `vorl.toml` with `scale_min = 0.85`, `scale_max = 1.4` | as `backlit`: the drawn part's centroid and rotation (the template's reference pose: axis along x, big end at −x); `scale` the drawn size over the template's, adds `stretch` and the rods' `head_big_scale`, `head_small_scale`, `eye_big_scale`, `eye_small_scale` (`rod_b`) |
 //!
 //! # Truth
 //!
@@ -71,7 +73,7 @@ mod shapes;
 #[cfg(test)]
 mod variant_tests;
 
-pub use shapes::{catalogue, sharp_catalogue, PartSpec};
+pub use shapes::{catalogue, rods_catalogue, sharp_catalogue, PartSpec};
 
 use std::collections::BTreeMap;
 use std::fmt;
@@ -115,6 +117,20 @@ pub const EXPOSURE_OFFSET: (f64, f64) = (-10.0, 10.0);
 pub const EXPOSURE_GAIN_STEP: f64 = 0.2;
 /// Gray level of the opaque parts in `backlit` sets.
 pub const BACKLIT_PART_LEVEL: (f64, f64) = (8.0, 35.0);
+/// Scale of a part over its template in `rods` sets (the camera height changes).
+pub const ROD_SCALE: (f64, f64) = (0.9, 1.3);
+/// Length of a rod's shaft (a screw's shank) over the nominal one in `rods` sets.
+pub const ROD_STRETCH: (f64, f64) = (0.85, 1.15);
+/// Radius of each head of a rod over the nominal one in `rods` sets.
+pub const ROD_HEAD: (f64, f64) = (0.92, 1.08);
+/// Radius of each eye of a rod over the nominal one in `rods` sets.
+pub const ROD_EYE: (f64, f64) = (0.9, 1.1);
+/// The `vorl.toml` of a `rods` set: the scale range its parts need (keys of
+/// `vorl config --defaults`).
+pub const RODS_CONFIG: &str = "# Parameters for this set (keys of `vorl config --defaults`).\n\
+    # Rods differ part to part and the camera height changes: parts appear at 0.9-1.3x their template.\n\
+    scale_min = 0.85\n\
+    scale_max = 1.4\n";
 
 /// The kind of set.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -144,11 +160,15 @@ pub enum Variant {
     /// Dark parts on a vignetted backlight (250 at the centre, about 150 in the corners); no
     /// background by default.
     Backlit,
+    /// Backlit connecting rods of two types that differ in their eyes (holes), each rod with
+    /// proportions of its own, at 0.9–1.3× the template's size; washers and screws as
+    /// distractors. No background by default; a `vorl.toml` with the scale range.
+    Rods,
 }
 
 impl Variant {
     /// All variants, in the order of their names.
-    pub const ALL: [Variant; 12] = [
+    pub const ALL: [Variant; 13] = [
         Variant::Default,
         Variant::Noisy,
         Variant::Small,
@@ -161,6 +181,7 @@ impl Variant {
         Variant::Paper,
         Variant::Printed,
         Variant::Backlit,
+        Variant::Rods,
     ];
 
     /// The command-line name.
@@ -178,22 +199,40 @@ impl Variant {
             Variant::Paper => "paper",
             Variant::Printed => "printed",
             Variant::Backlit => "backlit",
+            Variant::Rods => "rods",
         }
     }
 
-    /// The parts this variant draws: [`sharp_catalogue`] for `sharp`, [`catalogue`] otherwise.
+    /// The parts this variant draws: [`sharp_catalogue`] for `sharp`, [`rods_catalogue`] for
+    /// `rods`, [`catalogue`] otherwise.
     pub fn catalogue(self) -> Vec<PartSpec> {
-        if self == Variant::Sharp {
-            sharp_catalogue()
-        } else {
-            catalogue()
+        match self {
+            Variant::Sharp => sharp_catalogue(),
+            Variant::Rods => rods_catalogue(),
+            _ => catalogue(),
+        }
+    }
+
+    /// The name of the catalogue [`Variant::catalogue`] gives: `"sharp"`, `"rods"` or
+    /// `"standard"` (variants of one name draw the same parts).
+    pub fn catalogue_name(self) -> &'static str {
+        match self {
+            Variant::Sharp => "sharp",
+            Variant::Rods => "rods",
+            _ => "standard",
         }
     }
 
     /// Whether the set gets `background.png` and `backgrounds/` unless told otherwise (all but
-    /// `backlit`).
+    /// `backlit` and `rods`).
     pub fn writes_background(self) -> bool {
-        self != Variant::Backlit
+        !matches!(self, Variant::Backlit | Variant::Rods)
+    }
+
+    /// The set's own `vorl.toml`, for the variants whose parts need other parameters than the
+    /// defaults (`rods`: [`RODS_CONFIG`]).
+    pub fn set_config(self) -> Option<&'static str> {
+        (self == Variant::Rods).then_some(RODS_CONFIG)
     }
 
     /// One of the variants that model a real camera's failure modes (they write `variant.json`).
@@ -410,7 +449,7 @@ impl SetPlan {
                     std,
                 }
             }
-            Variant::Backlit => Effect::Backlit(Backlight::random(&mut fx, w, h)),
+            Variant::Backlit | Variant::Rods => Effect::Backlit(Backlight::random(&mut fx, w, h)),
             Variant::Exposure => Effect::Exposure,
             Variant::Printed => Effect::Printed,
             _ => Effect::Ideal,
@@ -454,6 +493,8 @@ impl SetPlan {
                 border: v == Variant::Border,
                 stereo,
                 close,
+                scale: if v == Variant::Rods { ROD_SCALE } else { (0.97, 1.03) },
+                vary: v == Variant::Rods,
             },
             noise_sigma: if v == Variant::Noisy { 5.0 } else { 2.0 },
             drift_max: if v == Variant::Noisy { 8.0 } else { 1.5 },
@@ -510,6 +551,12 @@ impl SetPlan {
         if let (Some(o), Some(p)) = (v.as_object_mut(), params.as_object()) {
             o.extend(p.clone());
         }
+        if self.variant == Variant::Rods {
+            v["scale"] = json!([ROD_SCALE.0, ROD_SCALE.1]);
+            v["stretch"] = json!([ROD_STRETCH.0, ROD_STRETCH.1]);
+            v["head_scale"] = json!([ROD_HEAD.0, ROD_HEAD.1]);
+            v["eye_scale"] = json!([ROD_EYE.0, ROD_EYE.1]);
+        }
         v
     }
 
@@ -541,7 +588,7 @@ impl SetPlan {
             } else {
                 p.pose
             };
-            let spec = &self.cat[p.spec];
+            let spec = p.drawn(&self.cat);
             match (&self.effect, p.body) {
                 (Effect::Lens(lens), _) => draw_part_through(&mut img, w, h, spec, &pose, &p.look, Some(lens)),
                 (Effect::Thick(cam), Body::Thick { thickness_mm, wall }) => {
@@ -626,7 +673,8 @@ impl SetPlan {
     fn finish_parts(&self, parts: &mut [Placed], scene: usize) {
         let mut rng = Rng::stream(self.seed, purpose::EFFECT_SCENE, scene as u64);
         for p in parts.iter_mut() {
-            let spec = &self.cat[p.spec];
+            let varied = p.varied.clone();
+            let spec = varied.as_ref().map_or(&self.cat[p.spec], |v| &v.spec);
             match &self.effect {
                 Effect::Thick(_) => {
                     let thickness_mm = rng.range(THICKNESS_MM.0, THICKNESS_MM.1);
@@ -675,7 +723,7 @@ impl SetPlan {
 
     /// The truth record of a placed part in frame `index`.
     fn truth(&self, p: &Placed, index: usize) -> PartJson {
-        let spec = &self.cat[p.spec];
+        let spec = p.drawn(&self.cat);
         let mut t = truth_entry(spec, p);
         let mut put = |k: &str, v: serde_json::Value| {
             t.extra.insert(k.to_string(), v);
@@ -723,6 +771,13 @@ impl SetPlan {
             let ink = marks.iter().filter(|m| m.ink).count();
             put("print_marks", json!(ink));
             put("print_patches", json!(marks.len() - ink));
+        }
+        if self.scene.vary {
+            // The drawn part's own proportions over the template's (1: a part that does not vary).
+            put("stretch", json!(p.varied.as_ref().map_or(1.0, |v| v.stretch)));
+            for (k, f) in p.varied.iter().flat_map(|v| v.factors.iter()) {
+                put(k, json!(f));
+            }
         }
         t
     }
@@ -823,6 +878,10 @@ pub fn generate(out: &Path, opts: &GenOptions) -> Result<GenSummary, GenError> {
     )?;
     if opts.variant.is_real_camera() {
         output::write_json(&out.join("variant.json"), &set.describe(with_background))?;
+    }
+    if let Some(config) = opts.variant.set_config() {
+        let path = out.join("vorl.toml");
+        std::fs::write(&path, config).map_err(|source| GenError::Io { path, source })?;
     }
 
     // The empty platform.
@@ -1144,7 +1203,9 @@ mod tests {
         }
         let e = "fancy".parse::<Variant>().unwrap_err();
         assert!(
-            e.contains("default, noisy, small, border, stereo, sharp, lens, thick, exposure, paper, printed, backlit"),
+            e.contains(
+                "default, noisy, small, border, stereo, sharp, lens, thick, exposure, paper, printed, backlit, rods"
+            ),
             "{e}"
         );
     }

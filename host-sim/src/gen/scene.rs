@@ -6,12 +6,13 @@
 //! inside both images of the pair.
 
 use std::f64::consts::TAU;
+use std::sync::Arc;
 
 use super::effects::CloseCamera;
 use super::raster::{bounds, clipped_area, Pose};
 use super::render::{Appearance, Texture};
 use super::rng::Rng;
-use super::shapes::{norm, sub, PartSpec, P};
+use super::shapes::{norm, sub, PartSpec, Varied, P};
 
 /// Free space between the bounding circles of two parts, px.
 pub(crate) const GAP_PX: f64 = 8.0;
@@ -51,6 +52,10 @@ pub(crate) struct SceneConfig {
     pub(crate) stereo: Option<StereoRig>,
     /// A close camera (`thick`): parts are placed so that their walls keep the gap and stay inside.
     pub(crate) close: Option<CloseFit>,
+    /// Range of a flat part's scale over the template's (without a stereo rig).
+    pub(crate) scale: (f64, f64),
+    /// Whether each part is made with its own proportions ([`PartSpec::varied`], `rods`).
+    pub(crate) vary: bool,
 }
 
 /// Room a part needs under a close camera: its top face is its bottom face magnified by up to
@@ -91,6 +96,15 @@ pub(crate) struct Placed {
     pub(crate) depth: Option<(f64, f64)>,
     /// Set after planning by the variants that need it.
     pub(crate) body: Body,
+    /// The part's own proportions (`rods`), or `None`: drawn as its template.
+    pub(crate) varied: Option<Arc<Varied>>,
+}
+
+impl Placed {
+    /// The part as drawn: its own shape when it varies, else its catalogue entry in `cat`.
+    pub(crate) fn drawn<'a>(&'a self, cat: &'a [PartSpec]) -> &'a PartSpec {
+        self.varied.as_ref().map_or(&cat[self.spec], |v| &v.spec)
+    }
 }
 
 /// Plans one frame: 2–5 parts (fewer when they do not fit).
@@ -116,15 +130,16 @@ pub(crate) fn plan(rng: &mut Rng, cat: &[PartSpec], cfg: &SceneConfig) -> Vec<Pl
 }
 
 fn try_place(rng: &mut Rng, cat: &[PartSpec], spec_i: usize, cfg: &SceneConfig, placed: &[Placed]) -> Option<Placed> {
-    let spec = &cat[spec_i];
     let angle_deg = rng.range(0.0, 360.0);
     let (scale, depth) = match cfg.stereo {
         Some(s) => {
             let z = s.platform_z_mm - rng.range(HEIGHT_MM.0, HEIGHT_MM.1);
             (s.platform_z_mm / z, Some((z, s.f_px * s.baseline_mm / z)))
         }
-        None => (rng.range(0.97, 1.03), None),
+        None => (rng.range(cfg.scale.0, cfg.scale.1), None),
     };
+    let varied = if cfg.vary { cat[spec_i].varied(rng) } else { None };
+    let spec = varied.as_ref().map_or(&cat[spec_i], |v| &v.spec);
     let k = cfg.px_per_mm * scale;
     let b = bounds(&Pose::new(0.0, 0.0, angle_deg, k).rings(spec.rings()));
     let radius = spec.radius_mm() * k;
@@ -165,7 +180,7 @@ fn try_place(rng: &mut Rng, cat: &[PartSpec], spec_i: usize, cfg: &SceneConfig, 
             .map_or(r, |f| f.s_max * r + norm(sub(c, f.camera.centre)) * (f.s_max - 1.0))
     };
     for q in placed {
-        let rq = cat[q.spec].radius_mm() * q.pose.k;
+        let rq = q.drawn(cat).radius_mm() * q.pose.k;
         let qc = [q.pose.cx, q.pose.cy];
         if norm(sub(centre, qc)) < reach(centre, radius) + reach(qc, rq) + gap {
             return None;
@@ -202,6 +217,7 @@ fn try_place(rng: &mut Rng, cat: &[PartSpec], spec_i: usize, cfg: &SceneConfig, 
         look,
         depth,
         body: Body::Flat,
+        varied: varied.map(Arc::new),
     })
 }
 
@@ -403,6 +419,8 @@ mod tests {
             border,
             stereo: None,
             close: None,
+            scale: (0.97, 1.03),
+            vary: false,
         }
     }
 

@@ -9,6 +9,9 @@
 
 use std::f64::consts::{PI, TAU};
 
+use super::rng::Rng;
+use super::{ROD_EYE, ROD_HEAD, ROD_STRETCH};
+
 /// A point in mm (part frame) or px (image), `[x, y]`, y down.
 pub(crate) type P = [f64; 2];
 
@@ -244,6 +247,8 @@ pub struct PartSpec {
     /// n for n-fold rotational symmetry; 0 = rotation undefined (a ring), 1 = none.
     pub symmetry: u32,
     pub(crate) shape: Shape,
+    /// How the part varies part to part (the `rods` catalogue), or fixed.
+    pub(crate) model: Model,
 }
 
 impl PartSpec {
@@ -281,6 +286,7 @@ fn part(name: &'static str, is_template: bool, symmetry: u32, rings: Vec<Vec<P>>
         is_template,
         symmetry,
         shape: Shape::new(rings),
+        model: Model::Fixed,
     }
 }
 
@@ -589,6 +595,211 @@ fn triangle() -> Vec<Vec<P>> {
     vec![corners, circle([0.0, 0.0], 12.0)]
 }
 
+/// How a part of a catalogue varies from one part to the next.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Model {
+    /// Every part is drawn as its template (all catalogues but `rods`'s; its washer too).
+    Fixed,
+    /// A connecting rod of these nominal proportions.
+    Rod(Rod),
+    /// A screw of these nominal proportions.
+    Screw(Screw),
+}
+
+/// A connecting rod, mm: the big head (radius `r_big`) centred on the origin, the small head
+/// (`r_small < r_big`) at `length` along +x, joined by a straight tapered shaft whose edges run
+/// from half-width `w_big` at the big head's centre to `w_small` at the small head's; round eyes
+/// (holes) centred in the heads, `eye_small` 0 for a solid small end.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Rod {
+    pub(crate) r_big: f64,
+    pub(crate) r_small: f64,
+    pub(crate) length: f64,
+    pub(crate) w_big: f64,
+    pub(crate) w_small: f64,
+    pub(crate) eye_big: f64,
+    pub(crate) eye_small: f64,
+}
+
+/// `rod_a`: one eye, in the big end.
+pub(crate) const ROD_A: Rod = Rod {
+    r_big: 24.0,
+    r_small: 15.0,
+    length: 88.0,
+    w_big: 9.0,
+    w_small: 6.5,
+    eye_big: 11.0,
+    eye_small: 0.0,
+};
+
+/// `rod_b`: the outline of `rod_a`, a larger eye in the big end and a smaller one in the small end.
+pub(crate) const ROD_B: Rod = Rod {
+    eye_big: 12.5,
+    eye_small: 7.0,
+    ..ROD_A
+};
+
+/// Where the line `y = w + s·t` meets the circle of radius `r` about `t = 0, y = 0`: the root `t`
+/// of `(1 + s²)t² + 2ws·t + w² − r² = 0` on the side `sign` (±1).
+fn meet(w: f64, s: f64, r: f64, sign: f64) -> f64 {
+    let a = 1.0 + s * s;
+    let disc = (w * s) * (w * s) - a * (w * w - r * r);
+    (-w * s + sign * disc.max(0.0).sqrt()) / a
+}
+
+impl Rod {
+    /// The silhouette: one outline (the two heads and the shaft's two edges) and the eyes.
+    pub(crate) fn rings(&self) -> Vec<Vec<P>> {
+        let s = (self.w_small - self.w_big) / self.length;
+        // The lower shaft edge y = w_big + s·x leaves the big head at x_a and enters the small
+        // head at length + u (u < 0); the upper edge is its mirror image.
+        let x_a = meet(self.w_big, s, self.r_big, 1.0);
+        let u = meet(self.w_small, s, self.r_small, -1.0);
+        let alpha = (self.w_big + s * x_a).atan2(x_a);
+        let beta = (self.w_small + s * u).atan2(u);
+        let mut p = Path::new();
+        p.arc([0.0, 0.0], self.r_big, alpha, TAU - alpha);
+        p.arc([self.length, 0.0], self.r_small, -beta, beta);
+        let mut rings = vec![p.finish(), circle([0.0, 0.0], self.eye_big)];
+        if self.eye_small > 0.0 {
+            rings.push(circle([self.length, 0.0], self.eye_small));
+        }
+        rings
+    }
+
+    /// A rod of this type as made: the shaft's length times `stretch`, each head's radius and
+    /// each eye's radius times its own factor.
+    pub(crate) fn scaled(&self, stretch: f64, heads: [f64; 2], eyes: [f64; 2]) -> Rod {
+        Rod {
+            length: self.length * stretch,
+            r_big: self.r_big * heads[0],
+            r_small: self.r_small * heads[1],
+            eye_big: self.eye_big * eyes[0],
+            eye_small: self.eye_small * eyes[1],
+            ..*self
+        }
+    }
+}
+
+/// A screw seen from the side, mm: a head `head_len` long and `2·head_half` wide ending at x = 0,
+/// then a threaded shank `shank_len` long (threads between half-widths `minor` and `major`, one
+/// per `pitch`) with a chamfered tip; no hole.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Screw {
+    pub(crate) head_len: f64,
+    pub(crate) head_half: f64,
+    pub(crate) shank_len: f64,
+    pub(crate) major: f64,
+    pub(crate) minor: f64,
+    pub(crate) pitch: f64,
+}
+
+/// The screw of the `rods` catalogue.
+pub(crate) const SCREW: Screw = Screw {
+    head_len: 9.0,
+    head_half: 10.0,
+    shank_len: 56.0,
+    major: 5.0,
+    minor: 4.1,
+    pitch: 2.5,
+};
+
+impl Screw {
+    /// The silhouette: one outline.
+    pub(crate) fn rings(&self) -> Vec<Vec<P>> {
+        let (t0, t1) = (3.0, self.shank_len - 4.0);
+        let turns = ((t1 - t0) / self.pitch).floor() as usize;
+        // The upper side, head to tip (y < 0 is up); the lower side is its mirror image.
+        let mut upper: Vec<(P, f64)> = vec![
+            ([-self.head_len, -self.head_half], 1.5),
+            ([0.0, -self.head_half], 0.8),
+            ([0.0, -self.major], 0.0),
+        ];
+        for k in 0..turns {
+            let x = t0 + k as f64 * self.pitch;
+            upper.push(([x, -self.major], 0.0));
+            upper.push(([x + self.pitch / 2.0, -self.minor], 0.0));
+        }
+        upper.push(([t0 + turns as f64 * self.pitch, -self.major], 0.0));
+        upper.push(([self.shank_len, -0.5 * self.minor], 0.0));
+        let lower: Vec<(P, f64)> = upper.iter().rev().map(|&(p, r)| ([p[0], -p[1]], r)).collect();
+        upper.extend(lower);
+        vec![rounded_polygon(&upper)]
+    }
+}
+
+/// A flat washer: a disc with a central hole.
+fn flat_washer() -> Vec<Vec<P>> {
+    vec![circle([0.0, 0.0], 20.0), circle([0.0, 0.0], 9.5)]
+}
+
+/// A part drawn with proportions of its own (the `rods` catalogue): its shape and how it differs
+/// from the nominal one.
+#[derive(Clone, Debug)]
+pub(crate) struct Varied {
+    /// The part as drawn (centroid at its origin, same name, class and symmetry as the template).
+    pub(crate) spec: PartSpec,
+    /// Length of the shaft (rod) or shank (screw) over the nominal one.
+    pub(crate) stretch: f64,
+    /// The other factors over the nominal proportions, by truth field name.
+    pub(crate) factors: Vec<(&'static str, f64)>,
+}
+
+impl PartSpec {
+    /// This part as one made with the part-to-part spread of its model ([`super::ROD_STRETCH`],
+    /// [`super::ROD_HEAD`], [`super::ROD_EYE`]); `None` for a part that does not vary.
+    pub(crate) fn varied(&self, rng: &mut Rng) -> Option<Varied> {
+        let (rings, stretch, factors) = match self.model {
+            Model::Fixed => return None,
+            Model::Rod(rod) => {
+                let stretch = rng.range(ROD_STRETCH.0, ROD_STRETCH.1);
+                let heads = [rng.range(ROD_HEAD.0, ROD_HEAD.1), rng.range(ROD_HEAD.0, ROD_HEAD.1)];
+                let eyes = [rng.range(ROD_EYE.0, ROD_EYE.1), rng.range(ROD_EYE.0, ROD_EYE.1)];
+                let mut factors = vec![
+                    ("head_big_scale", heads[0]),
+                    ("head_small_scale", heads[1]),
+                    ("eye_big_scale", eyes[0]),
+                ];
+                if rod.eye_small > 0.0 {
+                    factors.push(("eye_small_scale", eyes[1]));
+                }
+                (rod.scaled(stretch, heads, eyes).rings(), stretch, factors)
+            }
+            Model::Screw(screw) => {
+                let stretch = rng.range(ROD_STRETCH.0, ROD_STRETCH.1);
+                let made = Screw {
+                    shank_len: screw.shank_len * stretch,
+                    ..screw
+                };
+                (made.rings(), stretch, Vec::new())
+            }
+        };
+        Some(Varied {
+            spec: PartSpec {
+                shape: Shape::new(rings),
+                ..self.clone()
+            },
+            stretch,
+            factors,
+        })
+    }
+}
+
+/// The parts of the `rods` variant: two connecting rods whose outlines are the same and whose
+/// eyes differ (`rod_a` one, `rod_b` two), then a washer and a screw as distractors. Rods and
+/// screws vary part to part ([`PartSpec::varied`]); the templates are the nominal rods.
+///
+/// The rods are 127 mm long at the nominal proportions, drawn at 1 px/mm.
+pub fn rods_catalogue() -> Vec<PartSpec> {
+    let with = |model: Model, spec: PartSpec| PartSpec { model, ..spec };
+    vec![
+        with(Model::Rod(ROD_A), part("rod_a", true, 1, ROD_A.rings())),
+        with(Model::Rod(ROD_B), part("rod_b", true, 1, ROD_B.rings())),
+        part("flat_washer", false, 0, flat_washer()),
+        with(Model::Screw(SCREW), part("screw", false, 1, SCREW.rings())),
+    ]
+}
+
 /// The parts of the `sharp` variant: sharp-cornered templates (no fillets anywhere), then
 /// sharp-cornered distractors.
 ///
@@ -715,7 +926,7 @@ mod tests {
 
     #[test]
     fn gen_symmetries_hold_on_sampled_points() {
-        for p in catalogue().into_iter().chain(sharp_catalogue()) {
+        for p in catalogue().into_iter().chain(sharp_catalogue()).chain(rods_catalogue()) {
             let n = p.symmetry;
             let (r, b) = (p.radius_mm(), p.bbox_mm());
             // Points of a grid (offset so they avoid the vertices), away from the border by 0.05 mm.
@@ -791,5 +1002,44 @@ mod tests {
         assert!(!washer.coverage(50.0, 0.0));
         let area = PI * (44.0_f64.powi(2) - 20.0_f64.powi(2));
         assert!((washer.area_mm2() - area).abs() / area < 1e-3);
+    }
+
+    #[test]
+    fn gen_rods_stay_whole_at_the_ends_of_their_spread() {
+        // Every corner of the spread (shaft, each head, each eye): one outline, the eyes inside
+        // their heads with at least 4 mm of wall, the big head larger than the small one.
+        let ends = |r: (f64, f64)| [r.0, r.1];
+        for rod in [ROD_A, ROD_B] {
+            for stretch in ends(ROD_STRETCH) {
+                for hb in ends(ROD_HEAD) {
+                    for hs in ends(ROD_HEAD) {
+                        for eb in ends(ROD_EYE) {
+                            for es in ends(ROD_EYE) {
+                                let made = rod.scaled(stretch, [hb, hs], [eb, es]);
+                                assert!(made.r_small < made.r_big);
+                                let shape = Shape::new(made.rings());
+                                let outer: Vec<&Vec<P>> =
+                                    shape.rings.iter().filter(|r| ring_moments(r).0 > 0.0).collect();
+                                assert_eq!(outer.len(), 1);
+                                let eyes: Vec<(f64, P)> = shape
+                                    .rings
+                                    .iter()
+                                    .filter(|r| ring_moments(r).0 < 0.0)
+                                    .map(|r| {
+                                        let (a, c) = ring_moments(r);
+                                        ((-a / PI).sqrt(), c)
+                                    })
+                                    .collect();
+                                assert_eq!(eyes.len(), 1 + usize::from(rod.eye_small > 0.0));
+                                for (r, c) in eyes {
+                                    let wall = outer[0].iter().map(|&q| norm(sub(q, c))).fold(f64::MAX, f64::min) - r;
+                                    assert!(wall > 4.0, "{made:?}: wall {wall}");
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
     }
 }

@@ -70,7 +70,7 @@ fn variant_json(dir: &Path) -> serde_json::Value {
 
 #[test]
 fn gen_real_variants_are_deterministic_and_write_their_fields() {
-    let fields: [(Variant, &[&str]); 7] = [
+    let fields: [(Variant, &[&str]); 8] = [
         (Variant::Sharp, &[]),
         (
             Variant::Lens,
@@ -92,6 +92,7 @@ fn gen_real_variants_are_deterministic_and_write_their_fields() {
         (Variant::Paper, &[]),
         (Variant::Printed, &[]),
         (Variant::Backlit, &["level"]),
+        (Variant::Rods, &["level", "stretch"]),
     ];
     for (v, want) in fields {
         let opts = small_opts(v, 4, 3);
@@ -120,7 +121,8 @@ fn gen_real_variants_are_deterministic_and_write_their_fields() {
             "{v}"
         );
         assert_eq!(variant_json(&a)["variant"], json!(v.name()));
-        assert_eq!(a.join("background.png").is_file(), v != Variant::Backlit, "{v}");
+        assert_eq!(a.join("background.png").is_file(), v.writes_background(), "{v}");
+        assert_eq!(a.join("vorl.toml").is_file(), v == Variant::Rods, "{v}");
         let classes: Vec<String> = v
             .catalogue()
             .iter()
@@ -563,4 +565,231 @@ fn gen_no_background_leaves_out_only_the_platform() {
             let _ = std::fs::remove_dir_all(d);
         }
     }
+}
+
+/// The holes of a binary template (255 on 0): the 0 pixels that the 0 pixels on the image's
+/// border do not reach (4-connected), as components, each its pixels.
+fn holes(t: &image::GrayImage) -> Vec<Vec<(i64, i64)>> {
+    let (w, h) = (i64::from(t.width()), i64::from(t.height()));
+    let empty = |x: i64, y: i64| t.get_pixel(x as u32, y as u32).0[0] == 0;
+    // 0: not visited; 1: outside; 2 + k: hole k.
+    let mut mark = vec![0usize; (w * h) as usize];
+    let flood = |seed: (i64, i64), id: usize, mark: &mut [usize]| {
+        let mut stack = vec![seed];
+        let mut pixels = Vec::new();
+        mark[(seed.1 * w + seed.0) as usize] = id;
+        while let Some((x, y)) = stack.pop() {
+            pixels.push((x, y));
+            for (nx, ny) in [(x + 1, y), (x - 1, y), (x, y + 1), (x, y - 1)] {
+                if nx >= 0 && ny >= 0 && nx < w && ny < h && empty(nx, ny) && mark[(ny * w + nx) as usize] == 0 {
+                    mark[(ny * w + nx) as usize] = id;
+                    stack.push((nx, ny));
+                }
+            }
+        }
+        pixels
+    };
+    for y in 0..h {
+        for x in 0..w {
+            let on_border = x == 0 || y == 0 || x == w - 1 || y == h - 1;
+            if on_border && empty(x, y) && mark[(y * w + x) as usize] == 0 {
+                flood((x, y), 1, &mut mark);
+            }
+        }
+    }
+    let mut out = Vec::new();
+    for y in 0..h {
+        for x in 0..w {
+            if empty(x, y) && mark[(y * w + x) as usize] == 0 {
+                out.push(flood((x, y), 2 + out.len(), &mut mark));
+            }
+        }
+    }
+    out
+}
+
+/// The pixels of a binary template with its holes filled.
+fn filled(t: &image::GrayImage) -> std::collections::BTreeSet<(i64, i64)> {
+    let mut s: std::collections::BTreeSet<(i64, i64)> = t
+        .enumerate_pixels()
+        .filter(|(_, _, p)| p.0[0] == 255)
+        .map(|(x, y, _)| (i64::from(x), i64::from(y)))
+        .collect();
+    s.extend(holes(t).into_iter().flatten());
+    s
+}
+
+/// Mean x of pixels.
+fn mean_x(px: &[(i64, i64)]) -> f64 {
+    px.iter().map(|p| p.0 as f64).sum::<f64>() / px.len() as f64
+}
+
+#[test]
+fn gen_rods_templates_differ_only_in_holes() {
+    let set = MemorySet::new(&small_opts(Variant::Rods, 1, 0)).expect("set");
+    let templates: BTreeMap<String, image::GrayImage> = set.templates().into_iter().collect();
+    assert_eq!(templates.keys().collect::<Vec<_>>(), ["rod_a", "rod_b"]);
+    let (a, b) = (&templates["rod_a"], &templates["rod_b"]);
+    for t in [a, b] {
+        assert!(t.pixels().all(|p| p.0[0] == 0 || p.0[0] == 255));
+    }
+    // The same outline: the filled silhouettes overlap (IoU) to the pixel grid's rounding, at the
+    // best whole-pixel shift (the holes move the centroid the template is placed by).
+    let (fa, fb) = (filled(a), filled(b));
+    let mut best: f64 = 0.0;
+    for dy in -2..=2 {
+        for dx in -2..=2 {
+            let common = fa.iter().filter(|p| fb.contains(&(p.0 + dx, p.1 + dy))).count();
+            best = best.max(common as f64 / (fa.len() + fb.len() - common) as f64);
+        }
+    }
+    assert!(best > 0.95, "outlines differ: IoU {best}");
+    // The holes differ: one eye against two.
+    let (ha, hb) = (holes(a), holes(b));
+    assert_eq!((ha.len(), hb.len()), (1, 2));
+    // At angle 0 the rod lies along x; its big end is the end with the tallest column.
+    let big_end_x = |f: &std::collections::BTreeSet<(i64, i64)>| {
+        let mut columns: BTreeMap<i64, usize> = BTreeMap::new();
+        for p in f {
+            *columns.entry(p.0).or_default() += 1;
+        }
+        let tallest = columns
+            .iter()
+            .max_by_key(|(_, n)| **n)
+            .map(|(x, _)| *x as f64)
+            .expect("column");
+        let (x0, x1) = (
+            *columns.keys().next().expect("x0") as f64,
+            *columns.keys().last().expect("x1") as f64,
+        );
+        (tallest, (x0 + x1) / 2.0)
+    };
+    // rod_a's one eye is in its big end.
+    let (tall, mid) = big_end_x(&fa);
+    assert!(
+        (mean_x(&ha[0]) - mid) * (tall - mid) > 0.0,
+        "rod_a's eye not in the big end"
+    );
+    // rod_b: the larger eye in the big end, the smaller one in the small end.
+    let (tall, mid) = big_end_x(&fb);
+    let (large, small) = if hb[0].len() > hb[1].len() {
+        (&hb[0], &hb[1])
+    } else {
+        (&hb[1], &hb[0])
+    };
+    assert!(large.len() > small.len() + 20, "{} {}", large.len(), small.len());
+    assert!(
+        (mean_x(large) - mid) * (tall - mid) > 0.0,
+        "rod_b's larger eye not in the big end"
+    );
+    assert!(
+        (mean_x(small) - mid) * (tall - mid) < 0.0,
+        "rod_b's smaller eye not in the small end"
+    );
+}
+
+#[test]
+fn gen_rods_vary_part_to_part_and_truth_is_the_drawn_part() {
+    let opts = GenOptions {
+        seed: 7,
+        frames: 10,
+        variant: Variant::Rods,
+        ..GenOptions::default()
+    };
+    let (mut rods, mut distractors) = (0, 0);
+    let mut seen: BTreeMap<&str, (f64, f64)> = BTreeMap::new();
+    for index in 0..10 {
+        let (set, parts, img, light) = clean_frame(&opts, index);
+        for p in &parts {
+            let t = set.truth(p, index);
+            let spec = p.drawn(&set.cat);
+            let Body::Opaque { level } = p.body else {
+                panic!("a rod that is not opaque");
+            };
+            let mut factors = vec!["scale", "stretch"];
+            match t.class.as_deref() {
+                Some("rod_a") => factors.extend(["head_big_scale", "head_small_scale", "eye_big_scale"]),
+                Some("rod_b") => {
+                    factors.extend(["head_big_scale", "head_small_scale", "eye_big_scale", "eye_small_scale"])
+                }
+                Some(other) => panic!("unexpected class {other}"),
+                None => distractors += 1,
+            }
+            if t.class.is_some() {
+                rods += 1;
+                assert_eq!(t.symmetry, Some(1));
+            }
+            for f in factors {
+                let v = t.extra[f].as_f64().expect(f);
+                let e = seen.entry(f).or_insert((v, v));
+                *e = (e.0.min(v), e.1.max(v));
+            }
+            // Truth is the area centroid of the silhouette as drawn (holes excluded): the
+            // centroid of the part's share of each pixel, (backlight − image) / (backlight − level).
+            let r = spec.radius_mm() * p.pose.k + 4.0;
+            let c = centroid(set.w, set.h, [t.x, t.y], r, |i| {
+                (light[i] - img[i]) / (light[i] - level)
+            });
+            assert!(dist(c, [t.x, t.y]) < 0.03, "{}: {c:?} vs {} {}", spec.name, t.x, t.y);
+            // A rod's axis (its mirror line, so a principal axis of the drawn share) is the
+            // template's x axis turned by angle_deg counter-clockwise on screen (y down).
+            if t.class.is_some() {
+                let (mut sxx, mut syy, mut sxy) = (0.0, 0.0, 0.0);
+                let (y0, y1) = ((t.y - r).max(0.0) as usize, ((t.y + r) as usize).min(set.h - 1));
+                let (x0, x1) = ((t.x - r).max(0.0) as usize, ((t.x + r) as usize).min(set.w - 1));
+                for y in y0..=y1 {
+                    for x in x0..=x1 {
+                        let (dx, dy) = (x as f64 - t.x, y as f64 - t.y);
+                        if dx.hypot(dy) <= r {
+                            let i = y * set.w + x;
+                            let v = (light[i] - img[i]) / (light[i] - level);
+                            sxx += v * dx * dx;
+                            syy += v * dy * dy;
+                            sxy += v * dx * dy;
+                        }
+                    }
+                }
+                let phi = 0.5 * (2.0 * sxy).atan2(sxx - syy);
+                let off = (t.angle_deg.to_radians() + phi).sin().abs().asin().to_degrees();
+                assert!(off < 0.2, "{}: axis {off}° off", spec.name);
+            }
+        }
+    }
+    assert!(rods >= 15 && distractors >= 2, "{rods} rods, {distractors} distractors");
+    // The spread of real rods: the shaft's length by up to about ±15 %, the heads by ±8 %, the
+    // eyes by ±10 %, the size by 0.9–1.3×; the drawn parts cover most of each range and keep
+    // inside it.
+    for (f, lo, hi) in [
+        ("scale", 0.9, 1.3),
+        ("stretch", 0.85, 1.15),
+        ("head_big_scale", 0.92, 1.08),
+        ("head_small_scale", 0.92, 1.08),
+        ("eye_big_scale", 0.9, 1.1),
+        ("eye_small_scale", 0.9, 1.1),
+    ] {
+        let (min, max) = seen[f];
+        assert!(min >= lo && max <= hi, "{f}: {min}–{max}");
+        assert!(max - min > 0.6 * (hi - lo), "{f}: only {min}–{max}");
+    }
+}
+
+#[test]
+fn gen_rods_set_has_its_scale_range_and_no_background() {
+    let dir = scratch("rods");
+    generate(&dir, &small_opts(Variant::Rods, 2, 2)).expect("generate");
+    assert!(!dir.join("background.png").exists() && !dir.join("backgrounds").exists());
+    assert_eq!(variant_json(&dir)["background"], json!(false));
+    // The set's vorl.toml is read as a config: the scale range the parts need.
+    let config = crate::config::Config::load(&dir.join("vorl.toml")).expect("vorl.toml loads");
+    assert_eq!((config.scale_min, config.scale_max), (0.85, 1.4));
+    assert!(config.to_params().is_ok());
+    for parts in truth_of(&dir).frames.values() {
+        for p in parts {
+            let shape = p.extra["shape"].as_str().expect("shape");
+            // Washers and screws are not templates.
+            assert_eq!(p.class.is_none(), ["flat_washer", "screw"].contains(&shape), "{shape}");
+        }
+    }
+    assert!(gray(&dir.join("templates").join("rod_a.png")).width() > 100);
+    let _ = std::fs::remove_dir_all(dir);
 }
