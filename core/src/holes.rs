@@ -22,7 +22,9 @@
 //! - A template hole is *found* when a part hole that no other template hole took lies within
 //!   [`HOLE_REACH`] of its radius, plus [`HOLE_STRETCH`] of its distance from the centre, plus
 //!   one pixel for blur, of where the pose puts it, with an
-//!   area within a factor [`HOLE_AREA_RATIO`] of the template hole's, scaled by the pose.
+//!   area within a factor [`HOLE_AREA_RATIO`] of the template hole's, scaled by the pose (its
+//!   radius within [`HOLE_EDGE`] px more: the mask's edge moves a small hole's radius as much as
+//!   a large one's).
 //!   Part holes that no template hole explains (print, texture, a light patch) are not
 //!   evidence against the template.
 //!
@@ -79,6 +81,25 @@ pub const HOLE_STRETCH: f32 = 0.3;
 
 /// How much larger or smaller than the template hole (scaled by the pose) a part hole may be.
 pub const HOLE_AREA_RATIO: f32 = 2.0;
+
+/// How far (px) a part hole's radius may lie beyond the [`HOLE_AREA_RATIO`] band around the
+/// expected radius: the mask's edge lies a pixel or so off the true edge (blur, the threshold),
+/// which shrinks or grows a hole's radius by that much whatever its size, so a small hole's
+/// area changes by a larger factor (a generated rod's 7 px eye measured 0.47 of its expected
+/// area).
+pub const HOLE_EDGE: f32 = 1.5;
+
+/// Whether a hole of `area` px² is of the size expected (`expected` px²): its radius within
+/// `[r/√HOLE_AREA_RATIO − HOLE_EDGE, r·√HOLE_AREA_RATIO + HOLE_EDGE]` of the expected radius `r`.
+fn radius_fits(area: f32, expected: f32) -> bool {
+    let pi = core::f32::consts::PI;
+    let (r, e) = (
+        crate::math::sqrt(area.max(0.0) / pi),
+        crate::math::sqrt(expected.max(0.0) / pi),
+    );
+    let k = crate::math::sqrt(HOLE_AREA_RATIO);
+    r >= e / k - HOLE_EDGE && r <= e * k + HOLE_EDGE
+}
 
 /// One hole: its centre and its area in pixels.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -215,6 +236,10 @@ pub struct HoleAgreement {
     /// Which of the part's holes (bit `j`: the `j`-th of [`Holes::as_slice`]) the template's
     /// explain.
     pub matched: u8,
+    /// Of the found holes, those that lie off the template's centre (farther from its area
+    /// centroid than their radius): they fix where the part's ends are and which way it points,
+    /// where a central hole (a washer's, a bore) fits many parts.
+    pub off_centre: u8,
 }
 
 impl HoleAgreement {
@@ -236,6 +261,7 @@ impl HoleAgreement {
 pub fn agreement(template: &Holes, pose: &Pose, part: &Holes) -> HoleAgreement {
     let mut used = [false; MAX_HOLES];
     let mut found = 0u8;
+    let mut off_centre = 0u8;
     let scale = pose.scale;
     let expected = template.as_slice();
     for h in expected {
@@ -251,7 +277,7 @@ pub fn agreement(template: &Holes, pose: &Pose, part: &Holes) -> HoleAgreement {
             }
             let (dx, dy) = (q.centre[0] - at[0], q.centre[1] - at[1]);
             let d2 = dx * dx + dy * dy;
-            let fits = d2 <= reach * reach && q.area * HOLE_AREA_RATIO >= area && q.area <= HOLE_AREA_RATIO * area;
+            let fits = d2 <= reach * reach && radius_fits(q.area, area);
             if fits && best.is_none_or(|(b, _)| d2 < b) {
                 best = Some((d2, j));
             }
@@ -261,6 +287,10 @@ pub fn agreement(template: &Holes, pose: &Pose, part: &Holes) -> HoleAgreement {
                 *u = true;
             }
             found = found.saturating_add(1);
+            let radius = crate::math::sqrt(h.area.max(0.0) / core::f32::consts::PI);
+            if h.centre[0] * h.centre[0] + h.centre[1] * h.centre[1] > radius * radius {
+                off_centre = off_centre.saturating_add(1);
+            }
         }
     }
     let matched = used
@@ -271,6 +301,7 @@ pub fn agreement(template: &Holes, pose: &Pose, part: &Holes) -> HoleAgreement {
         expected: expected.len().min(u8::MAX as usize) as u8,
         found,
         matched,
+        off_centre,
     }
 }
 

@@ -672,10 +672,11 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 best = second;
             }
         }
-        // Holes that are not where the outline's pose puts them: the outline may have pulled
-        // the pose off (a part whose outline departs from its template's); a template with two
-        // or more holes is aligned once more from the pose its two largest holes give.
-        if !best.holes.all_found() {
+        // Holes that are not where the outline's pose puts them, or a pose that does not
+        // verify: the outline may have pulled the pose off (a part whose outline departs from
+        // its template's); a template with two or more holes is aligned once more from the
+        // pose its two largest holes give.
+        if !best.holes.all_found() || !accepted(best) {
             if let Some(seed) = pose_from_holes(t.holes(), part_holes) {
                 let third = once(seed);
                 if third.better_than(&best) {
@@ -1075,8 +1076,8 @@ impl Fit {
     /// that is not; of two accepted, the one with fewer of its template's holes missing, then
     /// the one whose template's holes explain more of the part's (a rod with two eyes is the
     /// two-eyed template's, even when the one-eyed template's outline fits it as well), then
-    /// the lower [`Self::ratio`]; of two that are not, one whose template's holes are all
-    /// found, then the lower ratio.
+    /// the lower [`Self::ratio`]; of two that are not, one with a finite score, then one
+    /// whose template's holes are all found, then the lower ratio.
     fn better_than(&self, other: &Fit) -> bool {
         let (a, b) = (accepted(*self), accepted(*other));
         if a != b {
@@ -1089,6 +1090,12 @@ impl Fit {
         if a && h.found != g.found {
             return h.found > g.found;
         }
+        // Of two not accepted: one that could be verified at all, then one whose holes are
+        // all found (an alignment that ran off the part finds holes by chance).
+        let (fa, fb) = (self.ratio().is_finite(), other.ratio().is_finite());
+        if !a && fa != fb {
+            return fa;
+        }
         if !a && h.all_found() != g.all_found() {
             return h.all_found();
         }
@@ -1097,8 +1104,10 @@ impl Fit {
 }
 
 /// Whether an aligned candidate is the part: its verification score is below its limit — or,
-/// for a template with holes, all of them found where the pose puts them and the DP's `f' < ε`,
-/// below [`NEAR_MISS`] times its limit. The holes and the DP's family are two cues the rigid
+/// for a template with holes, all of them found where the pose puts them, at least one of them
+/// off its centre ([`HoleAgreement::off_centre`]: a central hole fits a washer, a bore, a
+/// triangle with a hole, and says nothing of the part's ends), and the DP's `f' < ε`, below
+/// [`NEAR_MISS`] times its limit. The holes and the DP's family are two cues the rigid
 /// outline fit lacks: a part of one type may depart from its template's outline over a shaft
 /// or a head (real rods), and a distractor that fits the outline that loosely does not also
 /// have the template's descriptor profile and its holes in place. Holes never veto an outline
@@ -1106,7 +1115,7 @@ impl Fit {
 /// and move them); they rank the candidates ([`Fit::better_than`]).
 fn accepted(fit: Fit) -> bool {
     let r = fit.ratio();
-    r < 1.0 || (fit.family && fit.holes.expected > 0 && fit.holes.all_found() && r < NEAR_MISS)
+    r < 1.0 || (fit.family && fit.holes.off_centre > 0 && fit.holes.all_found() && r < NEAR_MISS)
 }
 
 /// Relative margin by which a template's sorted lower bound must exceed the `k`-th best DP cost

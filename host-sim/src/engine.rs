@@ -664,7 +664,8 @@ mod class_recognition_tests {
         let run = |examples: &[NamedSilhouette]| {
             let mut e = Engine::new(Params::DEFAULT).unwrap();
             let notes = e.add_silhouettes(examples).unwrap();
-            e.set_background(&GrayImage::from_pixel(220, 120, image::Luma([200]))).unwrap();
+            e.set_background(&GrayImage::from_pixel(220, 120, image::Luma([200])))
+                .unwrap();
             let d = e.detect(&frame).unwrap().detections[0].clone();
             (notes, d)
         };

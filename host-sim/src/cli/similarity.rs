@@ -76,7 +76,11 @@ pub fn run(args: SimilarityArgs) -> Result<ExitCode, String> {
     for c in &classes {
         eprintln!("{c}");
     }
-    let too_alike: Vec<_> = sim.too_alike.iter().filter(|&&(i, j, _)| class_of[i] != class_of[j]).collect();
+    let too_alike: Vec<_> = sim
+        .too_alike
+        .iter()
+        .filter(|&&(i, j, _)| class_of[i] != class_of[j])
+        .collect();
     for &&(i, j, v) in too_alike.iter().take(SHOWN) {
         eprintln!(
             "warning: {} and {} are too alike to tell apart at ε = {}: f' = {v:.4}",

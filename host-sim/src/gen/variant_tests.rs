@@ -781,7 +781,7 @@ fn gen_rods_set_has_its_scale_range_and_no_background() {
     assert_eq!(variant_json(&dir)["background"], json!(false));
     // The set's vorl.toml is read as a config: the scale range the parts need.
     let config = crate::config::Config::load(&dir.join("vorl.toml")).expect("vorl.toml loads");
-    assert_eq!((config.scale_min, config.scale_max), (0.85, 1.4));
+    assert_eq!((config.scale_min, config.scale_max), (0.8, 1.4));
     assert!(config.to_params().is_ok());
     for parts in truth_of(&dir).frames.values() {
         for p in parts {
