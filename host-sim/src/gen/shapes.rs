@@ -787,7 +787,7 @@ impl PartSpec {
 
 /// The parts of the `rods` variant: two connecting rods whose outlines are the same and whose
 /// eyes differ (`rod_a` one, `rod_b` two), then a washer and a screw as distractors. Rods and
-/// screws vary part to part ([`PartSpec::varied`]); the templates are the nominal rods.
+/// screws vary part to part (`PartSpec::varied`); the templates are the nominal rods.
 ///
 /// The rods are 127 mm long at the nominal proportions, drawn at 1 px/mm.
 pub fn rods_catalogue() -> Vec<PartSpec> {
