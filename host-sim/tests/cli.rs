@@ -1349,6 +1349,10 @@ fn teach_add_makes_a_class_of_several_examples_at_one_reference_pose() {
     };
     teach(&["--part", "1"]).success();
     assert!(t.join("bar.png").is_file());
+    // A part that is not there changes nothing.
+    let err = teach(&["--part", "9", "--add"]).failure();
+    assert!(err.errors().join(" ").contains("--part 9"), "{}", err.dump());
+    assert!(t.join("bar.png").is_file() && !t.join("bar").exists());
     let out = teach(&["--part", "2", "--add"]).success();
     assert!(!t.join("bar.png").exists(), "{}", out.dump());
     let (first, second) = (gray(&t.join("bar/1.png")), gray(&t.join("bar/2.png")));

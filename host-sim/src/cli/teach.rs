@@ -111,15 +111,17 @@ pub fn run(args: TeachArgs) -> Result<ExitCode, String> {
     }
     let folder = out.join(name);
     let single = out.join(format!("{name}.png"));
-    let target = if args.add {
-        example_path(&folder, &single)?
+    // With --add: the next free example of the class's folder, and a single template of the
+    // class to move in first (nothing moves or is written until the part is taken).
+    let (target, move_first) = if args.add {
+        example_paths(&folder, &single)
     } else if folder.is_dir() {
         return Err(format!(
             "{}: the class has several examples; use --add to add one more",
             folder.display()
         ));
     } else {
-        single.clone()
+        (single.clone(), None)
     };
     if target.exists() && !args.force {
         return Err(format!(
@@ -175,18 +177,29 @@ pub fn run(args: TeachArgs) -> Result<ExitCode, String> {
     let mut silhouette = component(engine.labels(), w, h, sx as usize, sy as usize);
     if args.add {
         // Turned to the class's reference pose: the pose of its first example.
-        let first = crate::engine::load_silhouettes(&folder)
-            .ok()
-            .and_then(|v| v.into_iter().find(|e| e.path != target));
+        let first = match &move_first {
+            Some((from, _)) => Some(load_gray(from).map_err(|e| e.to_string())?.image),
+            None if folder.is_dir() => crate::engine::load_silhouettes(&folder)
+                .ok()
+                .and_then(|v| v.into_iter().next())
+                .map(|e| e.image),
+            None => None,
+        };
         if let Some(first) = first {
-            let (turned, angle) = to_reference_pose(&silhouette, &first.image, *engine.params())?;
-            println!(
-                "turned by {:.2}° onto the pose of the class's first example ({})",
-                -angle,
-                first.path.display()
-            );
+            let (turned, angle) = to_reference_pose(&silhouette, &first, *engine.params())?;
+            println!("turned by {:.2}° onto the pose of the class's first example", -angle);
             silhouette = turned;
         }
+    }
+    if let Some((from, to)) = &move_first {
+        std::fs::create_dir_all(&folder).map_err(|e| format!("{}: cannot create folder: {e}", folder.display()))?;
+        std::fs::rename(from, to)
+            .map_err(|e| format!("{}: cannot move into {}: {e}", from.display(), folder.display()))?;
+        println!(
+            "moved {} → {} (the class's first example)",
+            from.display(),
+            to.display()
+        );
     }
     std::fs::create_dir_all(out).map_err(|e| format!("{}: cannot create folder: {e}", out.display()))?;
     silhouette
@@ -307,27 +320,18 @@ pub fn to_reference_pose(
     Ok((out, angle))
 }
 
-/// Where `--add` writes the next example of a class: `folder/<k>.png` for the first free `k`
-/// from 1; an existing single template `single` moves into the folder first.
-fn example_path(folder: &std::path::Path, single: &std::path::Path) -> Result<PathBuf, String> {
-    std::fs::create_dir_all(folder).map_err(|e| format!("{}: cannot create folder: {e}", folder.display()))?;
-    let next = || {
-        (1..)
-            .map(|k| folder.join(format!("{k}.png")))
-            .find(|p| !p.exists())
-            .unwrap_or_else(|| folder.join("1.png"))
-    };
+/// Where `--add` writes the next example of a class, `folder/<k>.png` for the first free `k`
+/// from 1, and the move of an existing single template `single` into the folder before it (to
+/// the first free name, so the new example takes the next).
+fn example_paths(folder: &std::path::Path, single: &std::path::Path) -> (PathBuf, Option<(PathBuf, PathBuf)>) {
+    let mut free = (1..).map(|k| folder.join(format!("{k}.png"))).filter(|p| !p.exists());
+    let mut next = || free.next().unwrap_or_else(|| folder.join("1.png"));
     if single.is_file() {
         let first = next();
-        std::fs::rename(single, &first)
-            .map_err(|e| format!("{}: cannot move into {}: {e}", single.display(), folder.display()))?;
-        println!(
-            "moved {} → {} (the class's first example)",
-            single.display(),
-            first.display()
-        );
+        (next(), Some((single.to_path_buf(), first)))
+    } else {
+        (next(), None)
     }
-    Ok(next())
 }
 
 /// `--list`: the numbered parts, and the overlay with their numbers.
