@@ -1413,27 +1413,35 @@ fn teach_add_makes_a_class_of_several_examples_at_one_reference_pose() {
     assert!(err.errors().join(" ").contains("3.png"), "{}", err.dump());
 }
 
+/// `vorl gen` of `variant` (seed, frames) into a scratch folder, then `vorl eval --json` of it:
+/// the set's folder, the eval's JSON and the run (for messages).
+fn gen_and_eval(scratch: &Scratch, variant: &str, seed: u32, frames: u32) -> (PathBuf, Value, Out) {
+    let set = scratch.join(variant);
+    let (seed, frames) = (seed.to_string(), frames.to_string());
+    vorl([
+        OsStr::new("gen"),
+        set.as_os_str(),
+        OsStr::new("--seed"),
+        OsStr::new(&seed),
+        OsStr::new("--frames"),
+        OsStr::new(&frames),
+        OsStr::new("--variant"),
+        OsStr::new(variant),
+    ])
+    .success();
+    let out = vorl([OsStr::new("eval"), set.as_os_str(), OsStr::new("--json")]).success();
+    let v: Value = serde_json::from_str(&out.stdout).unwrap_or_else(|e| panic!("{e}: {}", out.dump()));
+    (set, v, out)
+}
+
 /// The `rods` variant reproduces the real rods' failure: two classes of one outline told apart
 /// only by their eyes, every rod with its own proportions. The holes must tell them apart
 /// (without them the class of each rod is a coin toss between two equal outlines).
 #[test]
 fn gen_rods_are_told_apart_by_their_holes() {
     let scratch = Scratch::new("rods");
-    let set = scratch.join("rods");
-    vorl([
-        OsStr::new("gen"),
-        set.as_os_str(),
-        OsStr::new("--seed"),
-        OsStr::new("3"),
-        OsStr::new("--frames"),
-        OsStr::new("20"),
-        OsStr::new("--variant"),
-        OsStr::new("rods"),
-    ])
-    .success();
+    let (set, v, out) = gen_and_eval(&scratch, "rods", 3, 20);
     assert!(!set.join("background.png").exists());
-    let out = vorl([OsStr::new("eval"), set.as_os_str(), OsStr::new("--json")]).success();
-    let v: Value = serde_json::from_str(&out.stdout).unwrap_or_else(|e| panic!("{e}: {}", out.dump()));
     let (known, correct) = (v["known"].as_u64().unwrap(), v["known_correct"].as_u64().unwrap());
     assert!(known >= 40, "{}", out.dump());
     assert!(
@@ -1451,20 +1459,7 @@ fn gen_rods_are_told_apart_by_their_holes() {
 #[test]
 fn gen_sharp_distractors_with_a_central_hole_stay_unknown() {
     let scratch = Scratch::new("sharp");
-    let set = scratch.join("sharp");
-    vorl([
-        OsStr::new("gen"),
-        set.as_os_str(),
-        OsStr::new("--seed"),
-        OsStr::new("3"),
-        OsStr::new("--frames"),
-        OsStr::new("30"),
-        OsStr::new("--variant"),
-        OsStr::new("sharp"),
-    ])
-    .success();
-    let out = vorl([OsStr::new("eval"), set.as_os_str(), OsStr::new("--json")]).success();
-    let v: Value = serde_json::from_str(&out.stdout).unwrap_or_else(|e| panic!("{e}: {}", out.dump()));
+    let (_, v, out) = gen_and_eval(&scratch, "sharp", 3, 30);
     assert_eq!(v["unknown_rejection"].as_f64(), Some(1.0), "{}", out.dump());
     assert_eq!(v["classification"].as_f64(), Some(1.0), "{}", out.dump());
 }
