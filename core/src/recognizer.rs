@@ -463,7 +463,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             touches_edge: contour.touches_edge,
         };
         let diff = Difference::new(frame, background, params.alpha());
-        let best_pose = if params.refine == Refine::Verify {
+        let best_fit = if params.refine == Refine::Verify {
             // A candidate whose alignment finds it this far off would not be verified (half
             // the distance alone reaches the threshold); a part cut by the frame's edge
             // converges slowly, so its alignments never give up.
@@ -498,19 +498,13 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 &mut detection,
             )
         };
-        if let Some((ti, pose)) = best_pose {
+        if let Some((ti, fit)) = best_fit {
+            let pose = fit.pose;
             detection.angle_deg = math::wrap_degrees(math::degrees(pose.angle));
             detection.scale = pose.scale;
             detection.pose = Some(pose);
             if params.refine == Refine::Verify {
-                detection.template = accepted(Fit {
-                    pose,
-                    verify: detection.verify,
-                    limit: detection.verify_limit,
-                    holes: detection.holes,
-                    family: detection.score < params.epsilon,
-                })
-                .then_some(ti as u16);
+                detection.template = accepted(fit).then_some(ti as u16);
             }
             if params.position == Position::Pose {
                 if let Some(t) = self.templates.get(ti) {
@@ -551,7 +545,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         part_holes: &Holes,
         diff: &Difference<'_, B>,
         detection: &mut Detection,
-    ) -> Option<(usize, Pose)> {
+    ) -> Option<(usize, Fit)> {
         let params = self.params;
         let (ti, m) = self.dp_best_match(n)?;
         let (signed, paper) = self.angles(n, centroid, ti)?;
@@ -585,7 +579,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         detection.verify = fit.verify;
         detection.verify_limit = fit.limit;
         detection.holes = fit.holes;
-        Some((ti, fit.pose))
+        Some((ti, fit))
     }
 
     /// Template `ti` aligned on the frame from the DP's pose (the part's `position`, the
@@ -689,7 +683,8 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
 
     /// `refine = Verify`: the candidates of [`Self::next_candidate`], each aligned on the
     /// frame from its DP pose and verified. Fills the detection's DP fields and `verify` from
-    /// the lowest score; returns its template index and pose (`None` without a candidate).
+    /// the best fit ([`Fit::better_than`]); returns its template index and fit (`None` without
+    /// a candidate).
     #[allow(clippy::too_many_arguments)]
     fn verify_candidates<B: AsRef<[u8]>>(
         &mut self,
@@ -702,7 +697,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         diff: &Difference<'_, B>,
         refine_params: &RefineParams,
         detection: &mut Detection,
-    ) -> Option<(usize, Pose)> {
+    ) -> Option<(usize, Fit)> {
         let params = self.params;
         let k = params.candidates.clamp(1, MAX_CANDIDATES);
         let mut scan = self.candidate_scan(n);
@@ -913,8 +908,8 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
     }
 
     /// Aligns and verifies one candidate (template index and DP match, its correspondence in
-    /// `self.assignment`); when it scores lower than `best` so far, it becomes `best` and fills
-    /// the detection's DP fields and `verify`.
+    /// `self.assignment`); when its fit is better than `best`'s so far ([`Fit::better_than`]),
+    /// it becomes `best` and fills the detection's DP fields, `verify` and `holes`.
     #[allow(clippy::too_many_arguments)]
     fn try_candidate<B: AsRef<[u8]>>(
         &mut self,
@@ -928,26 +923,18 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         diff: &Difference<'_, B>,
         refine_params: &RefineParams,
         detection: &mut Detection,
-        best: &mut Option<(usize, Pose)>,
+        best: &mut Option<(usize, Fit)>,
     ) {
         let Some((signed, paper)) = self.angles(n, centroid, ti) else {
             return;
         };
-        let epsilon = self.params.epsilon;
-        let family = m.normalized < epsilon;
+        let family = m.normalized < self.params.epsilon;
         let Some(fit) = self.align_and_verify(n, position, signed, area, ti, family, part_holes, diff, refine_params)
         else {
             return;
         };
-        let so_far = Fit {
-            pose: fit.pose,
-            verify: detection.verify,
-            limit: detection.verify_limit,
-            holes: detection.holes,
-            family: detection.score < epsilon,
-        };
-        if best.is_none() || fit.better_than(&so_far) {
-            *best = Some((ti, fit.pose));
+        if best.as_ref().is_none_or(|(_, b)| fit.better_than(b)) {
+            *best = Some((ti, fit));
             detection.verify = fit.verify;
             detection.verify_limit = fit.limit;
             detection.holes = fit.holes;
