@@ -191,6 +191,33 @@ pub fn class_tolerance(fits: &[Vec<Option<CrossFit>>]) -> (vorl_core::Tolerance,
     )
 }
 
+/// `silhouette` (part bright on black) recognised against `template` taught alone, with
+/// `params` but any scale in 0.5–2: the detection of its largest part (`None` without one).
+/// How one example of a class lies against another ([`Engine::add_silhouettes`], `vorl teach
+/// --add`).
+///
+/// # Errors
+/// `template` cannot be taught.
+pub fn recognise_alone(
+    params: Params,
+    template: &GrayImage,
+    silhouette: &GrayImage,
+) -> Result<Option<vorl_core::Detection>, String> {
+    let mut one = Engine::new(Params {
+        scale_min: 0.5,
+        scale_max: 2.0,
+        ..params
+    })?;
+    one.add_silhouette("template", template)?;
+    one.set_background(&GrayImage::new(silhouette.width(), silhouette.height()))?;
+    let result = one.detect(silhouette)?;
+    Ok(result
+        .detections
+        .iter()
+        .max_by(|x, y| x.core.area.total_cmp(&y.core.area))
+        .map(|d| d.core))
+}
+
 /// Checks that a silhouette holds exactly one part.
 ///
 /// # Errors
@@ -333,35 +360,19 @@ impl Engine {
     }
 
     /// Each example recognised against each other one taught alone (`[i][j]`: example `j`
-    /// against example `i`), with this engine's parameters but any scale in 0.5–2.
+    /// against example `i`, [`recognise_alone`]).
     fn cross_fits(&self, examples: &[&NamedSilhouette]) -> Result<Vec<Vec<Option<CrossFit>>>, String> {
-        let params = Params {
-            scale_min: 0.5,
-            scale_max: 2.0,
-            ..*self.rec.params()
-        };
-        let mut one = Engine::new(params)?;
         let mut fits = Vec::new();
         for (i, a) in examples.iter().enumerate() {
-            one.rec.clear_templates();
-            one.names.clear();
-            one.add_silhouette(&a.name, &a.image)
-                .map_err(|e| format!("{}: {e}", a.path.display()))?;
             let mut row = Vec::new();
             for (j, b) in examples.iter().enumerate() {
                 if i == j {
                     row.push(None);
                     continue;
                 }
-                let dark = GrayImage::new(b.image.width(), b.image.height());
-                one.set_background(&dark)?;
-                let result = one.detect(&b.image)?;
-                let best = result
-                    .detections
-                    .iter()
-                    .max_by(|x, y| x.core.area.total_cmp(&y.core.area))
-                    .map(|d| d.core);
-                row.push(best.filter(|d| d.verify.is_finite()).map(|d| CrossFit {
+                let d = recognise_alone(*self.rec.params(), &a.image, &b.image)
+                    .map_err(|e| format!("{}: {e}", a.path.display()))?;
+                row.push(d.filter(|d| d.verify.is_finite()).map(|d| CrossFit {
                     ratio: d.verify / d.verify_limit,
                     scale: d.scale,
                 }));

@@ -250,21 +250,10 @@ pub fn to_reference_pose(
     first: &GrayImage,
     params: vorl_core::Params,
 ) -> Result<(GrayImage, f32), String> {
-    let mut one = Engine::new(vorl_core::Params {
-        scale_min: 0.5,
-        scale_max: 2.0,
-        ..params
-    })?;
-    one.add_silhouette("first", first)?;
-    one.set_background(&GrayImage::new(silhouette.width(), silhouette.height()))?;
-    let result = one.detect(silhouette)?;
-    let d = result
-        .detections
-        .iter()
-        .max_by(|a, b| a.core.area.total_cmp(&b.core.area))
-        .filter(|d| d.core.pose.is_some())
-        .ok_or("the new example does not align on the class's first example (another class?)")?;
-    let angle = d.core.angle_deg;
+    let angle = crate::engine::recognise_alone(params, first, silhouette)?
+        .filter(|d| d.pose.is_some())
+        .ok_or("the new example does not align on the class's first example (another class?)")?
+        .angle_deg;
     // A square canvas with the silhouette's pixel centroid at its centre.
     let (mut sx, mut sy, mut n) = (0.0f64, 0.0f64, 0.0f64);
     for (x, y, p) in silhouette.enumerate_pixels() {
@@ -296,7 +285,7 @@ pub fn to_reference_pose(
         imageproc::geometric_transformations::Interpolation::Bilinear,
         imageproc::geometric_transformations::Border::Constant(Luma([0u8])),
     );
-    let mut labels: Vec<u8> = turned.as_raw().iter().map(|&v| (v > 127) as u8).collect();
+    let labels: Vec<u8> = turned.as_raw().iter().map(|&v| (v > 127) as u8).collect();
     let (w, h) = (side as usize, side as usize);
     let Some(seed) = labels.iter().position(|&l| l != 0) else {
         return Err("the turned example holds no part".into());
@@ -315,9 +304,7 @@ pub fn to_reference_pose(
             }
         }
     }
-    let out = component(&labels, w, h, best.1 % w, best.1 / w);
-    labels.clear();
-    Ok((out, angle))
+    Ok((component(&labels, w, h, best.1 % w, best.1 / w), angle))
 }
 
 /// Where `--add` writes the next example of a class, `folder/<k>.png` for the first free `k`
