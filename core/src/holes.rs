@@ -92,13 +92,14 @@ pub const HOLE_EDGE: f32 = 1.5;
 /// Whether a hole of `area` px² is of the size expected (`expected` px²): its radius within
 /// `[r/√HOLE_AREA_RATIO − HOLE_EDGE, r·√HOLE_AREA_RATIO + HOLE_EDGE]` of the expected radius `r`.
 fn radius_fits(area: f32, expected: f32) -> bool {
-    let pi = core::f32::consts::PI;
-    let (r, e) = (
-        crate::math::sqrt(area.max(0.0) / pi),
-        crate::math::sqrt(expected.max(0.0) / pi),
-    );
+    let (r, e) = (radius(area), radius(expected));
     let k = crate::math::sqrt(HOLE_AREA_RATIO);
     r >= e / k - HOLE_EDGE && r <= e * k + HOLE_EDGE
+}
+
+/// The radius of a disc of `area` px² (0 for a negative area).
+fn radius(area: f32) -> f32 {
+    crate::math::sqrt(area.max(0.0) / core::f32::consts::PI)
 }
 
 /// One hole: its centre and its area in pixels.
@@ -268,8 +269,7 @@ pub fn agreement(template: &Holes, pose: &Pose, part: &Holes) -> HoleAgreement {
         let at = pose.apply(h.centre);
         let area = h.area * scale * scale;
         let from_centre = crate::math::sqrt(h.centre[0] * h.centre[0] + h.centre[1] * h.centre[1]) * scale;
-        let reach =
-            HOLE_REACH * crate::math::sqrt(area.max(0.0) / core::f32::consts::PI) + HOLE_STRETCH * from_centre + 1.0;
+        let reach = HOLE_REACH * radius(area) + HOLE_STRETCH * from_centre + 1.0;
         let mut best: Option<(f32, usize)> = None;
         for (j, (q, u)) in part.as_slice().iter().zip(used.iter()).enumerate() {
             if *u {
@@ -287,8 +287,8 @@ pub fn agreement(template: &Holes, pose: &Pose, part: &Holes) -> HoleAgreement {
                 *u = true;
             }
             found = found.saturating_add(1);
-            let radius = crate::math::sqrt(h.area.max(0.0) / core::f32::consts::PI);
-            if h.centre[0] * h.centre[0] + h.centre[1] * h.centre[1] > radius * radius {
+            let r = radius(h.area);
+            if h.centre[0] * h.centre[0] + h.centre[1] * h.centre[1] > r * r {
                 off_centre = off_centre.saturating_add(1);
             }
         }
