@@ -6,7 +6,9 @@
 //! vignetting and any slow fall-off of a backlight are the frame's own:
 //!
 //! 1. **Cells.** The frame is cut into square cells of `s ≥` [`MIN_CELL`] px, about
-//!    [`CELLS_ALONG`] along its longer side (more when the grid's capacity `G` is smaller). Each cell's level is the *mode-trimmed mean* of its `I'`
+//!    [`CELLS_ALONG`] along its longer side (more when the grid's capacity `G` is smaller).
+//!    Each cell's level is read from at most 8 × 8 of its pixels ([`SAMPLES_ALONG`]), and is
+//!    the *mode-trimmed mean* of their `I'`
 //!    values: the peak of its histogram (smoothed over 5 grey levels), then the mean of the
 //!    values within ±[`TRIM`] levels of it, re-centred once. A cell that is more than half
 //!    platform gets the platform's level whatever lies in the rest (a part's edge, a speck),
@@ -30,10 +32,12 @@
 //! (no part is found, and [`PlatformStats::kept`] says how many cells looked alike). A uniform
 //! frame gives a flat plane.
 //!
-//! Time: two reads of each pixel (a cell histogram of 256 bins, the plane's interpolation) and
-//! about a thousand operations per cell (histogram scans, up to [`FIT_ROUNDS`] least-squares
-//! accumulations of 15 terms, a 15×15 solve per round). Memory: the caller's
-//! [`PlatformGrid`] (`9·G` bytes) and a 512-byte histogram on the stack.
+//! Time: the cell levels read at most 64 pixels a cell; the fit is per cell (the normal
+//! equations summed a grid row at a time, 30 products a cell, up to [`FIT_ROUNDS`] rounds with a
+//! 15×15 solve each; the surface evaluated from each row's coefficients, 5 products a cell);
+//! the plane is written once, a multiply-add and a shift a pixel. Memory: the caller's
+//! [`PlatformGrid`] (`9·G` bytes), a 512-byte histogram and a table of the plane's segments on
+//! the stack.
 
 use crate::enhance::{enhance_span, Alpha};
 use crate::error::{Error, Result};
@@ -41,9 +45,13 @@ use crate::frame::Frame;
 
 /// Smallest cell side, px.
 pub const MIN_CELL: usize = 16;
-/// The cell levels are read from every `SAMPLE`-th pixel of every `SAMPLE`-th row (a cell of
-/// the smallest size still has 64 samples; the platform is smooth over a cell).
+/// Smallest step between the pixels a cell level is read from, along a row and down a column.
 pub const SAMPLE: usize = 2;
+/// A cell level is read from at most `SAMPLES_ALONG`² pixels: every `t`-th pixel of every
+/// `t`-th row, `t = max(`[`SAMPLE`]`, ⌈s / SAMPLES_ALONG⌉)` (a cell of the smallest size, 16 px,
+/// has 64 samples; a larger cell no more). The platform is smooth over a cell, and 64 values
+/// find its level within a fraction of a grey level; more only cost time.
+pub const SAMPLES_ALONG: usize = 8;
 /// Cells along the frame's longer side (at least [`MIN_CELL`] px each): the grid has the same
 /// shape for a camera of any resolution.
 pub const CELLS_ALONG: usize = 20;
@@ -223,16 +231,18 @@ pub fn estimate_platform<B: AsRef<[u8]>, const G: usize>(
     let surface = fit_surface(grid, cx, cy, cells, &mut stats);
     // 3. Fill: kept cells keep their level; the others take the surface plus the residuals
     //    spread from their kept neighbours.
+    let mut eval = Eval::new(&surface, cx, cy);
     for c in 0..cells {
-        let fit = surface.at(cell_x(c, cx), cell_y(c, cx), cx, cy);
+        let fit = eval.at(c);
         if let (Some(&st), Some(&l), Some(v)) = (grid.state.get(c), grid.level.get(c), grid.value.get_mut(c)) {
             *v = if st == KEPT { l - fit } else { f32::NAN };
         }
     }
     spread_residuals(grid, cx, cy, cells);
     let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+    let mut eval = Eval::new(&surface, cx, cy);
     for c in 0..cells {
-        let fit = surface.at(cell_x(c, cx), cell_y(c, cx), cx, cy);
+        let fit = eval.at(c);
         if let Some(v) = grid.value.get_mut(c) {
             let r = if v.is_finite() { *v } else { 0.0 };
             *v = (fit + r).clamp(0.0, 255.0);
@@ -259,29 +269,33 @@ fn cell_y(c: usize, cx: usize) -> usize {
 /// The mode-trimmed mean of the cell at `(x0, y0)`, side `s` (cut by the frame's edge), or
 /// `None` when its peak holds less than a quarter of its pixels.
 fn cell_level<B: AsRef<[u8]>>(frame: &Frame<B>, alpha: Alpha, x0: usize, y0: usize, s: usize) -> Option<f32> {
-    const CHUNK: usize = 64;
     let (w, h) = (frame.width(), frame.height());
     let x1 = x0.saturating_add(s).min(w);
     let y1 = y0.saturating_add(s).min(h);
+    let t = sample_step(s);
     let mut hist = [0u16; 256];
     let mut count = 0u32;
     let (mut lo_v, mut hi_v) = (255u8, 0u8);
-    for y in (y0..y1).step_by(SAMPLE) {
-        let mut x = x0;
-        while x < x1 {
-            let len = (x1 - x).min(CHUNK);
-            let mut buf = [0u8; CHUNK];
-            let part = buf.get_mut(..len)?;
-            enhance_span(frame, y, x, alpha, part);
-            for &v in part.iter().step_by(SAMPLE) {
-                if let Some(b) = hist.get_mut(v as usize) {
-                    *b = b.saturating_add(1);
-                }
-                lo_v = lo_v.min(v);
-                hi_v = hi_v.max(v);
+    let mut add = |v: u8| {
+        if let Some(b) = hist.get_mut(v as usize) {
+            *b = b.saturating_add(1);
+        }
+        lo_v = lo_v.min(v);
+        hi_v = hi_v.max(v);
+        count += 1;
+    };
+    for y in (y0..y1).step_by(t) {
+        if alpha.get() >= 1.0 {
+            // `I' = I`: the row's own bytes.
+            for &v in frame.row(y).get(x0..x1).unwrap_or(&[]).iter().step_by(t) {
+                add(v);
             }
-            count += len.div_ceil(SAMPLE) as u32;
-            x += len;
+        } else {
+            for x in (x0..x1).step_by(t) {
+                let mut v = [0u8; 1];
+                enhance_span(frame, y, x, alpha, &mut v);
+                add(v[0]);
+            }
         }
     }
     if count == 0 {
@@ -325,6 +339,11 @@ fn cell_level<B: AsRef<[u8]>>(frame: &Frame<B>, alpha: Alpha, x0: usize, y0: usi
     (4 * inside >= count).then_some(centre)
 }
 
+/// The step between the pixels a cell of side `s` is read from ([`SAMPLES_ALONG`]).
+pub fn sample_step(s: usize) -> usize {
+    SAMPLE.max(s.div_ceil(SAMPLES_ALONG))
+}
+
 /// A fitted surface: coefficients of `T_i(u)·T_j(v)`, `i + j ≤ degree`.
 #[derive(Debug, Clone, Copy)]
 struct Surface {
@@ -333,14 +352,79 @@ struct Surface {
 }
 
 impl Surface {
-    /// The surface at the centre of cell `(gx, gy)` of a `cx`×`cy` grid.
-    fn at(&self, gx: usize, gy: usize, cx: usize, cy: usize) -> f32 {
-        let mut basis = [0.0f32; TERMS];
-        // The coefficients beyond the surface's degree are 0 (`solve` leaves them so).
-        fill_basis(cell_u(gx, cx), cell_u(gy, cy), self.degree, &mut basis);
-        basis.iter().zip(&self.coef).fold(0.0, |acc, (b, c)| acc + b * c)
+    /// The surface along grid row `gy` of `cy`: the coefficients of `T_i(u)`, `i = 0..=4`.
+    /// (The coefficients beyond the surface's degree are 0: `solve` leaves them so.)
+    fn row(&self, gy: usize, cy: usize) -> [f32; 5] {
+        let tv = cheb(cell_u(gy, cy));
+        let mut a = [0.0f32; 5];
+        for (&(i, j), &c) in TERM_UV.iter().zip(&self.coef) {
+            if let (Some(ai), Some(&t)) = (a.get_mut(i), tv.get(j)) {
+                *ai += c * t;
+            }
+        }
+        a
     }
 }
+
+/// A [`Surface`] evaluated at the cell centres in the grid's order, one row's coefficients at a
+/// time (five products a cell).
+struct Eval<'s> {
+    surface: &'s Surface,
+    cx: usize,
+    cy: usize,
+    gy: usize,
+    row: [f32; 5],
+}
+
+impl<'s> Eval<'s> {
+    fn new(surface: &'s Surface, cx: usize, cy: usize) -> Self {
+        Eval {
+            surface,
+            cx,
+            cy,
+            gy: usize::MAX,
+            row: [0.0; 5],
+        }
+    }
+
+    /// The surface at the centre of cell `c`.
+    fn at(&mut self, c: usize) -> f32 {
+        let (gx, gy) = (cell_x(c, self.cx), cell_y(c, self.cx));
+        if gy != self.gy {
+            self.gy = gy;
+            self.row = self.surface.row(gy, self.cy);
+        }
+        let tu = cheb(cell_u(gx, self.cx));
+        tu.iter().zip(&self.row).fold(0.0, |acc, (t, a)| acc + t * a)
+    }
+}
+
+/// `T_0(x) … T_4(x)`, the Chebyshev polynomials.
+fn cheb(x: f32) -> [f32; 5] {
+    let t2 = 2.0 * x * x - 1.0;
+    let t3 = 2.0 * x * t2 - x;
+    let t4 = 2.0 * x * t3 - t2;
+    [1.0, x, t2, t3, t4]
+}
+
+/// The surface's terms `T_i(u)·T_j(v)` as `(i, j)`, in order of `i + j`, then of `i`: the first `(d + 1)(d + 2)/2` are those of degree `≤ d`.
+const TERM_UV: [(usize, usize); TERMS] = [
+    (0, 0),
+    (0, 1),
+    (1, 0),
+    (0, 2),
+    (1, 1),
+    (2, 0),
+    (0, 3),
+    (1, 2),
+    (2, 1),
+    (3, 0),
+    (0, 4),
+    (1, 3),
+    (2, 2),
+    (3, 1),
+    (4, 0),
+];
 
 /// Cell index `g` of `n` scaled into `[−1, 1]` (its centre).
 fn cell_u(g: usize, n: usize) -> f32 {
@@ -349,38 +433,6 @@ fn cell_u(g: usize, n: usize) -> f32 {
     } else {
         2.0 * g as f32 / (n - 1) as f32 - 1.0
     }
-}
-
-/// `T_i(u)·T_j(v)` for `i + j ≤ degree` into `basis` (in order of `i + j`, then `i`), and the
-/// terms of degree up to 4 after them; returns how many are of degree `≤ degree`. Written out
-/// in full: the surface is evaluated a few thousand times a frame.
-fn fill_basis(u: f32, v: f32, degree: usize, basis: &mut [f32; TERMS]) -> usize {
-    let cheb = |x: f32| {
-        let t2 = 2.0 * x * x - 1.0;
-        let t3 = 2.0 * x * t2 - x;
-        let t4 = 2.0 * x * t3 - t2;
-        [1.0, x, t2, t3, t4]
-    };
-    let ([u0, u1, u2, u3, u4], [v0, v1, v2, v3, v4]) = (cheb(u), cheb(v));
-    *basis = [
-        u0 * v0,
-        u0 * v1,
-        u1 * v0,
-        u0 * v2,
-        u1 * v1,
-        u2 * v0,
-        u0 * v3,
-        u1 * v2,
-        u2 * v1,
-        u3 * v0,
-        u0 * v4,
-        u1 * v3,
-        u2 * v2,
-        u3 * v1,
-        u4 * v0,
-    ];
-    let d = degree.min(4);
-    (d + 1) * (d + 2) / 2
 }
 
 /// Rounds of least squares on the cells with a level, each keeping the cells within the
@@ -403,11 +455,8 @@ fn fit_surface<const G: usize>(
     }
     for round in 0..FIT_ROUNDS {
         // The threshold from the residuals of the cells within reach of this surface.
-        let mad = median_of(grid, cells, |c, l| {
-            let r = (l - surface.at(cell_x(c, cx), cell_y(c, cx), cx, cy)).abs();
-            Some(r)
-        })
-        .unwrap_or(0.0);
+        let mut eval = Eval::new(&surface, cx, cy);
+        let mad = median_of(grid, cells, |c, l| Some((l - eval.at(c)).abs())).unwrap_or(0.0);
         let outlier = (4.0 * 1.4826 * mad).max(MIN_OUTLIER);
         // A generous first cut: the median alone does not follow vignetting.
         let outlier = if round == 0 {
@@ -452,8 +501,9 @@ fn mark_kept<const G: usize>(
     cells: usize,
 ) -> usize {
     let mut kept = 0;
+    let mut eval = Eval::new(surface, cx, cy);
     for c in 0..cells {
-        let fit = surface.at(cell_x(c, cx), cell_y(c, cx), cx, cy);
+        let fit = eval.at(c);
         if let (Some(st), Some(&l)) = (grid.state.get_mut(c), grid.level.get(c)) {
             if *st == LEVEL || *st == KEPT {
                 *st = if (l - fit).abs() <= outlier { KEPT } else { LEVEL };
@@ -468,7 +518,7 @@ fn mark_kept<const G: usize>(
 fn median_of<const G: usize>(
     grid: &mut PlatformGrid<G>,
     cells: usize,
-    f: impl Fn(usize, f32) -> Option<f32>,
+    mut f: impl FnMut(usize, f32) -> Option<f32>,
 ) -> Option<f32> {
     let mut n = 0;
     for c in 0..cells {
@@ -485,11 +535,15 @@ fn median_of<const G: usize>(
             }
         }
     }
-    let values = grid.value.get(..n)?;
-    crate::math::nth_smallest(values, values.len() / 2)
+    let values = grid.value.get_mut(..n)?;
+    crate::math::select_nth(values, n / 2)
 }
 
-/// Least squares of the kept cells' levels on the degree-`degree` basis (`None` when singular).
+/// Least squares of the kept cells' levels on the degree-`degree` basis (`None` when singular
+/// or no cell is kept). The normal equations are summed a grid row at a time: the basis is a
+/// product `T_i(u)·T_j(v)` and `v` is the row's, so the row's kept cells give the sums of
+/// `T_i(u)·T_k(u)` and `T_i(u)·level` (30 products a cell), and the row adds those times
+/// `T_j(v)·T_l(v)` to every entry (instead of 225 products a cell).
 fn least_squares<const G: usize>(
     grid: &PlatformGrid<G>,
     cx: usize,
@@ -497,31 +551,53 @@ fn least_squares<const G: usize>(
     cells: usize,
     degree: usize,
 ) -> Option<Surface> {
+    let d = degree.min(4);
+    let terms = (d + 1) * (d + 2) / 2;
     let mut a = [[0.0f32; TERMS]; TERMS];
     let mut b = [0.0f32; TERMS];
-    let mut basis = [0.0f32; TERMS];
-    let mut terms = 0;
-    for c in 0..cells {
-        if grid.state.get(c) != Some(&KEPT) {
+    let mut any = false;
+    for gy in 0..cy {
+        let mut m = [[0.0f32; 5]; 5];
+        let mut r = [0.0f32; 5];
+        let mut in_row = false;
+        for gx in 0..cx {
+            let c = gy * cx + gx;
+            if c >= cells {
+                break;
+            }
+            if grid.state.get(c) != Some(&KEPT) {
+                continue;
+            }
+            let l = grid.level.get(c).copied().unwrap_or(0.0);
+            let tu = cheb(cell_u(gx, cx));
+            for ((mi, ri), &ti) in m.iter_mut().zip(r.iter_mut()).zip(&tu) {
+                *ri += ti * l;
+                for (mik, &tk) in mi.iter_mut().zip(&tu) {
+                    *mik += ti * tk;
+                }
+            }
+            in_row = true;
+        }
+        if !in_row {
             continue;
         }
-        let l = grid.level.get(c).copied().unwrap_or(0.0);
-        terms = fill_basis(cell_u(cell_x(c, cx), cx), cell_u(cell_y(c, cx), cy), degree, &mut basis);
-        for (i, row) in a.iter_mut().enumerate().take(terms) {
-            let bi = basis.get(i).copied().unwrap_or(0.0);
-            for (aij, bj) in row.iter_mut().zip(&basis).take(terms) {
-                *aij += bi * bj;
-            }
-            if let Some(v) = b.get_mut(i) {
-                *v += bi * l;
+        any = true;
+        let tv = cheb(cell_u(gy, cy));
+        let at = |m: &[[f32; 5]; 5], i: usize, k: usize| m.get(i).and_then(|row| row.get(k)).copied().unwrap_or(0.0);
+        let tv_at = |j: usize| tv.get(j).copied().unwrap_or(0.0);
+        for ((row, bt), &(i, j)) in a.iter_mut().zip(b.iter_mut()).zip(&TERM_UV).take(terms) {
+            let vj = tv_at(j);
+            *bt += vj * r.get(i).copied().unwrap_or(0.0);
+            for (e, &(k, l)) in row.iter_mut().zip(&TERM_UV).take(terms) {
+                *e += at(&m, i, k) * vj * tv_at(l);
             }
         }
     }
-    if terms == 0 {
+    if !any {
         return None;
     }
     let coef = solve(&mut a, &mut b, terms)?;
-    Some(Surface { coef, degree })
+    Some(Surface { coef, degree: d })
 }
 
 /// Gaussian elimination with partial pivoting on the first `n` rows and columns.
@@ -659,6 +735,13 @@ fn bracket(x: usize, s: usize, len: usize, n: usize) -> (usize, usize, f32) {
 #[allow(clippy::too_many_arguments)]
 fn write_plane(values: &[f32], row: &mut [f32], cx: usize, cy: usize, s: usize, w: usize, h: usize, plane: &mut [u8]) {
     let cell = |gx: usize, gy: usize| values.get(gy * cx + gx).copied().unwrap_or(0.0);
+    // The segments, once for all rows.
+    let mut segments = [Segment::default(); MAX_ALONG];
+    let mut from = 0;
+    for (g, seg) in segments.iter_mut().enumerate().take(cx.saturating_sub(1)) {
+        *seg = Segment::new(g, cx, s, w, from);
+        from = seg.end;
+    }
     for (y, out) in plane.chunks_exact_mut(w.max(1)).take(h).enumerate() {
         let (gy0, gy1, ty) = bracket(y, s, h, cy);
         for (gx, r) in row.iter_mut().enumerate().take(cx) {
@@ -673,31 +756,43 @@ fn write_plane(values: &[f32], row: &mut [f32], cx: usize, cy: usize, s: usize, 
         // last to the row's end). In 1/65536 of a level, rounded at the end; the centres are
         // kept doubled (`first + last` of the cell's pixels), so the geometry is integer.
         let fixed = |f: f32| (f * 65536.0) as i32;
-        let mut x = 0usize;
         let mut r1 = row.first().copied().unwrap_or(0.0);
+        let mut prev_end = 0;
         for g in 0..cx - 1 {
-            let (a0, a1) = (twice_centre(g, s, w), twice_centre(g + 1, s, w));
+            let seg = segments
+                .get(g)
+                .copied()
+                .unwrap_or_else(|| Segment::new(g, cx, s, w, prev_end));
+            prev_end = seg.end;
             let r0 = r1;
             r1 = row.get(g + 1).copied().unwrap_or(0.0);
             // The step per pixel: (r1 − r0) over (a1 − a0)/2 pixels (one float division; a
             // 64-bit one is a library call on the camera).
-            let dv = if a1 > a0 {
-                fixed((r1 - r0) * 2.0 / (a1 - a0) as f32)
+            let dv = if seg.twice_len > 0 {
+                fixed((r1 - r0) * 2.0 / seg.twice_len as f32)
             } else {
                 0
             };
-            let end = if g + 2 == cx { w } else { (a1 / 2 + 1).min(w) };
             // The value at x: r0 + ½ + (x − a0/2)·dv (the product in 64 bits, halved by a shift).
-            let v = (fixed(r0 + 0.5) as i64 + (((2 * x as i64 - a0 as i64) * dv as i64) >> 1)) as i32;
-            let span = out.get_mut(x..end).unwrap_or(&mut []);
+            let v = (fixed(r0 + 0.5) as i64 + (((2 * seg.from as i64 - seg.a0 as i64) * dv as i64) >> 1)) as i32;
+            let span = out.get_mut(seg.from..seg.end).unwrap_or(&mut []);
             // The values run linearly from the first pixel's to the last's: when both lie in
             // 0..=255 every one does, and none needs clamping (between two centres, always:
             // the cell values are clamped; beyond the outermost ones, mostly).
             let last = v.wrapping_add((span.len().saturating_sub(1) as i32).wrapping_mul(dv));
             let in_range = |a: i32| (0..256 << 16).contains(&a);
             if in_range(v) && in_range(last) {
+                // Eight pixels at a time, each `at + k·dv` (the loop unrolls; no chain from
+                // pixel to pixel), then the rest.
                 let mut at = v;
-                for p in span.iter_mut() {
+                let mut chunks = span.chunks_exact_mut(8);
+                for chunk in &mut chunks {
+                    for (k, p) in chunk.iter_mut().enumerate() {
+                        *p = (at.wrapping_add((k as i32).wrapping_mul(dv)) >> 16) as u8;
+                    }
+                    at = at.wrapping_add(dv.wrapping_mul(8));
+                }
+                for p in chunks.into_remainder() {
                     *p = (at >> 16) as u8;
                     at = at.wrapping_add(dv);
                 }
@@ -707,7 +802,40 @@ fn write_plane(values: &[f32], row: &mut [f32], cx: usize, cy: usize, s: usize, 
                     *p = (at >> 16).clamp(0, 255) as u8;
                 }
             }
-            x = end.max(x);
+        }
+    }
+}
+
+/// Most cells along a side of the grid: [`cell_size`] keeps the longer side at
+/// [`CELLS_ALONG`] (the plane's segments are kept in a table of this size; a grid with more
+/// would take them as it goes).
+const MAX_ALONG: usize = CELLS_ALONG + 1;
+
+/// One segment of a plane row, the same in every row: from the centre of cell `g` to that of
+/// `g + 1` (the first from x = 0, the last to the row's end).
+#[derive(Debug, Clone, Copy, Default)]
+struct Segment {
+    /// Twice the centre of cell `g`.
+    a0: usize,
+    /// Twice the distance between the two centres.
+    twice_len: usize,
+    /// Pixels `from..end`.
+    from: usize,
+    end: usize,
+}
+
+impl Segment {
+    /// Segment `g` of a row of `cx` cells of side `s`, `w` px long, starting at `from` (the
+    /// previous segment's end).
+    fn new(g: usize, cx: usize, s: usize, w: usize, from: usize) -> Self {
+        let (a0, a1) = (twice_centre(g, s, w), twice_centre(g + 1, s, w));
+        let end = if g + 2 == cx { w } else { (a1 / 2 + 1).min(w) };
+        let from = if g == 0 { 0 } else { from.min(w) };
+        Segment {
+            a0,
+            twice_len: a1.saturating_sub(a0),
+            from,
+            end: end.max(from),
         }
     }
 }

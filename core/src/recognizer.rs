@@ -1191,18 +1191,19 @@ fn verify_score<const M: usize, B: AsRef<[u8]>>(
 }
 
 /// The mean of the smallest `kept` fraction of `values` (at least one; `empty` for none): the
-/// values below the `keep`-th smallest, and that one for the rest ([`math::nth_smallest`]).
-fn trimmed_mean(values: &[f32], kept: f32, empty: f32) -> f32 {
+/// values below the `keep`-th smallest, and that one for the rest ([`math::select_nth`], which
+/// reorders `values`).
+fn trimmed_mean(values: &mut [f32], kept: f32, empty: f32) -> f32 {
     let len = values.len();
     if len == 0 {
         return empty;
     }
     let keep = ((len as f32 * kept) as usize).clamp(1, len);
-    let Some(t) = math::nth_smallest(values, keep - 1) else {
+    let Some(t) = math::select_nth(values, keep - 1) else {
         return empty;
     };
     let (mut sum, mut below) = (0.0f32, 0usize);
-    for &v in values {
+    for &v in values.iter() {
         if v < t {
             sum += v;
             below += 1;
