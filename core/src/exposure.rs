@@ -250,9 +250,13 @@ fn for_samples<B: AsRef<[u8]>>(frame: &Frame<B>, alpha: Alpha, background: &[u8]
     for y in (0..frame.height()).step_by(step) {
         let row = background.get(y * w..(y + 1) * w).unwrap_or(&[]);
         if alpha.get() >= 1.0 {
-            // I' = I: the frame's own row.
-            for (&v, &b) in frame.row(y).iter().zip(row).step_by(step) {
-                f(v, b);
+            // I' = I: the frame's own row (by index: a step over a zipped pair of rows would
+            // walk every pixel in between).
+            let frame_row = frame.row(y);
+            for x in (0..w).step_by(step) {
+                if let (Some(&v), Some(&b)) = (frame_row.get(x), row.get(x)) {
+                    f(v, b);
+                }
             }
             continue;
         }
