@@ -19,11 +19,82 @@ use crate::enhance::{enhance_row, enhance_span, Alpha};
 /// Pixels of `I'` computed at a time on the stack while learning or updating.
 const CHUNK: usize = 64;
 use crate::error::{Error, Result};
+use crate::exposure::{fit_exposure, Exposure};
 use crate::frame::Frame;
 
 /// The largest number of frames [`Background::learn`] averages (the 16-bit sum of 255 frames of
 /// 255 still fits).
 pub const MAX_LEARN_FRAMES: usize = 255;
+
+/// How far the spread of a frame's platform residuals may rise above that of the frame the
+/// platform was estimated from, and the estimate still serve it ([`Background::estimate_or_keep`]),
+/// grey levels: one step of the spread's resolution (the median of whole-level residuals).
+pub const KEEP_SPREAD: f32 = 1.5;
+
+/// A sensible [`PlatformKeeping::every`] for a fixed camera: one estimate serves at most 30
+/// frames (a second of video), so slow changes of the light are followed at least that often.
+pub const DEFAULT_KEEP_FRAMES: u32 = 30;
+
+/// A platform estimate's life across frames ([`Background::estimate_or_keep`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlatformKeeping {
+    /// Most frames one estimate serves, its own included (1: every frame is estimated anew).
+    pub every: u32,
+    served: u32,
+    spread: f32,
+    stats: crate::platform::PlatformStats,
+}
+
+impl PlatformKeeping {
+    /// No estimate yet; each will serve at most `every` frames (at least 1).
+    pub const fn new(every: u32) -> Self {
+        PlatformKeeping {
+            every: if every == 0 { 1 } else { every },
+            served: 0,
+            spread: 0.0,
+            stats: crate::platform::PlatformStats {
+                cell: 0,
+                cells_x: 0,
+                cells_y: 0,
+                with_level: 0,
+                kept: 0,
+                degree: 0,
+                outlier: 0.0,
+                range: [0.0; 2],
+            },
+        }
+    }
+
+    /// Forgets the estimate: the next frame is estimated anew.
+    pub fn reset(&mut self) {
+        *self = PlatformKeeping::new(self.every);
+    }
+}
+
+/// What [`Background::estimate_or_keep`] did with a frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PlatformUse {
+    /// The platform was estimated from this frame.
+    Estimated(crate::platform::PlatformStats),
+    /// An earlier estimate served.
+    Kept {
+        /// That estimate's figures.
+        stats: crate::platform::PlatformStats,
+        /// How many frames before this one it was made.
+        frames_ago: u32,
+        /// This frame's exposure against it (the identity, or it would not have been kept).
+        exposure: Exposure,
+    },
+}
+
+impl PlatformUse {
+    /// The figures of the estimate in use.
+    pub fn stats(&self) -> crate::platform::PlatformStats {
+        match self {
+            PlatformUse::Estimated(s) | PlatformUse::Kept { stats: s, .. } => *s,
+        }
+    }
+}
 
 /// The learned background over a caller-provided plane of `width·height` bytes.
 ///
@@ -215,6 +286,88 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Background<S> {
         self.learned = 0;
         self.ready = true;
         Ok(stats)
+    }
+
+    /// No empty shot, a fixed camera: the platform estimated from an earlier frame serves this
+    /// one while it still fits it, else it is estimated anew from this frame
+    /// ([`Self::estimate_from_frame`]). `keeping` carries the estimate's age and fit from
+    /// frame to frame; one per model.
+    ///
+    /// The earlier estimate is kept when all of these hold:
+    /// - it has served fewer than [`PlatformKeeping::every`] frames;
+    /// - this frame's exposure against it ([`fit_exposure`]) is the identity: no level of the
+    ///   platform moved by more than [`crate::exposure::DEAD_BAND`] (a new exposure, a
+    ///   dimmed backlight: estimated anew, so the frame gives what its own estimate would);
+    /// - enough samples agree with it ([`crate::exposure::MIN_SAMPLES`]);
+    /// - their spread ([`Exposure::spread`]) is at most [`KEEP_SPREAD`] grey levels above that
+    ///   of the estimate's own frame (light that changed in places, a moved camera).
+    ///
+    /// A kept frame costs one exposure fit (a few thousand samples) instead of the estimate and
+    /// its plane; an estimated one costs the estimate and one fit more (its own spread).
+    ///
+    /// ```
+    /// use vorl_core::{background::{Background, PlatformKeeping, PlatformUse}, enhance::Alpha, platform::PlatformGrid, Frame};
+    /// let (w, h) = (64usize, 48usize);
+    /// // A backlight falling off to the right, a little noise, and a dark part that moves.
+    /// let scene = |x0: usize| -> Vec<u8> {
+    ///     let mut px = vec![0u8; w * h];
+    ///     for y in 0..h { for x in 0..w {
+    ///         let noise = ((x * 7 + y * 13 + x0) % 5) as i32 - 2;
+    ///         let part = (x0..x0 + 12).contains(&x) && (16..30).contains(&y);
+    ///         px[y * w + x] = if part { 30 } else { (220 - 40 * x / w) as i32 + noise } as u8;
+    ///     } }
+    ///     px
+    /// };
+    /// let mut plane = vec![0u8; w * h];
+    /// let mut bg = Background::new(&mut plane[..], w, h).unwrap();
+    /// let mut grid = PlatformGrid::<64>::new();
+    /// let mut keeping = PlatformKeeping::new(30);
+    /// let (a, b) = (scene(10), scene(40));
+    /// let first = bg.estimate_or_keep(&Frame::new_checked(&a[..], w, h).unwrap(), Alpha::ONE, &mut grid, &mut keeping).unwrap();
+    /// assert!(matches!(first, PlatformUse::Estimated(_)));
+    /// let second = bg.estimate_or_keep(&Frame::new_checked(&b[..], w, h).unwrap(), Alpha::ONE, &mut grid, &mut keeping).unwrap();
+    /// assert!(matches!(second, PlatformUse::Kept { frames_ago: 1, .. }), "{second:?}");
+    /// // The same scene under a brighter exposure: estimated anew.
+    /// let bright: Vec<u8> = b.iter().map(|&v| (v as f32 * 1.1).min(255.0) as u8).collect();
+    /// let third = bg.estimate_or_keep(&Frame::new_checked(&bright[..], w, h).unwrap(), Alpha::ONE, &mut grid, &mut keeping).unwrap();
+    /// assert!(matches!(third, PlatformUse::Estimated(_)));
+    /// ```
+    ///
+    /// # Errors
+    /// As [`Self::estimate_from_frame`].
+    pub fn estimate_or_keep<B: AsRef<[u8]>, const G: usize>(
+        &mut self,
+        frame: &Frame<B>,
+        alpha: Alpha,
+        grid: &mut crate::platform::PlatformGrid<G>,
+        keeping: &mut PlatformKeeping,
+    ) -> Result<PlatformUse> {
+        self.check(frame)?;
+        if self.ready && keeping.served > 0 && keeping.served < keeping.every {
+            let e = fit_exposure(frame, alpha, self.plane.as_ref())?;
+            let fits = e.is_identity()
+                && e.samples > 0
+                && e.inliers >= crate::exposure::MIN_SAMPLES
+                && e.spread <= keeping.spread + KEEP_SPREAD;
+            if fits {
+                let frames_ago = keeping.served;
+                keeping.served += 1;
+                return Ok(PlatformUse::Kept {
+                    stats: keeping.stats,
+                    frames_ago,
+                    exposure: e,
+                });
+            }
+        }
+        let stats = self.estimate_from_frame(frame, alpha, grid)?;
+        let own = fit_exposure(frame, alpha, self.plane.as_ref())?;
+        *keeping = PlatformKeeping {
+            every: keeping.every,
+            served: 1,
+            spread: own.spread,
+            stats,
+        };
+        Ok(PlatformUse::Estimated(stats))
     }
 
     /// Slow update: every `2^shift` calls, each pixel whose `labels` entry is 0 (background in

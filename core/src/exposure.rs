@@ -34,7 +34,7 @@ use crate::frame::Frame;
 /// `MIN_STEP` that takes at most [`MAX_SAMPLES`] samples.
 pub const MIN_STEP: usize = 2;
 /// Most samples the fit takes (QVGA: every 6th pixel of every 6th row; VGA: every 12th).
-pub const MAX_SAMPLES: usize = 2500;
+pub const MAX_SAMPLES: usize = 1200;
 /// Rounds of least squares after the offset.
 pub const ROUNDS: usize = 3;
 /// The smallest inlier threshold, grey levels.
@@ -58,6 +58,10 @@ pub struct Exposure {
     pub samples: u32,
     /// The lowest and highest background level among the inliers (the platform's levels).
     pub levels: [f32; 2],
+    /// The platform's residuals after the fit: `1.4826 × MAD` of the last round's inliers,
+    /// grey levels (about the noise's σ when the model fits the frame; larger when it does
+    /// not, as a platform of another frame under other light).
+    pub spread: f32,
 }
 
 impl Exposure {
@@ -68,6 +72,7 @@ impl Exposure {
         inliers: 0,
         samples: 0,
         levels: [0.0; 2],
+        spread: 0.0,
     };
 
     /// Whether undoing it changes no level of the platform's ([`Self::levels`]) by more than
@@ -100,7 +105,7 @@ impl Exposure {
     ///
     /// ```
     /// use vorl_core::exposure::Exposure;
-    /// let e = Exposure { gain: 0.5, offset: 10.0, inliers: 100, samples: 100, levels: [0.0, 255.0] };
+    /// let e = Exposure { gain: 0.5, offset: 10.0, inliers: 100, samples: 100, levels: [0.0, 255.0], spread: 1.0 };
     /// let mut px = [10u8, 60, 110, 200];
     /// e.undo(&mut px);
     /// assert_eq!(px, [0, 100, 200, 255]);
@@ -164,6 +169,7 @@ pub fn fit_exposure<B: AsRef<[u8]>>(frame: &Frame<B>, alpha: Alpha, background: 
     let (mut gain, mut offset) = (1.0f32, median);
     let mut inliers = 0u32;
     let mut levels = [0.0f32; 2];
+    let mut spread = 0.0f32;
     let mut threshold = 4.0 * MIN_INLIER;
     for _ in 0..ROUNDS {
         // Least squares of f = gain·b + offset over the samples within the threshold of the
@@ -197,6 +203,7 @@ pub fn fit_exposure<B: AsRef<[u8]>>(frame: &Frame<B>, alpha: Alpha, background: 
         inliers = n;
         levels = [range[0] as f32, range[1] as f32];
         let mad = median_bin(&abs_hist, n).map_or(0.0, |i| i as f32 + 0.5);
+        spread = 1.4826 * mad;
         threshold = (4.0 * 1.4826 * mad).max(MIN_INLIER);
         // Centred moments, exact in integers: n²·var = n·Σb² − (Σb)², n²·cov = n·Σbf − Σb·Σf.
         let nn = n as u64;
@@ -222,6 +229,7 @@ pub fn fit_exposure<B: AsRef<[u8]>>(frame: &Frame<B>, alpha: Alpha, background: 
         inliers,
         samples,
         levels,
+        spread,
     };
     Ok(if e.is_identity() {
         Exposure {
@@ -390,6 +398,7 @@ mod tests {
         for gain in [f32::NAN, -1.0] {
             let mut px = [1u8, 2, 3];
             Exposure {
+                spread: 0.0,
                 gain,
                 offset: 3.0,
                 inliers: 0,

@@ -58,7 +58,7 @@ use cortex_m_rt::{entry, exception};
 use cortex_m_semihosting::debug::{self, EXIT_FAILURE, EXIT_SUCCESS};
 use cortex_m_semihosting::hprintln;
 use panic_semihosting as _;
-use vorl_core::background::Background;
+use vorl_core::background::{Background, PlatformKeeping, PlatformUse, DEFAULT_KEEP_FRAMES};
 use vorl_core::budget::{budget, Budget, Capacities, Layout};
 use vorl_core::contour::Contour;
 use vorl_core::library::Library;
@@ -447,9 +447,11 @@ fn run() -> Result<(), Failure> {
     Ok(())
 }
 
-/// No empty shot: the platform estimated from each frame itself, into the background plane
-/// (the learned model is gone after this), then the frame through the recognizer. Returns the
-/// detections and the instructions (estimate included). Its own stack frame: the report is
+/// No empty shot: the platform estimated from the frames themselves, into the background plane
+/// (the learned model is gone after this): from the first, and kept for the next ones while
+/// they fit it ([`Background::estimate_or_keep`], as the host does); then the frame through the
+/// recognizer. Returns the detections and the instructions (estimate or exposure check
+/// included). Its own stack frame: the report is
 /// not kept beside the other calls' in `run`'s.
 #[inline(never)]
 fn estimated_frames(
@@ -462,13 +464,18 @@ fn estimated_frames(
     let alpha = rec.params().alpha();
     let instructions = |ticks: u64| ticks * NOMINAL_INSTRUCTIONS_PER_TICK;
     let (mut detections_auto, mut total_auto) = (0usize, 0u64);
+    let mut estimated = Background::new(&mut bg_plane[..], W, H)?;
+    let mut keeping = PlatformKeeping::new(DEFAULT_KEEP_FRAMES);
     for (name, pixels) in FRAMES.iter() {
         let frame = Frame::new_checked(&pixels.0[..], W, H)?;
         let t0 = ticks();
-        let mut estimated = Background::new(&mut bg_plane[..], W, H)?;
-        let stats = estimated.estimate_from_frame(&frame, alpha, grid)?;
+        let used = estimated.estimate_or_keep(&frame, alpha, grid, &mut keeping)?;
         let platform = instructions(ticks() - t0);
-        print_platform(name, &stats);
+        let frames_ago = match used {
+            PlatformUse::Kept { frames_ago, .. } => frames_ago,
+            PlatformUse::Estimated(_) => 0,
+        };
+        print_platform(name, &used.stats(), frames_ago);
         let out = run_frame(rec, &frame, &estimated, &mut labels[..], Some(("frame_auto", "det_auto", name, library)))?;
         let counts = out.counts;
         hprintln!(
@@ -488,10 +495,11 @@ fn estimated_frames(
 
 /// What the platform estimate found (`platform` line).
 #[inline(never)]
-fn print_platform(name: &str, s: &PlatformStats) {
+fn print_platform(name: &str, s: &PlatformStats, frames_ago: u32) {
     hprintln!(
-        "platform frame={} cell={} cells_x={} cells_y={} with_level={} kept={} degree={} outlier={:.2} range={:.1},{:.1}",
+        "platform frame={} frames_ago={} cell={} cells_x={} cells_y={} with_level={} kept={} degree={} outlier={:.2} range={:.1},{:.1}",
         name,
+        frames_ago,
         s.cell,
         s.cells_x,
         s.cells_y,

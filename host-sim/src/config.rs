@@ -57,12 +57,19 @@ pub struct Config {
     pub position: PositionSetting,
     /// With an empty shot: "fit" each frame's gain and offset against it on the platform's
     /// pixels and undo them before the frame is processed (default), or keep the frame
-    /// "fixed". Without one the platform is estimated from each frame, exposure included.
+    /// "fixed". Without one the platform is estimated from the frames, exposure included.
     pub exposure: ExposureSetting,
+    /// Without an empty shot: most frames one platform estimate serves (its own included)
+    /// while they still fit it — the same exposure, no larger spread of the platform's
+    /// residuals; a frame that does not is estimated anew. 1: every frame is estimated.
+    pub platform_every: u32,
     /// Whether an outer border inside a hole of another part (print, a label, a small part in
     /// a ring) is a part of its own (else it is reported as a skip).
     pub nested_parts: bool,
 }
+
+/// Default of [`Config::platform_every`].
+pub const DEFAULT_PLATFORM_EVERY: u32 = vorl_core::background::DEFAULT_KEEP_FRAMES;
 
 /// `exposure` as written in a config file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
@@ -187,6 +194,7 @@ impl Config {
                 Position::Pose => PositionSetting::Pose,
             },
             exposure: ExposureSetting::Fit,
+            platform_every: DEFAULT_PLATFORM_EVERY,
             nested_parts: p.nested_parts,
         }
     }
@@ -196,6 +204,9 @@ impl Config {
     /// # Errors
     /// The core's validation message.
     pub fn to_params(&self) -> Result<Params, String> {
+        if self.platform_every == 0 {
+            return Err("invalid parameters: platform_every must be at least 1 (1: every frame is estimated)".into());
+        }
         let p = Params {
             alpha: self.alpha,
             threshold: match self.threshold {
@@ -323,15 +334,18 @@ impl Config {
              # Position: \"polygon\" (the paper's border centroid), \"partial-volume\" (edge pixels by coverage), \"pose\" (template centroid through the aligned pose).\n\
              position = \"{}\"\n\
              # With an empty shot: \"fit\" each frame's gain and offset against it on the platform's pixels and undo them\n\
-             # (a brighter or dimmer exposure gives the same masks), or \"fixed\". Without one the platform is estimated per frame.\n\
+             # (a brighter or dimmer exposure gives the same masks), or \"fixed\". Without one the platform is estimated from the frames.\n\
              exposure = \"{}\"\n\
+             # Without an empty shot: most frames one platform estimate serves (its own included) while they still fit it\n\
+             # (the same exposure, no larger spread of the platform's residuals); 1: every frame is estimated anew.\n\
+             platform_every = {}\n\
              # Whether an outer border inside a hole of another part (print, a label, a small part resting in a ring) is a part\n\
              # of its own; false: it is reported as a skip (\"inside a hole of another part\"), not as a part.\n\
              nested_parts = {}\n",
             d.alpha, thr, setting_name(&d.cleanup), d.min_points, d.min_area, d.n, d.m, d.k, d.omega, d.epsilon, angle,
             setting_name(&d.refine), d.candidates, toml_float(d.candidate_ratio), d.verify_threshold,
             d.verify_relative, d.offset_relative, d.scale_min, d.scale_max, setting_name(&d.position),
-            setting_name(&d.exposure), d.nested_parts
+            setting_name(&d.exposure), d.platform_every, d.nested_parts
         )
     }
 }

@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use image::GrayImage;
-use vorl_core::background::Background;
+use vorl_core::background::{Background, PlatformKeeping, PlatformUse};
 use vorl_core::contour::{trace_borders, BorderFilter, BorderKind, ContourStore, Point};
 use vorl_core::exposure::{fit_exposure, Exposure};
 use vorl_core::platform::{PlatformGrid, PlatformStats};
@@ -69,8 +69,10 @@ pub struct FrameResult {
     pub report: Report,
     /// Time spent in the core, seconds.
     pub seconds: f64,
-    /// The platform estimate, when the frame had no empty shot.
+    /// The platform estimate in use, when the frame had no empty shot.
     pub platform: Option<PlatformStats>,
+    /// How many frames before this one that estimate was made (0: from this frame).
+    pub platform_frames_ago: u32,
     /// The frame's exposure against the empty shot, when it was fitted (`exposure = "fit"`);
     /// undone before the core saw the frame unless it is the identity.
     pub exposure: Option<Exposure>,
@@ -261,6 +263,7 @@ pub struct Engine {
     grid: Box<PlatformGrid<HOST_PLATFORM_CELLS>>,
     /// Fit each frame's exposure against the empty shot and undo it.
     exposure_fit: bool,
+    keeping: PlatformKeeping,
     /// The frame with its exposure undone (scratch).
     undone: Vec<u8>,
 }
@@ -281,6 +284,7 @@ impl Engine {
             auto: false,
             grid: Box::default(),
             exposure_fit: true,
+            keeping: PlatformKeeping::new(crate::config::DEFAULT_PLATFORM_EVERY),
             undone: Vec::new(),
         })
     }
@@ -290,6 +294,12 @@ impl Engine {
     /// the platform estimate follows the exposure itself.
     pub fn set_exposure_fit(&mut self, on: bool) {
         self.exposure_fit = on;
+    }
+
+    /// Without an empty shot: most frames one platform estimate serves while they still fit it
+    /// ([`Background::estimate_or_keep`]; 1: every frame is estimated anew).
+    pub fn set_platform_every(&mut self, every: u32) {
+        self.keeping = PlatformKeeping::new(every);
     }
 
     /// The parameters.
@@ -425,14 +435,15 @@ impl Engine {
         Ok(())
     }
 
-    /// No empty shot: the platform is estimated from each frame itself
-    /// ([`vorl_core::platform`]), in the core, before the frame is processed.
+    /// No empty shot: the platform is estimated from the frames themselves
+    /// ([`vorl_core::platform`]), in the core, before the frame is processed; an estimate
+    /// serves the next frames while they fit it ([`Self::set_platform_every`]).
     pub fn set_auto_background(&mut self) {
         self.auto = true;
         self.background = None;
     }
 
-    /// Whether the platform is estimated from each frame.
+    /// Whether the platform is estimated from the frames (no empty shot).
     pub fn auto_background(&self) -> bool {
         self.auto
     }
@@ -456,6 +467,7 @@ impl Engine {
             .map_err(|e| e.to_string())?;
         let t0 = std::time::Instant::now();
         let mut platform = None;
+        let mut platform_frames_ago = 0;
         if self.auto {
             let (w, h) = (frame.width(), frame.height());
             let fits = self
@@ -466,12 +478,18 @@ impl Engine {
                 self.background = Some(Background::new(vec![0u8; w * h], w, h).map_err(|e| e.to_string())?);
                 self.labels = vec![0u8; w * h];
             }
+            if !fits {
+                self.keeping.reset();
+            }
             let alpha = self.rec.params().alpha();
             if let Some(bg) = self.background.as_mut() {
-                platform = Some(
-                    bg.estimate_from_frame(&frame, alpha, &mut self.grid)
-                        .map_err(|e| e.to_string())?,
-                );
+                let used = bg
+                    .estimate_or_keep(&frame, alpha, &mut self.grid, &mut self.keeping)
+                    .map_err(|e| e.to_string())?;
+                platform = Some(used.stats());
+                if let PlatformUse::Kept { frames_ago, .. } = used {
+                    platform_frames_ago = frames_ago;
+                }
             }
         }
         let bg = self.background.as_ref().ok_or("no background set")?;
@@ -527,6 +545,7 @@ impl Engine {
             report,
             seconds,
             platform,
+            platform_frames_ago,
             exposure,
             width: frame.width(),
             height: frame.height(),

@@ -29,13 +29,15 @@ pub fn draw(frame: &GrayImage, result: &FrameResult) -> RgbImage {
     for d in &result.detections {
         draw_detection(&mut img, d);
     }
-    let platform = match &result.platform {
-        Some(p) => format!(
+    let platform = match (&result.platform, result.platform_frames_ago) {
+        (Some(p), 0) => format!(
             ", platform estimated from the frame ({} of {} cells)",
             p.kept,
             p.cells_x * p.cells_y
         ),
-        None => String::new(),
+        (Some(_), 1) => ", platform estimated from the frame before".to_string(),
+        (Some(_), k) => format!(", platform estimated {k} frames before"),
+        (None, _) => String::new(),
     };
     let caption = format!(
         "{} part(s), {:.1} ms{platform}",

@@ -1156,6 +1156,51 @@ fn set_without_empty_shot_estimates_the_platform() {
     assert!(right * 100 >= known * 99, "{right} of {known} known parts named right");
 }
 
+/// Without an empty shot the platform estimated from one frame serves the next ones of a fixed
+/// camera while they fit it: the default set's frames keep the first frame's estimate; a
+/// brighter exposure is estimated anew (and kept again after it); `platform_every = 1`
+/// estimates every frame; `--platform-every 0` is a one-line error.
+#[test]
+fn platform_estimate_is_kept_while_frames_fit_it() {
+    use vorl_host_sim::engine::Engine;
+    let set = default_set();
+    let frames: Vec<GrayImage> = png_names(&set.root().join("frames"))
+        .iter()
+        .take(3)
+        .map(|f| gray(&set.root().join("frames").join(f)))
+        .collect();
+    let bright = GrayImage::from_fn(frames[0].width(), frames[0].height(), |x, y| {
+        Luma([(frames[0].get_pixel(x, y).0[0] as f64 * 1.15).min(255.0).round() as u8])
+    });
+    let ages = |every: u32| -> Vec<u32> {
+        let mut engine = Engine::new(vorl_core::Params::default()).expect("engine");
+        engine.set_auto_background();
+        engine.set_platform_every(every);
+        let mut ages = Vec::new();
+        for img in frames.iter().chain([&bright, &frames[1]]) {
+            let r = engine.detect(img).expect("detect");
+            assert!(r.platform.is_some_and(|p| p.kept > 0));
+            ages.push(r.platform_frames_ago);
+        }
+        ages
+    };
+    assert_eq!(ages(30), [0, 1, 2, 0, 0]);
+    assert_eq!(ages(2), [0, 1, 0, 0, 0]);
+    assert_eq!(ages(1), [0, 0, 0, 0, 0]);
+    let out = vorl([
+        OsStr::new("detect"),
+        set.root().as_os_str(),
+        OsStr::new("--platform-every"),
+        OsStr::new("0"),
+    ]);
+    assert_ne!(out.code, Some(0));
+    assert!(
+        out.stderr.contains("platform_every must be at least 1"),
+        "{}",
+        out.stderr
+    );
+}
+
 /// The frames of the default set and their dimmer copies (0.7·v + 6), detected with
 /// `background` (`auto` or the set's empty shot) and `extra` flags: the compared pairs of truth
 /// parts (same class, angles within 0.1°, positions within 0.3 px) and the truth parts missing

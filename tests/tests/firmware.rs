@@ -655,9 +655,12 @@ fn firmware_detections(stdout: &str, tag: &str) -> BTreeMap<String, Vec<Det>> {
 
 /// The host's detections of one frame.
 fn host_detections(engine: &mut Engine, img: &GrayImage) -> Vec<Det> {
-    engine
-        .detect(img)
-        .unwrap()
+    dets(&engine.detect(img).unwrap())
+}
+
+/// The detections of one frame's result, as [`Det`]s.
+fn dets(result: &vorl_host_sim::engine::FrameResult) -> Vec<Det> {
+    result
         .detections
         .iter()
         .map(|d| Det {
@@ -816,16 +819,27 @@ fn firmware_matches_host() {
         "{compared} detections agree: largest difference {worst_pos:.5} px, {worst_angle:.5}° (print precision 1e-4)"
     );
 
-    // No empty shot: the platform estimated on the camera from each frame (`det_auto`), against
-    // the host with the platform estimated (`vorl detect --background auto`, a set without
-    // background.png): the same detections, and the scene's parts classified as drawn.
+    // No empty shot: the platform estimated on the camera from the frames (`det_auto`; from the
+    // first, kept for the next while they fit it), against the host with the platform estimated
+    // (`vorl detect --background auto`, a set without background.png): the same detections,
+    // the same estimate kept or made anew, and the scene's parts classified as drawn.
     let all = shapes();
     let fw_auto = firmware_detections(&stdout, "det_auto");
     let mut auto_engine = fixture_engine(|p| p);
     auto_engine.set_auto_background();
     let (mut auto_pos, mut auto_angle, mut auto_compared) = (0.0f64, 0.0f64, 0usize);
     for (name, parts) in scenes() {
-        let host = host_detections(&mut auto_engine, &gray(&format!("{name}.gray")));
+        let result = auto_engine.detect(&gray(&format!("{name}.gray"))).unwrap();
+        let host = dets(&result);
+        let platform_line = stdout
+            .lines()
+            .find(|l| l.starts_with("platform ") && fields(l)["frame"] == name)
+            .unwrap_or_else(|| panic!("no platform line for {name}"));
+        assert_eq!(
+            fields(platform_line)["frames_ago"].parse::<u32>().unwrap(),
+            result.platform_frames_ago,
+            "{name}: the camera and the host keep the platform estimate alike"
+        );
         let firmware = fw_auto.get(name).map(Vec::as_slice).unwrap_or(&[]);
         let (p, a) = agree(&format!("{name} (platform estimated)"), firmware, &host);
         (auto_pos, auto_angle) = (auto_pos.max(p), auto_angle.max(a));

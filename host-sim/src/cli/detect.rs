@@ -24,7 +24,8 @@ pub struct DetectArgs {
     #[arg(value_name = "SET | FRAME…", required = true)]
     pub inputs: Vec<PathBuf>,
     /// Background image (then the inputs are frames, not a set), or "auto": the platform is
-    /// estimated from each frame itself (also what a set without background.png does).
+    /// estimated from the frames themselves, an estimate kept for the next frames while they
+    /// fit it (--platform-every; also what a set without background.png does).
     #[arg(long, value_name = "BG|auto", requires = "templates")]
     pub background: Option<PathBuf>,
     /// Template folder (with --background).
@@ -75,6 +76,7 @@ pub fn prepare(
     let config = params.config_over(base.as_deref())?;
     let mut engine = Engine::new(config.to_params()?)?;
     engine.set_exposure_fit(config.exposure == crate::config::ExposureSetting::Fit);
+    engine.set_platform_every(config.platform_every);
     let (bgs, tpls, frames) = match opened {
         Some(s) => (
             s.load_backgrounds().map_err(|e| e.to_string())?,

@@ -73,6 +73,10 @@ pub struct ParamArgs {
     /// With an empty shot: fit each frame's gain and offset against it (default), or fixed.
     #[arg(long, value_enum)]
     pub exposure: Option<ExposureSetting>,
+    /// Without an empty shot: most frames one platform estimate serves while they fit it (1:
+    /// every frame estimated).
+    #[arg(long, value_name = "N")]
+    pub platform_every: Option<u32>,
     /// Report outer borders inside a hole of another part (print, a nested part) as parts.
     #[arg(long, value_name = "true|false")]
     pub nested_parts: Option<bool>,
@@ -130,6 +134,7 @@ impl ParamArgs {
             scale_max,
             position,
             exposure,
+            platform_every,
             nested_parts
         );
         Ok(c)
