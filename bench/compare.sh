@@ -14,7 +14,9 @@
 # decoding, single-threaded) and once more with rejection off; every prediction scored by
 # bench/score.py; a side-by-side table. The runs are one after another, never at the same time.
 # All files go to $OUT (default out/bench_run, relative to the repository's root); REPEAT
-# (default 5) sets the number of timing runs.
+# (default 5) sets the number of timing runs. NOSHOT=1 runs vorl on a copy of the set without
+# background.png and backgrounds/ (its platform estimated from the frames; the peer keeps the
+# empty shot, which it cannot do without).
 #
 # Needs: bash scripts/setup.sh and bash bench/setup_peer.sh (the venv bench/.venv).
 set -euo pipefail
@@ -67,19 +69,28 @@ if [ ! -f "$SET/truth.json" ]; then
 fi
 
 mkdir -p "$OUT"
+VSET=$SET
+if [ "${NOSHOT:-0}" = 1 ]; then
+    VSET="$OUT/noshot_set"
+    rm -rf "$VSET"
+    mkdir -p "$VSET"
+    cp -r "$SET/frames" "$SET/templates" "$SET/truth.json" "$VSET/"
+    [ -f "$SET/vorl.toml" ] && cp "$SET/vorl.toml" "$VSET/"
+    say "vorl runs without the empty shot: $VSET (the platform estimated from the frames)"
+fi
 # Runs of an earlier call (table.py reads them all).
 rm -f "$OUT"/vorl_eval_*.json "$OUT"/vorl_paper_eval_*.json "$OUT"/peer_timing_*.json
 export OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1
 
 PAPER=(--refine off --position polygon)
 say "vorl: detect --json, scored by bench/score.py and held against vorl eval --json"
-"$VORL" detect "$SET" --json >"$OUT/vorl_pred.json"
-"$VORL" detect "$SET" --json "${PAPER[@]}" >"$OUT/vorl_paper_pred.json"
+"$VORL" detect "$VSET" --json >"$OUT/vorl_pred.json"
+"$VORL" detect "$VSET" --json "${PAPER[@]}" >"$OUT/vorl_paper_pred.json"
 for k in $(seq 1 "$REPEAT"); do
     say "timing run $k/$REPEAT: vorl eval"
-    "$VORL" eval "$SET" --json >"$OUT/vorl_eval_$k.json"
+    "$VORL" eval "$VSET" --json >"$OUT/vorl_eval_$k.json"
     say "timing run $k/$REPEAT: vorl eval ${PAPER[*]}"
-    "$VORL" eval "$SET" --json "${PAPER[@]}" >"$OUT/vorl_paper_eval_$k.json"
+    "$VORL" eval "$VSET" --json "${PAPER[@]}" >"$OUT/vorl_paper_eval_$k.json"
     say "timing run $k/$REPEAT: OpenCV peer"
     "$PY" bench/opencv_peer.py "$SET" --out "$OUT/peer_pred.json" --json-timing "$OUT/peer_timing_$k.json" >&2
 done
@@ -96,4 +107,7 @@ say "OpenCV peer with rejection off"
 echo
 "$PY" bench/table.py "$OUT"
 "$PY" bench/table.py "$OUT" --markdown >"$OUT/table.md"
+if [ "$VSET" != "$SET" ]; then
+    echo "vorl: without the empty shot (the platform estimated from the frames, an estimate kept while frames fit it); the peer: with it"
+fi
 say "files in $OUT (predictions, scores, the table as Markdown in table.md)"

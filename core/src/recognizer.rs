@@ -644,7 +644,17 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             };
             let first = fit(aligned.pose, verify);
             let near_miss = verify < NEAR_MISS * first.limit;
-            if verify < CONFIDENT * first.limit || !near_miss || !(with_offset.offset_max > 0.0) || aligned.gave_up {
+            // A scale just beyond the range may be the outline grown by walls or blur, which
+            // the offset explains instead.
+            let (_, hi) = t.tolerance().scale_range(params.scale_min, params.scale_max);
+            let grown = verify.is_infinite()
+                && aligned.pose.scale > hi
+                && aligned.pose.scale <= hi * (1.0 + 2.0 * params.offset_relative);
+            if verify < CONFIDENT * first.limit
+                || !(near_miss || grown)
+                || !(with_offset.offset_max > 0.0)
+                || aligned.gave_up
+            {
                 return first;
             }
             let again = align_recording(diff, t.edge(), t.normals(), aligned.pose, &with_offset, &mut distances);
