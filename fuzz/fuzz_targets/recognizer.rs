@@ -92,6 +92,17 @@ fuzz_target!(|data: &[u8]| {
             assert!(stats.cells_x * stats.cells_y <= 24 && stats.cell >= 1);
             assert!(bg.is_ready());
         }
+        // Kept for the next frame while it fits: the same frame twice is kept the second
+        // time unless too few samples agree (then estimated again), and the figures are those
+        // of the estimate in use.
+        let mut keeping = vorl_core::background::PlatformKeeping::new(1 + u32::from((mode >> 2) & 3));
+        if let Ok(first) = bg.estimate_or_keep(&frame, alpha, &mut grid, &mut keeping) {
+            assert!(matches!(first, vorl_core::background::PlatformUse::Estimated(_)));
+            if let Ok(second) = bg.estimate_or_keep(&frame, alpha, &mut grid, &mut keeping) {
+                let key = |s: vorl_core::platform::PlatformStats| (s.cell, s.cells_x, s.cells_y, s.kept);
+                assert_eq!(key(second.stats()), key(first.stats()), "{first:?} {second:?}");
+            }
+        }
     }
     let labels_len = if mode & 32 == 32 {
         (w * h).saturating_sub(1)

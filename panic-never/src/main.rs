@@ -284,6 +284,12 @@ fn recognizer<const T: usize, const M: usize, const P: usize, const C: usize, co
                 // No empty shot: the platform estimated from the frame.
                 let mut grid = vorl_core::platform::PlatformGrid::<64>::new();
                 let _ = black_box(bg.estimate_from_frame(&fr, alpha(), &mut grid));
+                // And kept for the next frames while they fit it.
+                let mut keeping = vorl_core::background::PlatformKeeping::new(u() as u32);
+                if let Ok(used) = black_box(bg.estimate_or_keep(&fr, alpha(), &mut grid, &mut keeping)) {
+                    black_box(used.stats());
+                }
+                keeping.reset();
             }
             if flag() {
                 let _ = black_box(rec.process(&fr, &bg, labels));
@@ -354,6 +360,8 @@ fn pixels() {
             black_box(e.undo_table());
         }
         black_box(vorl_core::math::nth_smallest(buffer!(f32, 64, 0.0), u()));
+        black_box(vorl_core::math::select_nth(buffer!(f32, 64, 0.0), u()));
+        black_box(vorl_core::platform::sample_step(u()));
         let bg_plane = buffer!(u8, 4096, 0);
         if let Ok(mut bg) = Background::new(bg_plane, u(), u()) {
             let _ = black_box(bg.set_from_frame(&fr, alpha()));
