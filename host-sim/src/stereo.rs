@@ -665,6 +665,8 @@ pub fn evaluate(args: &EvalArgs) -> Result<EvalReport, String> {
         classification: scores.classification(),
         unknown_rejection: scores.rejection(),
         scores,
+        platform_estimated: 0,
+        platform_kept: 0,
         setup_errors: run.setup_errors,
     })
 }

@@ -1199,6 +1199,19 @@ fn platform_estimate_is_kept_while_frames_fit_it() {
         "{}",
         out.stderr
     );
+    // eval counts the frames estimated and those that kept an estimate.
+    let scratch = Scratch::new("keep-eval");
+    let root = scratch.join("set");
+    copy_tree(&set.root(), &root, &["backgrounds", "background.png"]);
+    let report = vorl([OsStr::new("eval"), root.as_os_str(), OsStr::new("--json")])
+        .success()
+        .json();
+    let (estimated, kept) = (
+        report["platform_estimated"].as_u64().unwrap(),
+        report["platform_kept"].as_u64().unwrap(),
+    );
+    assert_eq!(estimated + kept, png_names(&root.join("frames")).len() as u64);
+    assert!(estimated >= 1 && kept >= 1, "{estimated} {kept}");
 }
 
 /// The frames of the default set and their dimmer copies (0.7·v + 6), detected with

@@ -53,6 +53,12 @@ pub struct EvalReport {
     pub classification: f64,
     /// Unknown-rejection rate.
     pub unknown_rejection: f64,
+    /// Without an empty shot: frames whose platform was estimated from the frame itself, and
+    /// frames that kept an earlier frame's estimate (both 0 with an empty shot, and for stereo
+    /// sets, which are not counted).
+    pub platform_estimated: usize,
+    /// See [`Self::platform_estimated`].
+    pub platform_kept: usize,
     /// Problems with the set that are not one frame's (a stereo set's `camera.json`).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub setup_errors: Vec<String>,
@@ -81,6 +87,7 @@ pub fn evaluate(args: &EvalArgs) -> Result<EvalReport, String> {
     let bar = crate::cli::progress(inputs.frames.len(), "eval", "frames");
     let mut pred = FramesJson::default();
     let (mut failed, mut seconds, mut done) = (0usize, 0.0f64, 0usize);
+    let (mut estimated, mut kept) = (0usize, 0usize);
     for path in inputs.frames.clone() {
         let name = file_name(&path);
         match run_frame(&mut inputs.engine, &path) {
@@ -100,6 +107,11 @@ pub fn evaluate(args: &EvalArgs) -> Result<EvalReport, String> {
                 }
                 seconds += result.seconds;
                 done += 1;
+                match (result.platform.is_some(), result.platform_frames_ago) {
+                    (true, 0) => estimated += 1,
+                    (true, _) => kept += 1,
+                    (false, _) => {}
+                }
                 pred.frames.insert(name, to_json(&result));
             }
             Err(e) => {
@@ -139,6 +151,8 @@ pub fn evaluate(args: &EvalArgs) -> Result<EvalReport, String> {
         classification: scores.classification(),
         unknown_rejection: scores.rejection(),
         scores,
+        platform_estimated: estimated,
+        platform_kept: kept,
         setup_errors: Vec::new(),
     })
 }
@@ -243,6 +257,12 @@ pub fn print_table(r: &EvalReport) {
         "  time                    {:.2} ms/frame (core, this machine)",
         r.ms_per_frame
     );
+    if r.platform_estimated + r.platform_kept > 0 {
+        println!(
+            "  platform                estimated from {} frame(s), kept from an earlier one on {} (no empty shot)",
+            r.platform_estimated, r.platform_kept
+        );
+    }
     if r.failed_frames > 0 {
         println!("  failed frames           {}", r.failed_frames);
     }
