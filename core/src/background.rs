@@ -19,7 +19,7 @@ use crate::enhance::{enhance_row, enhance_span, Alpha};
 /// Pixels of `I'` computed at a time on the stack while learning or updating.
 const CHUNK: usize = 64;
 use crate::error::{Error, Result};
-use crate::exposure::{fit_exposure, Exposure};
+use crate::exposure::{fit_exposure_rounds, Exposure};
 use crate::frame::Frame;
 
 /// The largest number of frames [`Background::learn`] averages (the 16-bit sum of 255 frames of
@@ -30,6 +30,10 @@ pub const MAX_LEARN_FRAMES: usize = 255;
 /// platform was estimated from, and the estimate still serve it ([`Background::estimate_or_keep`]),
 /// grey levels: one step of the spread's resolution (the median of whole-level residuals).
 pub const KEEP_SPREAD: f32 = 1.5;
+
+/// Rounds of least squares in the exposure check of [`Background::estimate_or_keep`] (after the
+/// median offset): one tells an unchanged exposure from a changed one.
+pub const KEEP_ROUNDS: usize = 1;
 
 /// A sensible [`PlatformKeeping::every`] for a fixed camera: one estimate serves at most 30
 /// frames (a second of video), so slow changes of the light are followed at least that often.
@@ -295,7 +299,8 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Background<S> {
     ///
     /// The earlier estimate is kept when all of these hold:
     /// - it has served fewer than [`PlatformKeeping::every`] frames;
-    /// - this frame's exposure against it ([`fit_exposure`]) is the identity: no level of the
+    /// - this frame's exposure against it ([`crate::exposure::fit_exposure_rounds`] with
+    ///   [`KEEP_ROUNDS`]) is the identity: no level of the
     ///   platform moved by more than [`crate::exposure::DEAD_BAND`] (a new exposure, a
     ///   dimmed backlight: estimated anew, so the frame gives what its own estimate would);
     /// - enough samples agree with it ([`crate::exposure::MIN_SAMPLES`]);
@@ -344,7 +349,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Background<S> {
     ) -> Result<PlatformUse> {
         self.check(frame)?;
         if self.ready && keeping.served > 0 && keeping.served < keeping.every {
-            let e = fit_exposure(frame, alpha, self.plane.as_ref())?;
+            let e = fit_exposure_rounds(frame, alpha, self.plane.as_ref(), KEEP_ROUNDS)?;
             let fits = e.is_identity()
                 && e.samples > 0
                 && e.inliers >= crate::exposure::MIN_SAMPLES
@@ -360,7 +365,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Background<S> {
             }
         }
         let stats = self.estimate_from_frame(frame, alpha, grid)?;
-        let own = fit_exposure(frame, alpha, self.plane.as_ref())?;
+        let own = fit_exposure_rounds(frame, alpha, self.plane.as_ref(), KEEP_ROUNDS)?;
         *keeping = PlatformKeeping {
             every: keeping.every,
             served: 1,

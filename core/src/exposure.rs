@@ -145,6 +145,25 @@ impl Exposure {
 /// # Errors
 /// [`Error::BufferTooSmall`] when `background` is shorter than the frame.
 pub fn fit_exposure<B: AsRef<[u8]>>(frame: &Frame<B>, alpha: Alpha, background: &[u8]) -> Result<Exposure> {
+    fit_rounds(frame, alpha, background, ROUNDS)
+}
+
+/// [`fit_exposure`] with `rounds` rounds of least squares after the offset (at least one): the
+/// quick check of [`crate::background::Background::estimate_or_keep`] takes one, which tells an
+/// unchanged exposure from a changed one and gives the residuals' spread at half the cost.
+///
+/// # Errors
+/// As [`fit_exposure`].
+pub fn fit_exposure_rounds<B: AsRef<[u8]>>(
+    frame: &Frame<B>,
+    alpha: Alpha,
+    background: &[u8],
+    rounds: usize,
+) -> Result<Exposure> {
+    fit_rounds(frame, alpha, background, rounds.max(1))
+}
+
+fn fit_rounds<B: AsRef<[u8]>>(frame: &Frame<B>, alpha: Alpha, background: &[u8], rounds: usize) -> Result<Exposure> {
     let (w, h) = (frame.width(), frame.height());
     let needed = w.saturating_mul(h);
     if background.len() < needed {
@@ -171,7 +190,7 @@ pub fn fit_exposure<B: AsRef<[u8]>>(frame: &Frame<B>, alpha: Alpha, background: 
     let mut levels = [0.0f32; 2];
     let mut spread = 0.0f32;
     let mut threshold = 4.0 * MIN_INLIER;
-    for _ in 0..ROUNDS {
+    for _ in 0..rounds {
         // Least squares of f = gain·b + offset over the samples within the threshold of the
         // last fit, and their residuals' histogram for the next round's threshold. The sums
         // are exact integers (levels ≤ 255, at most MAX_SAMPLES of them: below 2^32 each).
