@@ -354,6 +354,7 @@ fn pixels() {
         let mut grid = vorl_core::platform::PlatformGrid::<32>::new();
         let _ = black_box(vorl_core::platform::estimate_platform(&fr, alpha(), plane, &mut grid));
         let _ = black_box(vorl_core::platform::cell_size(u(), u(), u()));
+        let _ = black_box(vorl_core::exposure::fit_exposure_rounds(&fr, alpha(), plane, u()));
         if let Ok(e) = black_box(vorl_core::exposure::fit_exposure(&fr, alpha(), plane)) {
             let undone = buffer!(u8, 4096, 0);
             e.undo(undone);
