@@ -148,7 +148,8 @@ pub fn fit_exposure<B: AsRef<[u8]>>(frame: &Frame<B>, alpha: Alpha, background: 
     fit_rounds(frame, alpha, background, ROUNDS)
 }
 
-/// [`fit_exposure`] with `rounds` rounds of least squares after the offset (at least one): the
+/// [`fit_exposure`] with `rounds` rounds of least squares after the offset (`1..=`[`ROUNDS`];
+/// other values are clamped into it): the
 /// quick check of [`crate::background::Background::estimate_or_keep`] takes one, which tells an
 /// unchanged exposure from a changed one and gives the residuals' spread at half the cost.
 ///
@@ -160,7 +161,7 @@ pub fn fit_exposure_rounds<B: AsRef<[u8]>>(
     background: &[u8],
     rounds: usize,
 ) -> Result<Exposure> {
-    fit_rounds(frame, alpha, background, rounds.max(1))
+    fit_rounds(frame, alpha, background, rounds.clamp(1, ROUNDS))
 }
 
 fn fit_rounds<B: AsRef<[u8]>>(frame: &Frame<B>, alpha: Alpha, background: &[u8], rounds: usize) -> Result<Exposure> {
