@@ -50,7 +50,7 @@ use crate::params::{AngleEstimator, Params, Position, Refine};
 use crate::partial_volume::{partial_volume_moments, Rect};
 use crate::pose::{angle_paper, angle_signed_refined, area_centroid};
 use crate::refine::{
-    align_recording, edge_distances, outward_normal, Alignment, Difference, Outline, Pose, RefineParams,
+    align_recording, edge_distances_walled, outward_normal, Alignment, Difference, Outline, Pose, RefineParams,
 };
 use crate::resample::resample;
 use crate::template::Template;
@@ -498,6 +498,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 &mut detection,
             )
         };
+        let mut walled = false;
         if let Some((ti, fit)) = best_fit {
             let pose = fit.pose;
             detection.angle_deg = math::wrap_degrees(math::degrees(pose.angle));
@@ -506,7 +507,10 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             if params.refine == Refine::Verify {
                 detection.template = accepted(fit).then_some(ti as u16);
             }
-            if params.position == Position::Pose {
+            // A part that shows its walls: its pose is its top face's, which the silhouette's
+            // centroid (walls and bottom included) is not.
+            walled = fit.wall > WALL_SIGNIFICANT && detection.template.is_some();
+            if params.position == Position::Pose || (walled && params.position == Position::PartialVolume) {
                 if let Some(t) = self.templates.get(ti) {
                     let [px, py] = pose.apply(t.position_offset());
                     detection.x = px;
@@ -514,7 +518,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 }
             }
         }
-        if params.position == Position::PartialVolume {
+        if params.position == Position::PartialVolume && !walled {
             if let Some(seed) = seed_pixel {
                 if let Some(m) = partial_volume_moments(&diff, mask, seed, bbox) {
                     // A known part's holes that its template does not have are print: filled.
@@ -627,39 +631,73 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         };
         // Without an outline offset first; a near miss that is not CONFIDENT is aligned again
         // from where it ended with the offset free (walls, blur), and the better kept.
+        // The walls of a thick part under a close lens show on its side towards the principal
+        // point (taken at the frame's centre), up to WALL_FACTOR times the offset's limit.
+        let offset_max = params.offset_relative * t.size() * seed.scale;
+        let principal = [(diff.width() as f32 - 1.0) * 0.5, (diff.height() as f32 - 1.0) * 0.5];
+        let (ux, uy) = (principal[0] - position[0], principal[1] - position[1]);
+        let far = math::hypot(ux, uy);
+        let wall_toward = if far >= 1.0 { [ux / far, uy / far] } else { [0.0, 0.0] };
         let with_offset = RefineParams {
-            offset_max: params.offset_relative * t.size() * seed.scale,
+            offset_max,
+            wall_max: WALL_FACTOR * offset_max,
+            wall_toward,
             ..rp
         };
         let once = |s: Pose| {
             let mut distances = [0.0f32; M];
             let aligned = align_recording(diff, t.edge(), t.normals(), s, &rp, &mut distances);
             let verify = verify_score(&aligned, &mut distances, t, part_edges, diff, &rp, params);
-            let fit = |pose: Pose, verify: f32| Fit {
+            let fit = |pose: Pose, verify: f32, wall: f32| Fit {
                 pose,
                 verify,
                 limit: limit_at(pose.scale),
                 holes: agreement(t.holes(), &pose, part_holes),
                 family,
+                wall,
             };
-            let first = fit(aligned.pose, verify);
+            let first = fit(aligned.pose, verify, 0.0);
             let near_miss = verify < NEAR_MISS * first.limit;
             // A scale just beyond the range may be the outline grown by walls or blur, which
-            // the offset explains instead.
+            // the offset and the wall explain instead — for a template of the DP's family
+            // (`f' < ε`) and a part whose area did grow beyond the range, even where the first
+            // alignment gave up on it.
             let (_, hi) = t.tolerance().scale_range(params.scale_min, params.scale_max);
-            let grown = verify.is_infinite()
+            let grown = family
+                && verify.is_infinite()
+                && area > hi * hi * t.area()
                 && aligned.pose.scale > hi
-                && aligned.pose.scale <= hi * (1.0 + 2.0 * params.offset_relative);
+                && aligned.pose.scale <= hi * (1.0 + 2.0 * params.offset_relative * (1.0 + WALL_FACTOR));
             if verify < CONFIDENT * first.limit
                 || !(near_miss || grown)
                 || !(with_offset.offset_max > 0.0)
-                || aligned.gave_up
+                || (aligned.gave_up && !grown)
             {
                 return first;
             }
-            let again = align_recording(diff, t.edge(), t.normals(), aligned.pose, &with_offset, &mut distances);
-            let verify = verify_score(&again, &mut distances, t, part_edges, diff, &with_offset, params);
-            let second = fit(again.pose, verify);
+            // Grown: from the range's end, so the wall and the offset take up the growth rather
+            // than the scale that did.
+            let start = if grown {
+                Pose {
+                    scale: hi,
+                    ..aligned.pose
+                }
+            } else {
+                aligned.pose
+            };
+            // The wall only where the outline grew beyond the range: a near miss within it is
+            // a part's own variation, which the offset alone takes up.
+            let retry = if grown {
+                with_offset
+            } else {
+                RefineParams {
+                    wall_max: 0.0,
+                    ..with_offset
+                }
+            };
+            let again = align_recording(diff, t.edge(), t.normals(), start, &retry, &mut distances);
+            let verify = verify_score(&again, &mut distances, t, part_edges, diff, &retry, params);
+            let second = fit(again.pose, verify, again.wall);
             if second.ratio() < first.ratio() {
                 second
             } else {
@@ -1056,6 +1094,8 @@ struct Fit {
     limit: f32,
     holes: HoleAgreement,
     family: bool,
+    /// The wall the alignment fitted, px (0 without one).
+    wall: f32,
 }
 
 impl Fit {
@@ -1087,6 +1127,10 @@ impl Fit {
         if a && h.found != g.found {
             return h.found > g.found;
         }
+        // Of two accepted, one without a wall (the simpler model).
+        if a && (self.wall > 0.0) != (other.wall > 0.0) {
+            return self.wall == 0.0;
+        }
         // Of two not accepted: one that could be verified at all, then one whose holes are
         // all found (an alignment that ran off the part finds holes by chance).
         let (fa, fb) = (self.ratio().is_finite(), other.ratio().is_finite());
@@ -1104,7 +1148,8 @@ impl Fit {
 /// for a template with holes, all of them found where the pose puts them, at least one of them
 /// off its centre ([`HoleAgreement::off_centre`]: a central hole fits a washer, a bore, a
 /// triangle with a hole, and says nothing of the part's ends), and the DP's `f' < ε`, below
-/// [`NEAR_MISS`] times its limit. The holes and the DP's family are two cues the rigid
+/// [`NEAR_MISS`] times its limit (not for a fit with a wall, [`WALL_FACTOR`]). The holes and the
+/// DP's family are two cues the rigid
 /// outline fit lacks: a part of one type may depart from its template's outline over a shaft
 /// or a head (real rods), and a distractor that fits the outline that loosely does not also
 /// have the template's descriptor profile and its holes in place. Holes never veto an outline
@@ -1112,7 +1157,8 @@ impl Fit {
 /// and move them); they rank the candidates ([`Fit::better_than`]).
 fn accepted(fit: Fit) -> bool {
     let r = fit.ratio();
-    r < 1.0 || (fit.family && fit.holes.off_centre > 0 && fit.holes.all_found() && r < NEAR_MISS)
+    // A fit that took a wall to get there has used its freedom: the outline alone decides.
+    r < 1.0 || (fit.wall == 0.0 && fit.family && fit.holes.off_centre > 0 && fit.holes.all_found() && r < NEAR_MISS)
 }
 
 /// Relative margin by which a template's sorted lower bound must exceed the `k`-th best DP cost
@@ -1160,7 +1206,7 @@ fn verify_score<const M: usize, B: AsRef<[u8]>>(
     let there = {
         let d = dist.get_mut(..edge.len()).unwrap_or(&mut []);
         if a.gave_up {
-            edge_distances(diff, edge, t.normals(), pose, a.offset, params, d);
+            edge_distances_walled(diff, edge, t.normals(), pose, a.offset, a.wall, params, d);
         }
         trimmed_mean(d, VERIFY_KEPT, params.cap)
     };
@@ -1174,11 +1220,20 @@ fn verify_score<const M: usize, B: AsRef<[u8]>>(
         let cap = params.cap / scale;
         // The template's outline moved by the fitted offset (in its own frame: over the scale).
         let mut moved = [[0.0f32; 2]; M];
-        let edge = if a.offset == 0.0 {
+        let edge = if a.offset == 0.0 && a.wall == 0.0 {
             edge
         } else {
-            let o = a.offset / scale;
+            let toward = params.wall_toward;
+            let (s, c) = math::sin_cos(pose.angle);
             for ((slot, e), nrm) in moved.iter_mut().zip(edge).zip(t.normals()) {
+                // The wall on the side whose (frame) normal faces the principal point.
+                let facing = if a.wall == 0.0 {
+                    0.0
+                } else {
+                    let nf = [nrm[0] * c + nrm[1] * s, -nrm[0] * s + nrm[1] * c];
+                    (nf[0] * toward[0] + nf[1] * toward[1]).max(0.0)
+                };
+                let o = (a.offset + a.wall * facing) / scale;
                 *slot = [e[0] + o * nrm[0], e[1] + o * nrm[1]];
             }
             moved.get(..edge.len()).unwrap_or(edge)
@@ -1221,6 +1276,14 @@ fn trimmed_mean(values: &mut [f32], kept: f32, empty: f32) -> f32 {
     }
     (sum + (keep.saturating_sub(below)) as f32 * t) / keep as f32
 }
+
+/// Largest wall the second alignment may fit, as a multiple of its offset's limit
+/// ([`Params::offset_relative`]): a close lens over a thick part shows its walls up to about a
+/// fifth of the part's size on the side towards the principal point.
+pub const WALL_FACTOR: f32 = 4.0;
+
+/// A fitted wall above this (px) makes the part's position its pose's (its top face's).
+pub const WALL_SIGNIFICANT: f32 = 0.5;
 
 /// The fraction of each side's points that the verification score averages (the nearest).
 pub const VERIFY_KEPT: f32 = 0.8;

@@ -175,6 +175,15 @@ pub struct RefineParams {
     /// lie farther out or in than the template's, which a scale cannot take up without
     /// stretching the part's length. 0 (the default) fits no offset.
     pub offset_max: f32,
+    /// Largest wall the alignment may fit, px (a sixth parameter, with the offset): a thick
+    /// part under a close, non-telecentric lens shows its walls on the side that faces the
+    /// principal point, so the outline lies farther out there by `wall · max(0, n·u)` (`n` the
+    /// outward normal, `u` = [`Self::wall_toward`]): the top face swept towards the bottom
+    /// one. The pose is then the top face's. 0 (the default) fits no wall.
+    pub wall_max: f32,
+    /// The unit vector from the part towards the principal point (where the camera looks
+    /// straight down), in frame coordinates; the direction the walls show in.
+    pub wall_toward: [f32; 2],
 }
 
 impl RefineParams {
@@ -188,6 +197,8 @@ impl RefineParams {
         scale_penalty: 4.0,
         give_up: f32::INFINITY,
         offset_max: 0.0,
+        wall_max: 0.0,
+        wall_toward: [0.0, 0.0],
     };
 }
 
@@ -925,6 +936,8 @@ pub struct Alignment {
     /// The uniform outline offset fitted, px along the outward normals (0 unless
     /// [`RefineParams::offset_max`] allows one).
     pub offset: f32,
+    /// The wall fitted, px ([`RefineParams::wall_max`]; 0 unless it allows one).
+    pub wall: f32,
 }
 
 /// Aligns the template's edge points (offsets from its area centroid, with unit outward
@@ -1000,6 +1013,7 @@ pub fn align_recording<B: AsRef<[u8]>>(
     let points = edge.len().min(normals.len());
     let mut pose = seed;
     let mut offset = 0.0f32;
+    let mut wall = 0.0f32;
     let mut left = params.iterations;
     // Coarse: every 4th point, profiles sampled half as densely, until the pose settles; fine:
     // every point until it converges. A pose that has not settled when the steps run out is not
@@ -1025,7 +1039,16 @@ pub fn align_recording<B: AsRef<[u8]>>(
             // The fine stage's steps record their distances (the last one's stand for the
             // final pose when it converged).
             let record: &mut [f32] = if coarse_stage { &mut [] } else { &mut *distances };
-            let step = match gauss_newton_step(diff, edge, normals, pose, offset, stride, prm, record) {
+            let step = match gauss_newton_step(
+                diff,
+                edge,
+                normals,
+                pose,
+                Shift::new(offset, wall, prm),
+                stride,
+                prm,
+                record,
+            ) {
                 Ok(step) => step,
                 // Too few edges for a step: the alignment ends here, and when those profiles
                 // already lie beyond `give_up` they stand for the final distances.
@@ -1037,6 +1060,7 @@ pub fn align_recording<B: AsRef<[u8]>>(
                         settled: settled_once,
                         gave_up: true,
                         offset,
+                        wall,
                     };
                 }
                 Err(_) => break 'stages,
@@ -1051,10 +1075,12 @@ pub fn align_recording<B: AsRef<[u8]>>(
                     settled: settled_once,
                     gave_up: true,
                     offset,
+                    wall,
                 };
             }
             pose = step.next;
             offset = step.offset;
+            wall = step.wall;
             // Settled: the update is small, or (coarse stage) the points already sit on the edge
             // and only a direction the edge cannot fix moves (a round part's rotation).
             if step.moved < settled || (coarse_stage && step.fit < FIT_SETTLED) {
@@ -1072,8 +1098,8 @@ pub fn align_recording<B: AsRef<[u8]>>(
         left = left.max(FINE_ITERATIONS.min(params.iterations));
     }
     // Final distances at the converged pose (those of the last step when it converged).
-    let (sum, found) =
-        converged_distances.unwrap_or_else(|| edge_distances(diff, edge, normals, pose, offset, params, distances));
+    let (sum, found) = converged_distances
+        .unwrap_or_else(|| edge_distances_walled(diff, edge, normals, pose, offset, wall, params, distances));
     let count = points.max(1) as f32;
     Alignment {
         pose,
@@ -1082,6 +1108,7 @@ pub fn align_recording<B: AsRef<[u8]>>(
         settled: settled_once,
         gave_up: false,
         offset,
+        wall,
     }
 }
 
@@ -1099,6 +1126,23 @@ pub fn edge_distances<B: AsRef<[u8]>>(
     params: &RefineParams,
     out: &mut [f32],
 ) -> (f32, usize) {
+    edge_distances_walled(diff, edge, normals, pose, offset, 0.0, params, out)
+}
+
+/// [`edge_distances`] with a `wall` as well ([`RefineParams::wall_max`], its direction
+/// [`RefineParams::wall_toward`]), as an [`Alignment`] that fitted one measures.
+#[allow(clippy::too_many_arguments)]
+pub fn edge_distances_walled<B: AsRef<[u8]>>(
+    diff: &Difference<'_, B>,
+    edge: &[[f32; 2]],
+    normals: &[[f32; 2]],
+    pose: Pose,
+    offset: f32,
+    wall: f32,
+    params: &RefineParams,
+    out: &mut [f32],
+) -> (f32, usize) {
+    let shift = Shift::new(offset, wall, params);
     let (mut sum, mut found) = (0.0f32, 0usize);
     let sc = math::sin_cos(pose.angle);
     let finder = diff.edge_finder(params);
@@ -1108,7 +1152,7 @@ pub fn edge_distances<B: AsRef<[u8]>>(
     };
     for (i, (t, n)) in edge.iter().zip(normals).enumerate() {
         let nf = rotate_sc(sc, *n);
-        let p = offset_point(pose.apply_sc(sc, *t), nf, offset);
+        let p = offset_point(pose.apply_sc(sc, *t), nf, shift.along(nf));
         let d = match finder.offset(p, nf) {
             Some(r) => {
                 found += 1;
@@ -1140,6 +1184,8 @@ struct Step {
     next: Pose,
     /// The updated outline offset, px.
     offset: f32,
+    /// The updated wall, px.
+    wall: f32,
     /// How far the update moves the points along their normals (root mean square, px).
     moved: f32,
     /// How far the points were from the edge before the update (root mean square, px).
@@ -1191,15 +1237,66 @@ fn gauss_newton_step<B: AsRef<[u8]>>(
     edge: &[[f32; 2]],
     normals: &[[f32; 2]],
     pose: Pose,
-    offset: f32,
+    shift: Shift,
     stride: usize,
     params: &RefineParams,
     record: &mut [f32],
 ) -> Result<Step, Option<(f32, usize)>> {
-    if params.offset_max > 0.0 {
-        gauss_newton_step_n::<B, 5>(diff, edge, normals, pose, offset, stride, params, record)
+    if shift.can_wall() {
+        gauss_newton_step_n::<B, 6>(diff, edge, normals, pose, shift, stride, params, record)
+    } else if params.offset_max > 0.0 {
+        gauss_newton_step_n::<B, 5>(diff, edge, normals, pose, shift, stride, params, record)
     } else {
-        gauss_newton_step_n::<B, 4>(diff, edge, normals, pose, 0.0, stride, params, record)
+        gauss_newton_step_n::<B, 4>(diff, edge, normals, pose, Shift::NONE, stride, params, record)
+    }
+}
+
+/// Where the outline lies off the template's along its outward normals: a uniform `offset`
+/// and a `wall` on the side facing `toward` ([`RefineParams::wall_max`]).
+#[derive(Debug, Clone, Copy)]
+struct Shift {
+    offset: f32,
+    wall: f32,
+    toward: [f32; 2],
+    wall_max: f32,
+}
+
+impl Shift {
+    const NONE: Shift = Shift {
+        offset: 0.0,
+        wall: 0.0,
+        toward: [0.0, 0.0],
+        wall_max: 0.0,
+    };
+
+    fn new(offset: f32, wall: f32, params: &RefineParams) -> Self {
+        Shift {
+            offset,
+            wall,
+            toward: params.wall_toward,
+            wall_max: params.wall_max,
+        }
+    }
+
+    /// Whether a wall may be fitted (a limit and a direction).
+    fn can_wall(&self) -> bool {
+        self.wall_max > 0.0 && (self.toward[0] != 0.0 || self.toward[1] != 0.0)
+    }
+
+    /// How far the wall moves a point of (frame) normal `nf` per px of wall.
+    #[inline(always)]
+    fn facing(&self, nf: [f32; 2]) -> f32 {
+        (nf[0] * self.toward[0] + nf[1] * self.toward[1]).max(0.0)
+    }
+
+    /// The shift of a point of (frame) normal `nf`, px along it.
+    #[inline(always)]
+    fn along(&self, nf: [f32; 2]) -> f32 {
+        if self.wall == 0.0 {
+            self.offset
+        } else {
+            self.offset + self.wall * self.facing(nf)
+        }
     }
 }
 
@@ -1222,12 +1319,13 @@ fn gauss_newton_step_n<B: AsRef<[u8]>, const N: usize>(
     edge: &[[f32; 2]],
     normals: &[[f32; 2]],
     pose: Pose,
-    offset: f32,
+    shift: Shift,
     stride: usize,
     params: &RefineParams,
     record: &mut [f32],
 ) -> Result<Step, Option<(f32, usize)>> {
-    // Normal equations for δ = (δx, δy, δθ, δs[, δo]) of Σ (n·δp + δo − r)².
+    // Normal equations for δ = (δx, δy, δθ, δs[, δo[, δw]]) of Σ (n·δp + δo + f·δw − r)², `f`
+    // how far the wall moves the point (`max(0, n·u)`).
     let mut ata = [[0.0f32; N]; N];
     let mut atb = [0.0f32; N];
     let mut used = 0usize;
@@ -1237,9 +1335,13 @@ fn gauss_newton_step_n<B: AsRef<[u8]>, const N: usize>(
     let sc = math::sin_cos(pose.angle);
     let (s, c) = sc;
     let finder = diff.edge_finder(params);
+    let (offset, wall) = (shift.offset, shift.wall);
     for (i, (t, n)) in edge.iter().zip(normals).enumerate().step_by(stride.max(1)) {
         let nf = rotate_sc(sc, *n);
-        let p = offset_point(pose.apply_sc(sc, *t), nf, offset);
+        // (The wall's terms only in the six-parameter step: the others are as without one.)
+        let facing = if N > 5 { shift.facing(nf) } else { 0.0 };
+        let amount = if N > 5 { offset + wall * facing } else { offset };
+        let p = offset_point(pose.apply_sc(sc, *t), nf, amount);
         let Some(r) = finder.offset_inline(p, nf) else {
             capped_sum += params.cap;
             if let Some(slot) = record.get_mut(i) {
@@ -1256,13 +1358,15 @@ fn gauss_newton_step_n<B: AsRef<[u8]>, const N: usize>(
         let dth = [pose.scale * (-t[0] * s + t[1] * c), pose.scale * (-t[0] * c - t[1] * s)];
         // ∂p/∂s = R(θ)·t.
         let ds = [t[0] * c + t[1] * s, -t[0] * s + t[1] * c];
-        // ∂p/∂o = n (a unit normal: 1 along itself).
+        // ∂p/∂o = n (a unit normal: 1 along itself); ∂p/∂w = max(0, n·u)·n.
         let mut j = [1.0f32; N];
         for (slot, v) in j.iter_mut().zip([
             nf[0],
             nf[1],
             nf[0] * dth[0] + nf[1] * dth[1],
             nf[0] * ds[0] + nf[1] * ds[1],
+            1.0,
+            facing,
         ]) {
             *slot = v;
         }
@@ -1300,7 +1404,7 @@ fn gauss_newton_step_n<B: AsRef<[u8]>, const N: usize>(
     let undamped = ata;
     let half = 0.5 * used as f32;
     let lever = 0.5 * lever2;
-    let damping = [half, half, lever * pose.scale * pose.scale, lever, 2.0 * half];
+    let damping = [half, half, lever * pose.scale * pose.scale, lever, 2.0 * half, half];
     for ((d, row), amount) in ata.iter_mut().enumerate().zip(damping) {
         if let Some(v) = row.get_mut(d) {
             *v += DAMPING * amount + 1e-12;
@@ -1313,14 +1417,23 @@ fn gauss_newton_step_n<B: AsRef<[u8]>, const N: usize>(
         angle: pose.angle + delta[2],
         scale: pose.scale + delta[3],
     };
+    // Within the limits (`max`/`min`, not `clamp`: a limit that is NaN or negative is none).
     let next_offset = match delta.get(4) {
-        Some(d) => (offset + d).clamp(-params.offset_max, params.offset_max),
-        None => offset,
+        Some(d) => {
+            let limit = params.offset_max.max(0.0);
+            (shift.offset + d).max(-limit).min(limit)
+        }
+        None => shift.offset,
+    };
+    let next_wall = match delta.get(5) {
+        Some(d) => (shift.wall + d).min(params.wall_max).max(0.0),
+        None => shift.wall,
     };
     if !(next.x.is_finite()
         && next.y.is_finite()
         && next.angle.is_finite()
         && next_offset.is_finite()
+        && next_wall.is_finite()
         && (0.5..=2.0).contains(&next.scale))
     {
         return Err(None);
@@ -1337,6 +1450,7 @@ fn gauss_newton_step_n<B: AsRef<[u8]>, const N: usize>(
     Ok(Step {
         next,
         offset: next_offset,
+        wall: next_wall,
         moved,
         fit: math::sqrt(residual2 / used as f32),
         capped_sum,
@@ -2030,8 +2144,17 @@ mod tests {
                 angle: 0.0,
                 scale: 1.0,
             };
-            let step =
-                gauss_newton_step(&diff, &edge, &normals, seed, 0.0, 1, &RefineParams::DEFAULT, &mut []).unwrap();
+            let step = gauss_newton_step(
+                &diff,
+                &edge,
+                &normals,
+                seed,
+                Shift::NONE,
+                1,
+                &RefineParams::DEFAULT,
+                &mut [],
+            )
+            .unwrap();
             let (ex, ey) = (step.next.x - cx, step.next.y - cy);
             assert!(
                 math::hypot(ex, ey) < 0.1 * math::hypot(ox, oy),
@@ -2041,6 +2164,69 @@ mod tests {
             // Every offset here moves the points by 0.5/√2 px along their normals (RMS).
             assert!((step.moved - 0.3536).abs() < 0.02 && step.found == 72, "{step:?}");
         }
+    }
+
+    /// A thick part seen by a close lens: the top face (a 32 px square) swept 4 px towards the
+    /// principal point (+x), blurred like [`blurred_square`]. With the wall free the alignment
+    /// finds the top face (its centre within 0.1 px, the wall within 0.3 px of 4); with the
+    /// offset alone the pose moves half the wall towards it.
+    #[test]
+    fn a_wall_towards_the_principal_point_leaves_the_top_face() {
+        let (cx, cy, half, wall) = (28.3f32, 31.6f32, 16.0f32, 4.0f32);
+        let mut frame_px = [0u8; SQUARE_W * SQUARE_W];
+        for (i, px) in frame_px.iter_mut().enumerate() {
+            let (x, y) = ((i % SQUARE_W) as f32, (i / SQUARE_W) as f32);
+            let dx = (x - (cx + half + wall)).max((cx - half) - x);
+            let d = dx.max((y - cy).abs() - half);
+            *px = (50.0 + 150.0 * (0.5 - d / 1.5).clamp(0.0, 1.0) + 0.5) as u8;
+        }
+        let bg = [50u8; SQUARE_W * SQUARE_W];
+        let frame = Frame::new_checked(&frame_px[..], SQUARE_W, SQUARE_W).unwrap();
+        let diff = Difference::new(&frame, &bg[..], Alpha::ONE);
+        let (mut edge, mut normals) = ([[0.0f32; 2]; 72], [[0.0f32; 2]; 72]);
+        for k in 0..72 {
+            let t = -half + 2.0 * half * ((k % 18) as f32 + 0.5) / 18.0;
+            (edge[k], normals[k]) = match k / 18 {
+                0 => ([t, -half], [0.0, -1.0]),
+                1 => ([half, t], [1.0, 0.0]),
+                2 => ([-t, half], [0.0, 1.0]),
+                _ => ([-half, -t], [-1.0, 0.0]),
+            };
+        }
+        let seed = Pose {
+            x: cx + 1.0,
+            y: cy - 0.5,
+            angle: 0.0,
+            scale: 1.0,
+        };
+        let walled = RefineParams {
+            offset_max: 1.0,
+            wall_max: 8.0,
+            wall_toward: [1.0, 0.0],
+            ..RefineParams::DEFAULT
+        };
+        let mut distances = [0.0f32; 72];
+        let a = align_recording(&diff, &edge, &normals, seed, &walled, &mut distances);
+        assert!(!a.gave_up, "{a:?}");
+        assert!((a.pose.x - cx).abs() < 0.1 && (a.pose.y - cy).abs() < 0.1, "{a:?}");
+        assert!(
+            (a.pose.scale - 1.0).abs() < 0.01 && (a.wall - wall).abs() < 0.3,
+            "{a:?}"
+        );
+        // Its distances are those of the walled outline: every point on the edge.
+        assert!(
+            a.distance < 0.1 && distances.iter().all(|d| *d < 0.3),
+            "{a:?} {distances:?}"
+        );
+        let (sum, _) = edge_distances_walled(&diff, &edge, &normals, a.pose, a.offset, a.wall, &walled, &mut []);
+        assert!((sum / 72.0 - a.distance).abs() < 2e-3, "{a:?}");
+        // Without the wall the pose takes up the sweep: half of it off the top face.
+        let flat = RefineParams {
+            offset_max: 1.0,
+            ..RefineParams::DEFAULT
+        };
+        let b = align(&diff, &edge, &normals, seed, &flat);
+        assert!(b.wall == 0.0 && b.pose.x - cx > 1.0, "{b:?}");
     }
 
     /// 72 edge points (offsets from the centre, evenly spaced along each side) and outward

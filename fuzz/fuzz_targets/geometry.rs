@@ -127,6 +127,8 @@ fuzz_target!(|data: &[u8]| {
         scale_penalty: input.num_or(4.0),
         give_up: input.num_or(f32::INFINITY),
         offset_max: input.num_or(0.0),
+        wall_max: input.num_or(0.0),
+        wall_toward: [input.num_or(0.0), input.num_or(0.0)],
     };
     let seed = Pose {
         x: input.num_or(24.0),

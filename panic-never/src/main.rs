@@ -190,6 +190,8 @@ fn refine_params() -> RefineParams {
         scale_penalty: f(),
         give_up: f(),
         offset_max: f(),
+        wall_max: f(),
+        wall_toward: p2(),
     }
 }
 
