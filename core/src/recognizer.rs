@@ -34,8 +34,10 @@
 //!   all); it is the class when `f' < ε`.
 //!
 //! The rotation comes from the aligned pose (or the best template's correspondence), the
-//! position from the partial-volume centroid (or the border's area centroid). A border that
-//! cannot be described is reported as a [`Skip`] with the reason.
+//! position from the partial-volume centroid (or the border's area centroid) — or, for a part
+//! whose alignment fitted a wall (a thick part under a close lens, [`WALL_FACTOR`]), from its
+//! pose, the top face's. A border that cannot be described is reported as a [`Skip`] with the
+//! reason.
 
 use crate::background::Background;
 use crate::contour::{clear_labels, trace_borders_in, BorderKind, ContourStore, TraceStats};
