@@ -307,8 +307,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Background<S> {
     /// - their spread ([`Exposure::spread`]) is at most [`KEEP_SPREAD`] grey levels above that
     ///   of the estimate's own frame (light that changed in places, a moved camera).
     ///
-    /// A kept frame costs one exposure fit (a few thousand samples) instead of the estimate and
-    /// its plane; an estimated one costs the estimate and one fit more (its own spread).
+    /// A kept frame costs one exposure check (the median offset and one round of least squares
+    /// on at most [`crate::exposure::MAX_SAMPLES`] samples) instead of the estimate and its
+    /// plane; an estimated one costs the estimate and one check more (its own spread).
     ///
     /// ```
     /// use vorl_core::{background::{Background, PlatformKeeping, PlatformUse}, enhance::Alpha, platform::PlatformGrid, Frame};
