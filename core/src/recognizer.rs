@@ -52,7 +52,8 @@ use crate::params::{AngleEstimator, Params, Position, Refine};
 use crate::partial_volume::{partial_volume_moments, Rect};
 use crate::pose::{angle_paper, angle_signed_refined, area_centroid};
 use crate::refine::{
-    align_recording, edge_distances_walled, outward_normal, Alignment, Difference, Outline, Pose, RefineParams,
+    align_recording, edge_distances_walled, outward_normal, wall_facing, Alignment, Difference, Outline, Pose,
+    RefineParams,
 };
 use crate::resample::resample;
 use crate::template::Template;
@@ -1232,8 +1233,7 @@ fn verify_score<const M: usize, B: AsRef<[u8]>>(
                 let facing = if a.wall == 0.0 {
                     0.0
                 } else {
-                    let nf = [nrm[0] * c + nrm[1] * s, -nrm[0] * s + nrm[1] * c];
-                    (nf[0] * toward[0] + nf[1] * toward[1]).max(0.0)
+                    wall_facing([nrm[0] * c + nrm[1] * s, -nrm[0] * s + nrm[1] * c], toward)
                 };
                 let o = (a.offset + a.wall * facing) / scale;
                 *slot = [e[0] + o * nrm[0], e[1] + o * nrm[1]];

@@ -1251,6 +1251,13 @@ fn gauss_newton_step<B: AsRef<[u8]>>(
     }
 }
 
+/// How far a wall towards `toward` ([`RefineParams::wall_toward`]) moves an outline point of
+/// (frame) outward normal `nf`, per px of wall: `max(0, n·u)`.
+#[inline(always)]
+pub fn wall_facing(nf: [f32; 2], toward: [f32; 2]) -> f32 {
+    (nf[0] * toward[0] + nf[1] * toward[1]).max(0.0)
+}
+
 /// Where the outline lies off the template's along its outward normals: a uniform `offset`
 /// and a `wall` on the side facing `toward` ([`RefineParams::wall_max`]).
 #[derive(Debug, Clone, Copy)]
@@ -1286,7 +1293,7 @@ impl Shift {
     /// How far the wall moves a point of (frame) normal `nf` per px of wall.
     #[inline(always)]
     fn facing(&self, nf: [f32; 2]) -> f32 {
-        (nf[0] * self.toward[0] + nf[1] * self.toward[1]).max(0.0)
+        wall_facing(nf, self.toward)
     }
 
     /// The shift of a point of (frame) normal `nf`, px along it.
@@ -2025,6 +2032,22 @@ mod tests {
         assert_eq!(diff.edge_finder(&bad).offset([16.0, 16.0], [1.0, 0.0]), None);
     }
 
+    /// A square's 72 edge points (offsets from its centre, 18 evenly spaced a side) and outward
+    /// normals, half side `half`.
+    fn square_edge(half: f32) -> ([[f32; 2]; 72], [[f32; 2]; 72]) {
+        let (mut edge, mut normals) = ([[0.0f32; 2]; 72], [[0.0f32; 2]; 72]);
+        for k in 0..72 {
+            let t = -half + 2.0 * half * ((k % 18) as f32 + 0.5) / 18.0;
+            (edge[k], normals[k]) = match k / 18 {
+                0 => ([t, -half], [0.0, -1.0]),
+                1 => ([half, t], [1.0, 0.0]),
+                2 => ([-t, half], [0.0, 1.0]),
+                _ => ([-half, -t], [-1.0, 0.0]),
+            };
+        }
+        (edge, normals)
+    }
+
     /// Aligns a square's edge points (offsets from its centre, outward normals) from a seed at
     /// (24, 24), angle 0, onto a bright square drawn (8×8 supersampled, unblurred) with centre
     /// `(cx, cy)`, half-side `half`, turned by `turn` (radians, counter-clockwise on screen).
@@ -2053,17 +2076,7 @@ mod tests {
         }
         let frame = Frame::new_checked(&frame_px[..], w, h).unwrap();
         let diff = Difference::new(&frame, &bg[..], Alpha::ONE);
-        let (mut edge, mut normals) = ([[0.0f32; 2]; 72], [[0.0f32; 2]; 72]);
-        for k in 0..72 {
-            let side = k / 18;
-            let t = -half + 2.0 * half * ((k % 18) as f32 + 0.5) / 18.0;
-            (edge[k], normals[k]) = match side {
-                0 => ([t, -half], [0.0, -1.0]),
-                1 => ([half, t], [1.0, 0.0]),
-                2 => ([-t, half], [0.0, 1.0]),
-                _ => ([-half, -t], [-1.0, 0.0]),
-            };
-        }
+        let (edge, normals) = square_edge(half);
         let seed = Pose {
             x: 24.0,
             y: 24.0,
@@ -2127,16 +2140,7 @@ mod tests {
         let bg = [50u8; SQUARE_W * SQUARE_W];
         let frame = Frame::new_checked(&frame_px[..], SQUARE_W, SQUARE_W).unwrap();
         let diff = Difference::new(&frame, &bg[..], Alpha::ONE);
-        let (mut edge, mut normals) = ([[0.0f32; 2]; 72], [[0.0f32; 2]; 72]);
-        for k in 0..72 {
-            let t = -half + 2.0 * half * ((k % 18) as f32 + 0.5) / 18.0;
-            (edge[k], normals[k]) = match k / 18 {
-                0 => ([t, -half], [0.0, -1.0]),
-                1 => ([half, t], [1.0, 0.0]),
-                2 => ([-t, half], [0.0, 1.0]),
-                _ => ([-half, -t], [-1.0, 0.0]),
-            };
-        }
+        let (edge, normals) = square_edge(half);
         for (ox, oy) in [(0.5f32, 0.0f32), (0.0, -0.5), (-0.35, 0.35)] {
             let seed = Pose {
                 x: cx + ox,
@@ -2183,16 +2187,7 @@ mod tests {
         let bg = [50u8; SQUARE_W * SQUARE_W];
         let frame = Frame::new_checked(&frame_px[..], SQUARE_W, SQUARE_W).unwrap();
         let diff = Difference::new(&frame, &bg[..], Alpha::ONE);
-        let (mut edge, mut normals) = ([[0.0f32; 2]; 72], [[0.0f32; 2]; 72]);
-        for k in 0..72 {
-            let t = -half + 2.0 * half * ((k % 18) as f32 + 0.5) / 18.0;
-            (edge[k], normals[k]) = match k / 18 {
-                0 => ([t, -half], [0.0, -1.0]),
-                1 => ([half, t], [1.0, 0.0]),
-                2 => ([-t, half], [0.0, 1.0]),
-                _ => ([-half, -t], [-1.0, 0.0]),
-            };
-        }
+        let (edge, normals) = square_edge(half);
         let seed = Pose {
             x: cx + 1.0,
             y: cy - 0.5,

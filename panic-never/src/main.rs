@@ -365,6 +365,7 @@ fn pixels() {
         black_box(vorl_core::math::nth_smallest(buffer!(f32, 64, 0.0), u()));
         black_box(vorl_core::math::select_nth(buffer!(f32, 64, 0.0), u()));
         black_box(vorl_core::platform::sample_step(u()));
+        black_box(vorl_core::refine::wall_facing(p2(), p2()));
         let bg_plane = buffer!(u8, 4096, 0);
         if let Ok(mut bg) = Background::new(bg_plane, u(), u()) {
             let _ = black_box(bg.set_from_frame(&fr, alpha()));
