@@ -1223,11 +1223,12 @@ fn verify_score<const M: usize, B: AsRef<[u8]>>(
         let cap = params.cap / scale;
         // The template's outline moved by the fitted offset (in its own frame: over the scale).
         let mut moved = [[0.0f32; 2]; M];
+        let sc = math::sin_cos(pose.angle);
         let edge = if a.offset == 0.0 && a.wall == 0.0 {
             edge
         } else {
             let toward = params.wall_toward;
-            let (s, c) = math::sin_cos(pose.angle);
+            let (s, c) = sc;
             for ((slot, e), nrm) in moved.iter_mut().zip(edge).zip(t.normals()) {
                 // The wall on the side whose (frame) normal faces the principal point.
                 let facing = if a.wall == 0.0 {
@@ -1241,7 +1242,6 @@ fn verify_score<const M: usize, B: AsRef<[u8]>>(
             moved.get(..edge.len()).unwrap_or(edge)
         };
         let outline = Outline::new(edge);
-        let sc = math::sin_cos(pose.angle);
         for (e, d) in part_edges.iter().zip(dist.iter_mut()) {
             *d = match pose.invert_sc(sc, *e).filter(|_| e[0].is_finite() && cap.is_finite()) {
                 Some(q) => scale * outline.capped_distance(q, cap),
