@@ -647,7 +647,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             wall_toward,
             ..rp
         };
-        let once = |s: Pose| {
+        let once = |s: Pose, retry_allowed: bool| {
             let mut distances = [0.0f32; M];
             let aligned = align_recording(diff, t.edge(), t.normals(), s, &rp, &mut distances);
             let verify = verify_score(&aligned, &mut distances, t, part_edges, diff, &rp, params);
@@ -671,7 +671,8 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 && area > hi * hi * t.area()
                 && aligned.pose.scale > hi
                 && aligned.pose.scale <= hi * (1.0 + 2.0 * params.offset_relative * (1.0 + WALL_FACTOR));
-            if verify < CONFIDENT * first.limit
+            if !retry_allowed
+                || verify < CONFIDENT * first.limit
                 || !(near_miss || grown)
                 || !(with_offset.offset_max > 0.0)
                 || (aligned.gave_up && !grown)
@@ -707,12 +708,16 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 first
             }
         };
-        let mut best = once(seed_pose(position, signed, area, t));
+        let mut best = once(seed_pose(position, signed, area, t), true);
+        // Once a fit is CONFIDENT with its holes all found, an alternative pose is aligned once,
+        // without the retry that rescues near misses: a near miss could beat it only by a
+        // score below the confident one's, which the retry's freedom does not bring.
+        let settled = |f: &Fit| f.verify < CONFIDENT * f.limit && f.holes.all_found();
         // A 2-fold symmetric outline (a gear of even teeth, a washer) is the same half a turn on,
         // unless its holes say otherwise (a bar with one eye at one end).
         let symmetric = t.half_turn() < HALF_TURN_SYMMETRIC;
         if t.half_turn() < HALF_TURN_AMBIGUOUS && (!symmetric || !best.holes.all_found()) {
-            let second = once(seed_pose(position, signed + 180.0, area, t));
+            let second = once(seed_pose(position, signed + 180.0, area, t), !settled(&best));
             if second.better_than(&best) {
                 best = second;
             }
@@ -723,7 +728,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         // pose its two largest holes give.
         if !best.holes.all_found() || !accepted(best) {
             if let Some(seed) = pose_from_holes(t.holes(), part_holes) {
-                let third = once(seed);
+                let third = once(seed, !settled(&best));
                 if third.better_than(&best) {
                     best = third;
                 }
