@@ -244,6 +244,15 @@ impl<'a, B: AsRef<[u8]>> Difference<'a, B> {
         self.enhanced(xc, yc) - b
     }
 
+    /// The background plane's level at a pixel, coordinates clamped into the image (0 where a
+    /// short plane ends), as [`Self::at`] subtracts it.
+    #[inline]
+    pub fn background_at(&self, x: isize, y: isize) -> u8 {
+        let (w, h) = (self.frame.width() as isize, self.frame.height() as isize);
+        let (xc, yc) = (x.max(0).min(w - 1), y.max(0).min(h - 1));
+        self.background.get((yc * w + xc) as usize).copied().unwrap_or(0)
+    }
+
     /// Row `y` of the frame and of the background plane when `D` is their difference (`α = 1`):
     /// `D` at column `x` of the row is `frame[x] as f32 − background[x] as f32`, the same value
     /// as [`Self::at`]. Both slices are `width` long. `None` for `α < 1`, a row outside the
