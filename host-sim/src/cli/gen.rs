@@ -29,11 +29,11 @@ use crate::gen::{generate, GenOptions, Variant};
               centroid; texture \"print\", print_marks, print_patches\n  \
     backlit   dark parts on a vignetted backlight (250 centre, ~150 corners); no background.png\n            \
               unless --with-background; truth adds level\n  \
-    rods      backlit connecting rods: rod_a (one eye) and rod_b (two eyes) of the same outline,\n            \
-              each rod with its own proportions (shaft ±15 %, heads ±8 %, eyes ±10 %) at 0.9–1.3×\n            \
-              the template's size; washers and screws as distractors; no background.png unless\n            \
-              --with-background; writes vorl.toml (scale_min 0.8, scale_max 1.4); truth adds\n            \
-              level, stretch and the rods' head and eye factors\n\
+    rods      backlit connecting rods: rod_a (one eye) and rod_b (two eyes, thin rims) of the same\n            \
+              outline, each rod with its own proportions (shaft ±15 %, heads ±8 %, eyes ±10 %)\n            \
+              at 0.9–1.3× the template's size; washers and screws as distractors; no\n            \
+              background.png unless --with-background; writes vorl.toml (scale_min 0.8,\n            \
+              scale_max 1.4); truth adds level, stretch and the rods' head and eye factors\n\
     The same seed and options give byte-identical sets.\n\n\
     Examples:\n  vorl gen out/plant --seed 7 --frames 60\n  vorl gen out/noisy --variant noisy --frames 20\n  \
     vorl gen out/stereo --variant stereo --frames 10\n  vorl gen out/lens --variant lens --frames 20 --no-background")]
