@@ -4,9 +4,9 @@
 use std::path::Path;
 
 use image::GrayImage;
-use vorl_core::background::{Background, PlatformKeeping, PlatformUse};
+use vorl_core::background::{Background, PlatformKeeping, PlatformUse, KEEP_ROUNDS};
 use vorl_core::contour::{trace_borders, BorderFilter, BorderKind, ContourStore, Point};
-use vorl_core::exposure::{fit_exposure, Exposure};
+use vorl_core::exposure::{fit_exposure, fit_exposure_rounds, Exposure};
 use vorl_core::platform::{PlatformGrid, PlatformStats};
 use vorl_core::recognizer::{Report, Skip, SkipReason};
 use vorl_core::{Frame, Params, Recognizer, Template};
@@ -495,7 +495,15 @@ impl Engine {
         let bg = self.background.as_ref().ok_or("no background set")?;
         let mut exposure = None;
         if !self.auto && self.exposure_fit && (bg.width(), bg.height()) == (frame.width(), frame.height()) {
-            let e = fit_exposure(&frame, self.rec.params().alpha(), bg.plane()).map_err(|e| e.to_string())?;
+            // One round of least squares first (half the cost): an unchanged exposure ends
+            // there; a changed one gets the full fit.
+            let alpha = self.rec.params().alpha();
+            let quick = fit_exposure_rounds(&frame, alpha, bg.plane(), KEEP_ROUNDS).map_err(|e| e.to_string())?;
+            let e = if quick.is_identity() {
+                quick
+            } else {
+                fit_exposure(&frame, alpha, bg.plane()).map_err(|e| e.to_string())?
+            };
             if !e.is_identity() {
                 self.undone.clear();
                 self.undone.extend_from_slice(img.as_raw());
