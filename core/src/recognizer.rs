@@ -670,7 +670,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 && verify.is_infinite()
                 && area > hi * hi * t.area()
                 && aligned.pose.scale > hi
-                && aligned.pose.scale <= hi * (1.0 + 2.0 * params.offset_relative * (1.0 + WALL_FACTOR));
+                && aligned.pose.scale <= hi * self.grown_max();
             if !retry_allowed
                 || verify < CONFIDENT * first.limit
                 || !(near_miss || grown)
@@ -768,11 +768,11 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             .count();
         let mut best = None;
         // The cost records of the bound order first; unless one of them verified with a score
-        // below CONFIDENT times its limit, the next templates of that order within
-        // FALLBACK_RATIO of the lowest cost, one more (a real part's descriptor may rank its template
-        // behind a near-alike one, which then verifies, but less well) — when the best so far
-        // is a NEAR_MISS, or could not be verified at all (no candidate, or a scale out of
-        // range).
+        // below CONFIDENT times its limit, one more candidate (a real part's descriptor may rank
+        // its template behind a near-alike one, which then verifies, but less well) — when the
+        // best so far is a NEAR_MISS, or could not be verified at all (no candidate, or a scale
+        // out of range): the next template of the bound order within NEAR_TIE_RATIO of the
+        // lowest cost, or without one, within FALLBACK_RATIO.
         let mut ratio = params.candidate_ratio;
         let mut limit = k;
         loop {
@@ -783,13 +783,20 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 let confident = detection.verify < CONFIDENT * detection.verify_limit
                     && detection.holes.all_found()
                     && usize::from(detection.holes.found) >= significant_holes;
-                if ratio < FALLBACK_RATIO
-                    && scan.found < k
-                    && !confident
-                    && (near_miss || !detection.verify.is_finite())
+                // The near ties' pass first; the wider one when that found none (it stopped
+                // below its limit).
+                let wider = if ratio < NEAR_TIE_RATIO {
+                    Some(NEAR_TIE_RATIO)
+                } else if ratio < FALLBACK_RATIO && (ratio != NEAR_TIE_RATIO || scan.found < limit) {
+                    Some(FALLBACK_RATIO)
+                } else {
+                    None
+                };
+                if let Some(wider) =
+                    wider.filter(|_| scan.found < k && !confident && (near_miss || !detection.verify.is_finite()))
                 {
                     // Again from the start of the bound order, without the candidates tried.
-                    ratio = FALLBACK_RATIO;
+                    ratio = wider;
                     // One more candidate, the next of the bound order within the ratio.
                     limit = scan.found + 1;
                     let (found, lowest, tried) = (scan.found, scan.lowest, scan.tried);
@@ -833,13 +840,16 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
     /// Leaves out of `scan` every template that a whole part of this `area` could not verify
     /// against: its scale from the areas, `√(area / template area)`, lies outside
     /// `[scale_min, scale_max]` widened by [`SCALE_SLACK`] (the aligned scale follows the
-    /// outline, which blur, walls and holes move a little from the areas' ratio). No DP is run
+    /// outline, which blur, walls and holes move a little from the areas' ratio), and above by
+    /// as much as the wall model takes up ([`Self::grown_max`]: a thick part under a close lens
+    /// shows its walls, which add to its area more than to its outline's scale). No DP is run
     /// for them: an integrator's catalogue holds parts of many sizes, and a distractor far
     /// from every size costs no search at all (it stays unknown, without a nearest template).
     fn leave_out_by_size(&self, scan: &mut CandidateScan<T, M>, area: f32) {
+        let above = SCALE_SLACK.max(self.grown_max());
         for (t, state) in self.templates.iter().zip(scan.state.iter_mut()) {
             let (lo, hi) = t.tolerance().scale_range(self.params.scale_min, self.params.scale_max);
-            let (lo, hi) = (lo / SCALE_SLACK, hi * SCALE_SLACK);
+            let (lo, hi) = (lo / SCALE_SLACK, hi * above);
             let ratio = if t.area() > 0.0 { area / t.area() } else { f32::NAN };
             // Compared squared (no square root): NaN is left out too.
             if !(ratio >= lo * lo && ratio <= hi * hi) {
@@ -999,6 +1009,13 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             detection.angle_paper_deg = paper;
             detection.angle_dp_deg = signed;
         }
+    }
+
+    /// How far beyond the scale range's end an outline grown by walls may be and still be
+    /// aligned with the wall model: `1 + 2 · offset_relative · (1 + WALL_FACTOR)` (the offset
+    /// and the wall, each on both sides).
+    fn grown_max(&self) -> f32 {
+        1.0 + 2.0 * self.params.offset_relative * (1.0 + WALL_FACTOR)
     }
 
     /// The signed and the paper's angles (degrees) over the correspondence with template `ti`
@@ -1307,12 +1324,20 @@ pub const HALF_TURN_SYMMETRIC: f32 = 0.01;
 /// before a template is not searched for a whole part ([`Recognizer`]'s candidate scan).
 pub const SCALE_SLACK: f32 = 1.15;
 
-/// The bound ratio of the candidate scan once no candidate so far has verified well.
+/// The bound ratio of the candidate scan once no candidate so far has verified well, first:
+/// a template whose DP cost is this close to the lowest is a near tie, which the descriptor
+/// cannot rank (blur, walls and part-to-part variation move a cost by more), so it is tried
+/// before a template ranked earlier by the bound order but costing more (a thick washer's walls
+/// put the hex nut's cost 4 % below the washer's, and two gears' 40–75 % above it).
+pub const NEAR_TIE_RATIO: f32 = 1.25;
+
+/// The bound ratio of the candidate scan once no candidate so far has verified well and no
+/// near tie ([`NEAR_TIE_RATIO`]) was left.
 pub const FALLBACK_RATIO: f32 = 3.0;
 
 /// A candidate whose score is below this fraction of its limit ends the candidate scan at the
 /// cost records (the right template of a generated set's part scores 0.1–0.4 of it); above,
-/// the scan goes on within [`FALLBACK_RATIO`].
+/// the scan goes on within [`NEAR_TIE_RATIO`], then [`FALLBACK_RATIO`].
 pub const CONFIDENT: f32 = 0.5;
 
 /// A candidate whose score is below this multiple of its limit is a near miss: only then does
