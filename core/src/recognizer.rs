@@ -766,9 +766,17 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             .iter()
             .filter(|h| h.area >= MIN_HOLE_FRACTION * area)
             .count();
+        // Confident: well within the limit, every template hole found, and no hole of the
+        // part's size left that another template might have.
+        let confident = |d: &Detection| {
+            d.verify < CONFIDENT * d.verify_limit
+                && d.holes.all_found()
+                && usize::from(d.holes.found) >= significant_holes
+        };
         let mut best = None;
-        // The cost records of the bound order first; unless one of them verified with a score
-        // below CONFIDENT times its limit, one more candidate (a real part's descriptor may rank
+        // The cost records of the bound order first (a first one that is confident ends the
+        // scan); unless one of them verified with a score below CONFIDENT times its limit, one
+        // more candidate (a real part's descriptor may rank
         // its template behind a near-alike one, which then verifies, but less well) — when the
         // best so far is a NEAR_MISS, or could not be verified at all (no candidate, or a scale
         // out of range): the next template of the bound order within NEAR_TIE_RATIO of the
@@ -778,11 +786,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         loop {
             let Some((ti, m)) = self.next_candidate(&mut scan, n, limit, ratio) else {
                 let near_miss = detection.verify < NEAR_MISS * detection.verify_limit;
-                // Confident: well within the limit, every template hole found, and no hole of
-                // the part's size left that another template might have.
-                let confident = detection.verify < CONFIDENT * detection.verify_limit
-                    && detection.holes.all_found()
-                    && usize::from(detection.holes.found) >= significant_holes;
+                let confident = confident(detection);
                 // The near ties' pass first; the wider one when that found none (it stopped
                 // below its limit).
                 let wider = if ratio < NEAR_TIE_RATIO {
@@ -799,17 +803,10 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                     ratio = wider;
                     // One more candidate, the next of the bound order within the ratio.
                     limit = scan.found + 1;
-                    let (found, lowest, tried) = (scan.found, scan.lowest, scan.tried);
-                    scan = self.candidate_scan(n);
+                    scan.reopen();
                     if whole {
                         self.leave_out_by_size(&mut scan, area);
                     }
-                    for (ti, state) in scan.state.iter_mut().enumerate() {
-                        if tried.get(ti).copied().unwrap_or(false) {
-                            *state = Listing::Out;
-                        }
-                    }
-                    (scan.found, scan.lowest, scan.tried) = (found, lowest, tried);
                     continue;
                 }
                 break;
@@ -833,6 +830,11 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 detection,
                 &mut best,
             );
+            // A first candidate that is confident ends the scan: a later cost record would have
+            // to beat a fit within half its limit with all its holes, and the part's.
+            if scan.found == 1 && confident(detection) {
+                break;
+            }
         }
         best
     }
@@ -1107,6 +1109,28 @@ impl<const T: usize, const M: usize> CandidateScan<T, M> {
             *s = listing;
         }
     }
+
+    /// Back to the start of the bound order, without the templates that were candidates: the
+    /// others are in the scan again, with the exact bounds already computed (the order is the
+    /// same as a new scan's, which would compute them again).
+    fn reopen(&mut self) {
+        for ((state, &tried), (&exact, &window)) in self
+            .state
+            .iter_mut()
+            .zip(&self.tried)
+            .zip(self.exact.iter().zip(&self.window))
+        {
+            *state = if tried {
+                Listing::Out
+            } else if !exact.is_nan() {
+                Listing::Exact
+            } else if !window.is_nan() {
+                Listing::Window
+            } else {
+                Listing::Out
+            };
+        }
+    }
 }
 
 /// One candidate's alignment: the aligned pose, its verification score and the score's limit
@@ -1335,9 +1359,10 @@ pub const NEAR_TIE_RATIO: f32 = 1.25;
 /// near tie ([`NEAR_TIE_RATIO`]) was left.
 pub const FALLBACK_RATIO: f32 = 3.0;
 
-/// A candidate whose score is below this fraction of its limit ends the candidate scan at the
-/// cost records (the right template of a generated set's part scores 0.1–0.4 of it); above,
-/// the scan goes on within [`NEAR_TIE_RATIO`], then [`FALLBACK_RATIO`].
+/// A candidate whose score is below this fraction of its limit (with its holes found, and no
+/// hole of the part's left unexplained) ends the candidate scan: the first candidate at once,
+/// a later one at the cost records (the right template of a generated set's part scores 0.1–0.4
+/// of it); above, the scan goes on within [`NEAR_TIE_RATIO`], then [`FALLBACK_RATIO`].
 pub const CONFIDENT: f32 = 0.5;
 
 /// A candidate whose score is below this multiple of its limit is a near miss: only then does
