@@ -26,7 +26,8 @@
 //!   radius within [`HOLE_EDGE`] px more: the mask's edge moves a small hole's radius as much as
 //!   a large one's).
 //!   Part holes that no template hole explains (print, texture, a light patch) are not
-//!   evidence against the template.
+//!   evidence against the template; the recognizer counts them as the part for its position
+//!   ([`crate::partial_volume::print_deficit`]).
 //!
 //! Time: O(B) per hole border; [`agreement`] and [`pose_from_holes`] are O(H²) for
 //! `H ≤` [`MAX_HOLES`]. Memory: [`Holes`] is `12·MAX_HOLES + 4` = 100 bytes (in each template,
@@ -303,37 +304,6 @@ pub fn agreement(template: &Holes, pose: &Pose, part: &Holes) -> HoleAgreement {
         matched,
         off_centre,
     }
-}
-
-/// The part's area centroid with the holes that `agreement` says its template does not have
-/// filled in: those are print, a label or a light patch on the part's face, not holes, and the
-/// part's position is its silhouette's (DESIGN.md). `centroid` and `mass` are the part's
-/// measured centroid and area (px², the partial-volume weights' sum); a filled hole adds its
-/// pixel count ([`Hole::area`]) at its centre. That is exact for a crisp hole; under blur the
-/// mask's hole is a little smaller than the patch (on the generated `printed` set, adding half
-/// or all of the rim, `√(π·area)`, moved the position median from 0.166 to 0.144 or 0.126 px,
-/// but would overshoot by as much on crisp holes). `centroid` itself when every hole is
-/// explained.
-pub fn fill_unexplained(centroid: [f32; 2], mass: f32, part: &Holes, agreement: &HoleAgreement) -> [f32; 2] {
-    let (mut m, mut mx, mut my) = (mass, 0.0f32, 0.0f32);
-    let mut any = false;
-    for (j, h) in part.as_slice().iter().enumerate() {
-        if agreement.matched & (1 << j) != 0 {
-            continue;
-        }
-        let a = h.area;
-        if !(a > 0.0) {
-            continue;
-        }
-        any = true;
-        m += a;
-        mx += a * (h.centre[0] - centroid[0]);
-        my += a * (h.centre[1] - centroid[1]);
-    }
-    if !any || !(m > 0.0) {
-        return centroid;
-    }
-    [centroid[0] + mx / m, centroid[1] + my / m]
 }
 
 /// The pose that puts `template`'s two largest holes (centres as offsets from its area

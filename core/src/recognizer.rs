@@ -40,16 +40,16 @@
 //! reason.
 
 use crate::background::Background;
-use crate::contour::{clear_labels, trace_borders_in, BorderKind, ContourStore, TraceStats};
+use crate::contour::{clear_labels, trace_borders_in, BorderKind, ContourStore, Point, TraceStats};
 use crate::descriptor::describe;
 use crate::error::{Error, Result};
 use crate::frame::Frame;
-use crate::holes::{agreement, fill_unexplained, pose_from_holes, HoleAgreement, Holes, MIN_HOLE_FRACTION};
+use crate::holes::{agreement, pose_from_holes, Hole, HoleAgreement, Holes, MIN_HOLE_FRACTION};
 use crate::mask::{foreground_mask_spans, MaskStats, RowSpans};
 use crate::matching::{best_match, sorted_lower_bound, sorted_window_bound, table_cells, Match};
 use crate::math;
 use crate::params::{AngleEstimator, Params, Position, Refine};
-use crate::partial_volume::{partial_volume_moments, Rect};
+use crate::partial_volume::{partial_volume_moments, print_deficit, Rect};
 use crate::pose::{angle_paper, angle_signed_refined, area_centroid};
 use crate::refine::{
     align_recording, edge_distances_walled, outward_normal, wall_facing, Alignment, Difference, Outline, Pose,
@@ -524,9 +524,33 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         if params.position == Position::PartialVolume && !walled {
             if let Some(seed) = seed_pixel {
                 if let Some(m) = partial_volume_moments(&diff, mask, seed, bbox) {
-                    // A known part's holes that its template does not have are print: filled.
+                    // A known part's holes that its template does not have are print: they and
+                    // the weights they take from the part around them count as the part.
                     let [px, py] = if detection.template.is_some() && detection.holes.all_found() {
-                        fill_unexplained(m.centroid, m.mass, &part_holes, &detection.holes)
+                        let matched = detection.holes.matched;
+                        let explained = |b: &[Point]| {
+                            Hole::from_border(b).is_some_and(|h| {
+                                part_holes
+                                    .as_slice()
+                                    .iter()
+                                    .enumerate()
+                                    .any(|(j, q)| matched & (1 << j) != 0 && *q == h)
+                            })
+                        };
+                        let holes = self.store.holes_of(index).map(|i| self.store.points(i));
+                        let print = holes.clone().filter(|b| !explained(b));
+                        let outer = self.store.points(index);
+                        let keep_off = core::iter::once(outer).chain(holes.filter(|b| explained(b)));
+                        let [dm, dx, dy] = print_deficit(&diff, mask, m.contrast, print, keep_off);
+                        let mass = m.mass + dm;
+                        if dm > 0.0 && mass > 0.0 {
+                            [
+                                (m.mass * m.centroid[0] + dx) / mass,
+                                (m.mass * m.centroid[1] + dy) / mass,
+                            ]
+                        } else {
+                            m.centroid
+                        }
                     } else {
                         m.centroid
                     };

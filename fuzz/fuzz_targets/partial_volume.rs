@@ -6,13 +6,15 @@
 //! planes (and, with the mask-bits choice, the mask one bit per pixel).
 //!
 //! Checked: the mask is the same 0/1 plane afterwards (the function's contract: scratch while it
-//! runs, its 0/1 values again on return); a centroid is finite and lies in the image.
+//! runs, its 0/1 values again on return); a centroid is finite and lies in the image; the print
+//! deficit (`print_deficit`) over any borders is finite and not negative.
 
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
 use vorl_core::enhance::Alpha;
-use vorl_core::partial_volume::{partial_volume_centroid, Rect};
+use vorl_core::contour::Point;
+use vorl_core::partial_volume::{partial_volume_centroid, print_deficit, Rect};
 use vorl_core::refine::Difference;
 use vorl_core::Frame;
 use vorl_fuzz::Input;
@@ -82,6 +84,18 @@ fuzz_target!(|data: &[u8]| {
             "centroid {c:?} in {w}×{h}"
         );
     }
+    // Print deficits over any borders, on the 0/1 mask: finite, not negative.
+    let n = usize::from(input.u8()) % 48;
+    let pts: Vec<Point> = (0..n)
+        .map(|_| Point {
+            x: u16::from(input.u8()),
+            y: u16::from(input.u8()),
+        })
+        .collect();
+    let (a, b) = pts.split_at(pts.len() / 2);
+    let contrast = f32::from(input.u8()) - 128.0;
+    let [m, mx, my] = print_deficit(&diff, &before, contrast, [a, b].into_iter(), [b].into_iter());
+    assert!(m.is_finite() && mx.is_finite() && my.is_finite() && m >= 0.0, "{m} {mx} {my}");
     // A short mask is refused without touching it.
     let mut short = before[..before.len() / 2].to_vec();
     let copy = short.clone();

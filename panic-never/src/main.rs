@@ -37,7 +37,7 @@ use vorl_core::library::{self, Library};
 use vorl_core::mask::{self, Cleanup, RowSpans, Threshold};
 use vorl_core::matching;
 use vorl_core::params::{AngleEstimator, Params, Position, Refine};
-use vorl_core::partial_volume::{partial_volume_centroid, partial_volume_moments, Rect};
+use vorl_core::partial_volume::{partial_volume_centroid, partial_volume_moments, print_deficit, Rect};
 use vorl_core::pose;
 use vorl_core::recognizer::{Recognizer, Stage};
 use vorl_core::refine::{self, Difference, Outline, Pose, ProfileRay, RefineParams};
@@ -401,6 +401,14 @@ fn pixels() {
         let mask = buffer!(u8, 4096, 0);
         black_box(partial_volume_centroid(&diff, mask, (u(), u()), rect()));
         black_box(partial_volume_moments(&diff, mask, (u(), u()), rect()));
+        let (print, keep_off) = (points(), points());
+        black_box(print_deficit(
+            &diff,
+            mask,
+            f(),
+            [&*print, &*keep_off].into_iter(),
+            core::iter::once(&*keep_off),
+        ));
         // Stereo: the right image's difference, and the disparity fit along an outline.
         let right_data = buffer!(u8, 4096, 0);
         let right_bg = buffer!(u8, 4096, 0);
@@ -475,7 +483,7 @@ fn borders() {
     black_box(holes::agreement(&moved, &pose_(), &part_holes).missing());
     black_box(holes::pose_from_holes(&moved, &part_holes));
     let agreed = holes::agreement(&moved, &pose_(), &part_holes);
-    black_box(holes::fill_unexplained(p2(), f(), &part_holes, &agreed));
+    black_box(&agreed);
     black_box((part_holes.as_slice(), part_holes.len(), part_holes.is_empty()));
     if let Ok(mut t) = Template::<96>::from_border(border, core::iter::once(&*hole), &p) {
         let _ = black_box(t.set_edge(pairs2(), pairs2(), p2()));
