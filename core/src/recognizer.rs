@@ -800,11 +800,11 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let mut best = None;
         // The cost records of the bound order first (a first one that is confident ends the
         // scan); unless one of them verified with a score below CONFIDENT times its limit, one
-        // more candidate (a real part's descriptor may rank
-        // its template behind a near-alike one, which then verifies, but less well) — when the
-        // best so far is a NEAR_MISS, or could not be verified at all (no candidate, or a scale
-        // out of range): the next template of the bound order within NEAR_TIE_RATIO of the
-        // lowest cost, or without one, within FALLBACK_RATIO.
+        // more candidate (a real part's descriptor may rank its template behind a near-alike
+        // one, which then verifies, but less well) — when the best so far is a NEAR_MISS, or
+        // could not be verified at all (no candidate, or a scale out of range): the next
+        // template of the bound order within NEAR_TIE_RATIO of the lowest cost, or without
+        // one, within FALLBACK_RATIO.
         let mut ratio = params.candidate_ratio;
         let mut limit = k;
         loop {
