@@ -782,17 +782,9 @@ fn write_plane(values: &[f32], row: &mut [f32], cx: usize, cy: usize, s: usize, 
             let last = v.wrapping_add((span.len().saturating_sub(1) as i32).wrapping_mul(dv));
             let in_range = |a: i32| (0..256 << 16).contains(&a);
             if in_range(v) && in_range(last) {
-                // Eight pixels at a time, each `at + k·dv` (the loop unrolls; no chain from
-                // pixel to pixel), then the rest.
+                // Each pixel `v + k·dv`, an induction the loop vectorises.
                 let mut at = v;
-                let mut chunks = span.chunks_exact_mut(8);
-                for chunk in &mut chunks {
-                    for (k, p) in chunk.iter_mut().enumerate() {
-                        *p = (at.wrapping_add((k as i32).wrapping_mul(dv)) >> 16) as u8;
-                    }
-                    at = at.wrapping_add(dv.wrapping_mul(8));
-                }
-                for p in chunks.into_remainder() {
+                for p in span.iter_mut() {
                     *p = (at >> 16) as u8;
                     at = at.wrapping_add(dv);
                 }
