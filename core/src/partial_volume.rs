@@ -176,7 +176,7 @@ pub const PRINT_BAND: usize = 2;
 pub const PRINT_KEEP_OFF: usize = 2;
 
 /// The widest print window (px a side, its border's box plus the band) that [`print_deficit`]
-/// weighs pixel by pixel: the window's two bitmaps are 512 bytes each.
+/// weighs pixel by pixel: the window's three bitmaps are 512 bytes each.
 pub const MAX_PRINT_WINDOW: usize = 64;
 
 /// What print and texture take from a part's partial-volume weights: `[Σ(1 − w), Σ(1 − w)·x,
@@ -191,8 +191,9 @@ pub const MAX_PRINT_WINDOW: usize = 64;
 ///
 /// A pixel counts once (for the first print border that takes it). A print border whose
 /// window (its box plus the band) is wider than [`MAX_PRINT_WINDOW`] adds its hole's pixels at
-/// its centre instead; borders beyond the image are skipped. Time: per window, each keep-off border point once and each pixel
-/// of the window once, plus the earlier print borders' points.
+/// its centre instead; borders beyond the image are skipped. Time: per window, each keep-off
+/// and print border point once and each pixel of the window once (three bitmaps of 512 bytes),
+/// plus an inside test against the border (and the earlier ones) for a pixel outside its band.
 ///
 /// ```
 /// use vorl_core::contour::Point;
@@ -262,8 +263,10 @@ where
             continue;
         }
         let ww = wx1 + 1 - wx0;
-        // Pixels of the window near a keep-off border, and taken by an earlier print border.
+        // Pixels of the window near a keep-off border, in this border's band, and taken by an
+        // earlier print border.
         let mut off = [0u64; WORDS];
+        let mut band = [0u64; WORDS];
         let mut taken = [0u64; WORDS];
         let mark = |bits: &mut [u64; WORDS], p: &crate::contour::Point, reach: usize| {
             let (px, py) = (p.x as usize, p.y as usize);
@@ -284,6 +287,9 @@ where
                 mark(&mut off, p, PRINT_KEEP_OFF);
             }
         }
+        for p in border {
+            mark(&mut band, p, PRINT_BAND);
+        }
         for b in print.clone().take(k) {
             for p in b {
                 mark(&mut taken, p, PRINT_BAND);
@@ -297,7 +303,7 @@ where
                 if bit(&off) || bit(&taken) {
                     continue;
                 }
-                if !(near(border, x, y, PRINT_BAND) || inside(border, x, y)) {
+                if !(bit(&band) || inside(border, x, y)) {
                     continue;
                 }
                 // Inside an earlier print border (its band was marked above).
@@ -339,13 +345,6 @@ fn border_box(border: &[crate::contour::Point]) -> Option<(usize, usize, usize, 
         (x0, y0, x1, y1) = (x0.min(p.x), y0.min(p.y), x1.max(p.x), y1.max(p.y));
     }
     Some((x0 as usize, y0 as usize, x1 as usize, y1 as usize))
-}
-
-/// Whether a border point lies within `reach` px (in rows and columns) of `(x, y)`.
-fn near(border: &[crate::contour::Point], x: usize, y: usize, reach: usize) -> bool {
-    border
-        .iter()
-        .any(|p| (p.x as usize).abs_diff(x) <= reach && (p.y as usize).abs_diff(y) <= reach)
 }
 
 /// Whether `(x, y)` lies inside the closed polygon through a border's points (even-odd, a ray
@@ -2765,6 +2764,17 @@ mod tests {
             .unwrap_or(default)
     }
 
+    /// The centroid of a coverage plane `w` wide (in f64, so its sums do not round).
+    fn coverage_centroid(cover: &[f32], w: usize) -> [f32; 2] {
+        let (mut sw, mut sx, mut sy) = (0.0f64, 0.0f64, 0.0f64);
+        for (i, &c) in cover.iter().enumerate() {
+            sw += f64::from(c);
+            sx += f64::from(c) * (i % w) as f64;
+            sy += f64::from(c) * (i / w) as f64;
+        }
+        [(sx / sw) as f32, (sy / sw) as f32]
+    }
+
     /// A bar with a thin-rimmed eye (a connecting rod's end: no ring pixel 3–5 px inside its
     /// edge within 4 px of the eye) on a platform whose light falls off by half across it, the
     /// part lit by the same light (its level a fixed fraction of the platform's): the
@@ -2804,13 +2814,7 @@ mod tests {
                 }
             }
             let background = empty;
-            let (mut sw, mut sx, mut sy) = (0.0f64, 0.0f64, 0.0f64);
-            for (i, &c) in cover.iter().enumerate() {
-                sw += f64::from(c);
-                sx += f64::from(c) * (i % w) as f64;
-                sy += f64::from(c) * (i / w) as f64;
-            }
-            let want = [(sx / sw) as f32, (sy / sw) as f32];
+            let want = coverage_centroid(&cover, w);
             let mut mask: Vec<u8> = cover.iter().map(|&c| u8::from(c > 0.5)).collect();
             let pixels = components(&mask, w, h).into_iter().max_by_key(Vec::len).unwrap();
             let f = Frame::new_checked(&frame[..], w, h).unwrap();
@@ -2854,13 +2858,7 @@ mod tests {
         let f = Frame::new_checked(&frame[..], w, h).unwrap();
         let diff = Difference::new(&f, &background, Alpha::ONE);
         let mut mask: Vec<u8> = frame.iter().map(|&v| u8::from(v > 75)).collect();
-        let (mut sw, mut sx, mut sy) = (0.0f64, 0.0f64, 0.0f64);
-        for (i, &c) in disc_cover.iter().enumerate() {
-            sw += f64::from(c);
-            sx += f64::from(c) * (i % w) as f64;
-            sy += f64::from(c) * (i / w) as f64;
-        }
-        let want = [(sx / sw) as f32, (sy / sw) as f32];
+        let want = coverage_centroid(&disc_cover, w);
         // The borders: the disc's outer one and the patch's hole.
         let mut labels = mask.clone();
         let mut store = ContourStore::<4096, 16>::new();

@@ -40,7 +40,7 @@
 //! reason.
 
 use crate::background::Background;
-use crate::contour::{clear_labels, trace_borders_in, BorderKind, ContourStore, Point, TraceStats};
+use crate::contour::{clear_labels, trace_borders_in, BorderKind, ContourStore, TraceStats};
 use crate::descriptor::describe;
 use crate::error::{Error, Result};
 use crate::frame::Frame;
@@ -527,20 +527,25 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                     // A known part's holes that its template does not have are print: they and
                     // the weights they take from the part around them count as the part.
                     let [px, py] = if detection.template.is_some() && detection.holes.all_found() {
+                        // Which of the part's hole borders its template's holes explain, once.
                         let matched = detection.holes.matched;
-                        let explained = |b: &[Point]| {
-                            Hole::from_border(b).is_some_and(|h| {
-                                part_holes
+                        let mut explained = [false; C];
+                        for i in self.store.holes_of(index) {
+                            let hole = Hole::from_border(self.store.points(i));
+                            if let (Some(e), Some(h)) = (explained.get_mut(i), hole) {
+                                *e = part_holes
                                     .as_slice()
                                     .iter()
                                     .enumerate()
-                                    .any(|(j, q)| matched & (1 << j) != 0 && *q == h)
-                            })
-                        };
-                        let holes = self.store.holes_of(index).map(|i| self.store.points(i));
-                        let print = holes.clone().filter(|b| !explained(b));
+                                    .any(|(j, q)| matched & (1 << j) != 0 && *q == h);
+                            }
+                        }
+                        let is_explained = |i: &usize| explained.get(*i).copied().unwrap_or(false);
+                        let holes = self.store.holes_of(index);
+                        let print = holes.clone().filter(|i| !is_explained(i)).map(|i| self.store.points(i));
                         let outer = self.store.points(index);
-                        let keep_off = core::iter::once(outer).chain(holes.filter(|b| explained(b)));
+                        let keep_off =
+                            core::iter::once(outer).chain(holes.filter(is_explained).map(|i| self.store.points(i)));
                         let [dm, dx, dy] = print_deficit(&diff, mask, m.contrast, print, keep_off);
                         let mass = m.mass + dm;
                         if dm > 0.0 && mass > 0.0 {

@@ -234,9 +234,8 @@ impl<'a, B: AsRef<[u8]>> Difference<'a, B> {
     /// `D` at a pixel, coordinates clamped into the image.
     #[inline]
     pub fn at(&self, x: isize, y: isize) -> f32 {
-        let (w, h) = (self.frame.width() as isize, self.frame.height() as isize);
-        let (xc, yc) = (x.max(0).min(w - 1), y.max(0).min(h - 1)); // no clamp: it panics for w = 0
-        let b = self.background.get((yc * w + xc) as usize).copied().unwrap_or(0) as f32;
+        let (xc, yc) = self.clamped(x, y);
+        let b = self.level(xc, yc) as f32;
         if self.alpha.get() >= 1.0 {
             // The default α = 1: a subtraction, small enough to inline into the callers' loops.
             return self.frame.get_clamped(xc, yc) as f32 - b;
@@ -248,8 +247,22 @@ impl<'a, B: AsRef<[u8]>> Difference<'a, B> {
     /// short plane ends), as [`Self::at`] subtracts it.
     #[inline]
     pub fn background_at(&self, x: isize, y: isize) -> u8 {
+        let (xc, yc) = self.clamped(x, y);
+        self.level(xc, yc)
+    }
+
+    /// Coordinates clamped into the image (`max` then `min`, not `clamp`: that panics for an
+    /// empty image, where `w − 1 < 0`).
+    #[inline(always)]
+    fn clamped(&self, x: isize, y: isize) -> (isize, isize) {
         let (w, h) = (self.frame.width() as isize, self.frame.height() as isize);
-        let (xc, yc) = (x.max(0).min(w - 1), y.max(0).min(h - 1));
+        (x.max(0).min(w - 1), y.max(0).min(h - 1))
+    }
+
+    /// The background plane at clamped coordinates (0 where a short plane ends).
+    #[inline(always)]
+    fn level(&self, xc: isize, yc: isize) -> u8 {
+        let w = self.frame.width() as isize;
         self.background.get((yc * w + xc) as usize).copied().unwrap_or(0)
     }
 
