@@ -7,6 +7,9 @@ RUN_DIR holds what compare.sh wrote: vorl_eval_<k>.json (`vorl eval --json`, one
 vorl_scores.json, peer_timing_<k>.json, peer_scores.json and peer_noreject_scores.json (bench/score.py
 --json); and, when present, vorl_paper_eval_<k>.json and vorl_paper_scores.json (vorl on the paper's
 path, a column of its own). ms/frame is the median over the timing runs, the fastest run in brackets.
+"× the peer's time" pairs each timing run with the peer's run of the same round (run one right after
+the other), so that a machine whose speed drifts between rounds (a shared host) does not bias the
+comparison: the median of those per-round ratios, their range in brackets.
 """
 
 import glob
@@ -65,9 +68,22 @@ def main():
     def frac(s, a, b):
         return f"{pct(s[a] / s[b] if s[b] else None)} ({s[a]}/{s[b]})"
 
+    def paired(ms_runs):
+        """Each timing run over the peer's of the same round: median (lowest – highest)."""
+        if ms_runs is p_ms:
+            return "1 (the reference)"
+        ratios = [v / p for v, p in zip(ms_runs, p_ms) if p > 0]
+        if not ratios:
+            return "-"
+        return f"{statistics.median(ratios):.2f} ({min(ratios):.2f} – {max(ratios):.2f})"
+
     def cells(s, ms_runs):
         """The column of one method: its timing runs (None: not timed) and its scores."""
-        timing = ("-", "-") if ms_runs is None else (f"{ms(ms_runs)} ({min(ms_runs):.2f})", runs(ms_runs))
+        timing = ("-", "-", "-") if ms_runs is None else (
+            f"{ms(ms_runs)} ({min(ms_runs):.2f})",
+            runs(ms_runs),
+            paired(ms_runs),
+        )
         return [
             *timing,
             frac(s, "detected", "truth_parts"),
@@ -85,6 +101,7 @@ def main():
     labels = [
         "ms/frame, median (fastest) of runs",
         "  each run",
+        "× the peer's time, same round: median (range)",
         "detection recall",
         "detection precision",
         "classification (known parts)",
