@@ -1492,6 +1492,39 @@ fn gen_and_eval(scratch: &Scratch, variant: &str, seed: u32, frames: u32) -> (Pa
     (set, v, out)
 }
 
+/// A part that its first candidate cannot verify (the alignment puts it out of the scale
+/// range: no `verify_px`) and that the DP puts at least 2ε from that template (`score` ≥ 0.16
+/// at the default ε = 0.08) ends its candidate scan there, unknown: one DP search. The set is
+/// the bench set (`bench/compare.sh`), whose distractors include such parts; the scan still
+/// goes on for others, and every part keeps its class or its rejection.
+#[test]
+fn far_off_unverified_parts_take_one_search() {
+    let scratch = Scratch::new("far_off");
+    let (set, v, out) = gen_and_eval(&scratch, "default", 5, 30);
+    assert_eq!(v["classification"].as_f64(), Some(1.0), "{}", out.dump());
+    assert_eq!(v["unknown_rejection"].as_f64(), Some(1.0), "{}", out.dump());
+    let det = vorl([OsStr::new("detect"), set.as_os_str(), OsStr::new("--json")]).success();
+    let json = det.json();
+    let (mut far, mut more) = (0, 0);
+    for (name, parts) in json["frames"].as_object().expect("frames") {
+        for p in parts.as_array().expect("a list") {
+            let searches = p["searches"]
+                .as_u64()
+                .unwrap_or_else(|| panic!("{name}: no searches: {p}"));
+            let score = p["score"].as_f64().unwrap_or(f64::INFINITY);
+            if p["class"].is_null() && p.get("verify_px").is_none() && score.is_finite() && score >= 0.16 {
+                assert_eq!(searches, 1, "{name}: {p}");
+                far += 1;
+            }
+            if searches > 1 {
+                more += 1;
+            }
+        }
+    }
+    // The rule must have had parts to stop, and the scan parts to go on for.
+    assert!(far >= 3 && more >= 3, "far {far}, more {more}");
+}
+
 /// The `rods` variant reproduces the real rods' failure: two classes of one outline told apart
 /// only by their eyes, every rod with its own proportions. The holes must tell them apart
 /// (without them the class of each rod is a coin toss between two equal outlines).

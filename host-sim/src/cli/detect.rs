@@ -208,6 +208,7 @@ pub fn to_json(result: &FrameResult) -> Vec<PartJson> {
             if let Some(b) = &d.best_class {
                 extra.insert("best_class".into(), serde_json::json!(b));
             }
+            extra.insert("searches".into(), serde_json::json!(d.core.searches));
             PartJson {
                 class: d.class.clone(),
                 x: round6(d.core.x as f64),
