@@ -963,7 +963,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             ) else {
                 continue;
             };
-            scan.searches += 1;
+            scan.searches = scan.searches.saturating_add(1);
             let Ok(Some(m)) = best_match(part, t.descriptor(), bound, &mut self.table, assignment) else {
                 continue;
             };
@@ -1408,11 +1408,11 @@ pub const FALLBACK_RATIO: f32 = 3.0;
 /// A first candidate far off the part in size and in shape ends the candidate scan, the part
 /// unknown: one that could not be verified (its alignment put the part's scale outside the
 /// accepted range) and whose DP cost `f′` is at least this multiple of `ε` (the paper's
-/// decision would call the part unknown twice over). Such parts are distractors, which the
-/// scan would otherwise search against two or three more templates and align on each, none
-/// verifying. Measured over every generated set and the real photos (`docs/accuracy.md`): no
-/// classification or rejection changes, the bench set's `Engine::detect` goes from 174.1 to
-/// 158.8 M instructions (−9 %).
+/// decision would call the part unknown twice over). On every set measured such parts were
+/// distractors, which the scan would otherwise search against two or three more templates and
+/// align on each, none verifying. Measured over every generated set and the real photos
+/// (`docs/accuracy.md`): no classification or rejection changes, the bench set's
+/// `Engine::detect` goes from 174.1 to 158.8 M instructions (−9 %).
 pub const UNVERIFIED_FAMILY: f32 = 2.0;
 
 /// A candidate whose score is below this fraction of its limit (with its holes found, and no
