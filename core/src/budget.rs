@@ -14,9 +14,9 @@
 //! | label plane | `w·h` |
 //! | contour points | `4·P` |
 //! | contour records | `C·size_of::<Contour>()` + the vector's length word + the store's counter |
-//! | templates | `T·size_of::<Template<M>>()` + the vector's length word, `size_of::<Template<M>>() = word + 32·M + 28 + 100 + 12` (the holes, [`HOLES_BYTES`], and the class's tolerance) rounded up to the word |
+//! | templates | `T·size_of::<Template<M>>()` + the vector's length word, `size_of::<Template<M>>() = word + 32·M + 40 + 100 + 12` (the holes, [`HOLES_BYTES`], and the class's tolerance) rounded up to the word |
 //! | DP table | `4·D` (`D ≥ n·(m − n + 1)`) |
-//! | part buffers | `22·M`: points `8·M`, descriptor `4·M`, correspondence `2·M`, sub-pixel edge `8·M` |
+//! | part buffers | `22·M`: points `8·M`, descriptor `4·M`, correspondence `2·M`, sub-pixel edge `8·M`; and one template, the mirror image a part upside down is matched against |
 //! | parameters, padding | `size_of::<Params>()` and the rounding of the recognizer to its alignment |
 //!
 //! The frame itself is not counted: in the firmware example it is in flash; on a camera it is the
@@ -136,7 +136,7 @@ pub struct Budget {
     /// DP table, `4·D`.
     pub dp_table: usize,
     /// Resampled points, descriptor, correspondence and sub-pixel edge of the part being
-    /// matched, `22·M`.
+    /// matched, `22·M`, and the mirror image of one template ([`part_buffer_bytes`]).
     pub part_buffers: usize,
     /// Parameters and alignment padding of the recognizer.
     pub other: usize,
@@ -177,13 +177,14 @@ const fn vec_bytes(layout: Layout, size: usize, align: usize, cap: usize) -> usi
 /// `size_of::<Template<M>>()`: `m` (a word); `8·M` points, `4·M` descriptor, `4·M` sorted
 /// descriptor, `8·M` sub-pixel
 /// edge points and `8·M` normals; centroid (8), area centroid (8), area (4) and position offset
-/// (8), half-turn distance (4); rounded up to the word.
+/// (8), half-turn distance (4), mirror gap and score (8), holes and tolerance (12); rounded up to
+/// the word.
 pub const fn template_bytes(layout: Layout, m: usize) -> usize {
     round_up(
         layout
             .word
             .saturating_add(m.saturating_mul(32))
-            .saturating_add(32 + HOLES_BYTES + 12),
+            .saturating_add(40 + HOLES_BYTES + 12),
         max(layout.word, 4),
     )
 }
@@ -207,7 +208,9 @@ pub const fn recognizer_bytes(layout: Layout, t: usize, m: usize, p: usize, c: u
         .params
         .saturating_add(templates)
         .saturating_add(contour_store_bytes(layout, p, c))
-        .saturating_add(m.saturating_mul(PART_BYTES_PER_POINT))
+        .saturating_add(part_buffer_bytes(layout, m))
+        // Which template the mirror image is of (`Option<u16>`).
+        .saturating_add(4)
         .saturating_add(d.saturating_mul(4));
     round_up(sum, max(layout.contour_align, layout.word))
 }
@@ -215,6 +218,14 @@ pub const fn recognizer_bytes(layout: Layout, t: usize, m: usize, p: usize, c: u
 /// Bytes per template point `M` of the part being matched: resampled points (8), descriptor (4),
 /// correspondence (2) and sub-pixel edge points (8).
 pub const PART_BYTES_PER_POINT: usize = 22;
+
+/// The buffers of the part being matched: [`PART_BYTES_PER_POINT`] per template point, and
+/// one template more, the mirror image of a chiral template that a part upside down is
+/// matched against ([`crate::Template::mirrored`]).
+pub const fn part_buffer_bytes(layout: Layout, m: usize) -> usize {
+    m.saturating_mul(PART_BYTES_PER_POINT)
+        .saturating_add(template_bytes(layout, m))
+}
 
 /// The budget of a configuration on a target.
 pub const fn budget(layout: Layout, caps: Capacities) -> Budget {
@@ -236,7 +247,7 @@ pub const fn budget(layout: Layout, caps: Capacities) -> Budget {
         caps.templates,
     );
     let dp_table = caps.dp_cells.saturating_mul(4);
-    let part_buffers = caps.template_points.saturating_mul(PART_BYTES_PER_POINT);
+    let part_buffers = part_buffer_bytes(layout, caps.template_points);
     let listed = contour_points
         .saturating_add(contour_records)
         .saturating_add(templates)
@@ -343,9 +354,11 @@ mod tests {
             let fixed = layout.params;
             assert!(b.other >= fixed && b.other < fixed + 16);
         }
-        // 32-bit: 8 templates of (4 + 32·96 + 32 + 100 for the holes + 12 for the tolerance)
+        // 32-bit: 8 templates of (4 + 32·96 + 40 + 100 for the holes + 12 for the tolerance)
         // bytes and the length word.
-        assert_eq!(budget(Layout::CORTEX_M, caps).templates, 4 + 8 * 3220);
+        assert_eq!(budget(Layout::CORTEX_M, caps).templates, 4 + 8 * 3228);
+        // The part buffers: 22 bytes per point and one template, the mirror image.
+        assert_eq!(budget(Layout::CORTEX_M, caps).part_buffers, 22 * 96 + 3228);
     }
 
     #[test]

@@ -218,6 +218,16 @@ impl Holes {
         self.len == 0
     }
 
+    /// The same holes mirrored left-right (`x → −x`: centres taken as offsets from the mirror
+    /// axis, as a template's are from its area centroid).
+    pub fn mirrored_x(&self) -> Holes {
+        let mut out = *self;
+        for h in out.holes.iter_mut().take(self.len()) {
+            h.centre[0] = -h.centre[0];
+        }
+        out
+    }
+
     /// The same holes with `origin` subtracted from their centres.
     pub fn relative_to(&self, origin: [f32; 2]) -> Holes {
         let mut out = *self;

@@ -112,6 +112,11 @@ pub struct Params {
     /// default), such a border is reported as a skip ([`crate::recognizer::SkipReason::InsideHole`]),
     /// not as a part.
     pub nested_parts: bool,
+    /// Whether a part may lie upside down: for every chiral template
+    /// ([`crate::Template::is_chiral`]) its mirror image is matched too, and a part that fits it
+    /// is reported [`crate::Detection::flipped`] (on by default). Off for a line whose feeder
+    /// never flips parts: chiral templates then cost no more than the others.
+    pub flipped_parts: bool,
 }
 
 impl Params {
@@ -138,6 +143,7 @@ impl Params {
         scale_max: 1.1,
         position: Position::PartialVolume,
         nested_parts: false,
+        flipped_parts: true,
     };
 
     /// Checks every range.

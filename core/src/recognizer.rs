@@ -106,6 +106,12 @@ pub struct Detection {
     pub area: f32,
     /// The border touches the frame's edge (the part may be cut).
     pub touches_edge: bool,
+    /// The part lies upside down: [`Self::best_template`]'s mirror image
+    /// ([`Template::mirrored`]) fits it, and [`Self::angle_deg`] and [`Self::pose`] are that
+    /// mirror image's (DESIGN.md: the template mirrored left-right about its centroid, then
+    /// turned). Never set for a template that is not chiral ([`Template::is_chiral`]) or with
+    /// [`Params::flipped_parts`] off.
+    pub flipped: bool,
     /// DP searches run for this part: one per template searched along the candidate scan
     /// (whether or not it came in), saturating at 255. The work the part took: 1 for a part
     /// settled by its first candidate, more for a near miss or an unknown part near some
@@ -211,6 +217,10 @@ pub struct Recognizer<const T: usize, const M: usize, const P: usize, const C: u
     assignment: [u16; M],
     table: [f32; D],
     part_edges: [[f32; 2]; M],
+    /// The mirror image of template `mirror_of` ([`Template::mirrored`]), made when a part is
+    /// matched against it.
+    mirror: Template<M>,
+    mirror_of: Option<u16>,
 }
 
 impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: usize> Default
@@ -233,6 +243,8 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             assignment: [0; M],
             table: [0.0; D],
             part_edges: [[0.0; 2]; M],
+            mirror: Template::empty(),
+            mirror_of: None,
         }
     }
 
@@ -263,6 +275,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         if p.m != params.m || p.k != params.k || p.n != params.n || p.omega != params.omega {
             self.templates.clear();
         }
+        self.mirror_of = None;
         self.params = params;
         Ok(())
     }
@@ -302,6 +315,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
     /// [`Error::Capacity`] for an index past the last template; [`Template::set_tolerance`]'s.
     pub fn set_tolerance(&mut self, index: usize, tolerance: crate::template::Tolerance) -> Result<()> {
         let count = self.templates.len();
+        self.mirror_of = None;
         self.templates
             .get_mut(index)
             .ok_or(Error::Capacity {
@@ -320,6 +334,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
     /// Removes every template.
     pub fn clear_templates(&mut self) {
         self.templates.clear();
+        self.mirror_of = None;
     }
 
     /// The borders of the last processed frame (index with [`Detection::contour`]).
@@ -469,6 +484,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             contour: index as u16,
             area: contour.area(),
             touches_edge: contour.touches_edge,
+            flipped: false,
             searches: 0,
         };
         let diff = Difference::new(frame, background, params.alpha());
@@ -508,7 +524,8 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             )
         };
         let mut walled = false;
-        if let Some((ti, fit)) = best_fit {
+        if let Some((slot, fit)) = best_fit {
+            let ti = slot / 2;
             let pose = fit.pose;
             detection.angle_deg = math::wrap_degrees(math::degrees(pose.angle));
             detection.scale = pose.scale;
@@ -521,7 +538,10 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             walled = fit.wall > WALL_SIGNIFICANT && detection.template.is_some();
             if params.position == Position::Pose || (walled && params.position == Position::PartialVolume) {
                 if let Some(t) = self.templates.get(ti) {
-                    let [px, py] = pose.apply(t.position_offset());
+                    // The mirror image's offset is the template's mirrored.
+                    let [ox, oy] = t.position_offset();
+                    let offset = if slot % 2 == 1 { [-ox, oy] } else { [ox, oy] };
+                    let [px, py] = pose.apply(offset);
                     detection.x = px;
                     detection.y = py;
                 }
@@ -589,11 +609,12 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         detection: &mut Detection,
     ) -> Option<(usize, Fit)> {
         let params = self.params;
-        let (found, searches) = self.dp_best_match(n);
+        let (found, searches) = self.dp_best_match(n, !detection.touches_edge);
         detection.searches = u8::try_from(searches).unwrap_or(u8::MAX);
-        let (ti, m) = found?;
-        let (signed, paper) = self.angles(n, centroid, ti)?;
-        detection.best_template = Some(ti as u16);
+        let (slot, m) = found?;
+        let (signed, paper) = self.angles(n, centroid, slot)?;
+        detection.best_template = Some((slot / 2) as u16);
+        detection.flipped = slot % 2 == 1;
         detection.score = m.normalized;
         detection.angle_paper_deg = paper;
         detection.angle_dp_deg = signed;
@@ -602,7 +623,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             AngleEstimator::Paper => paper,
         };
         if m.normalized < params.epsilon {
-            detection.template = Some(ti as u16);
+            detection.template = Some((slot / 2) as u16);
         }
         if params.refine == Refine::Off {
             return None;
@@ -614,7 +635,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             position,
             signed,
             area,
-            ti,
+            slot,
             family,
             part_holes,
             diff,
@@ -623,10 +644,10 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         detection.verify = fit.verify;
         detection.verify_limit = fit.limit;
         detection.holes = fit.holes;
-        Some((ti, fit))
+        Some((slot, fit))
     }
 
-    /// Template `ti` aligned on the frame from the DP's pose (the part's `position`, the
+    /// Slot `slot`'s template ([`Self::slot_template`]) aligned on the frame from the DP's pose (the part's `position`, the
     /// `signed` angle in degrees, the scale of the areas), and its verification score against
     /// the part's edge (`self.part_edges`) with the score's limit for the aligned part's size,
     /// and which of its holes `part_holes` shows there.
@@ -641,13 +662,13 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         position: [f32; 2],
         signed: f32,
         area: f32,
-        ti: usize,
+        slot: usize,
         family: bool,
         part_holes: &Holes,
         diff: &Difference<'_, B>,
         refine_params: &RefineParams,
     ) -> Option<Fit> {
-        let t = self.templates.get(ti)?;
+        let t = self.slot_template(slot)?;
         let params = &self.params;
         let part_edges = self.part_edges.get(..n).unwrap_or(&[]);
         let seed = seed_pose(position, signed, area, t);
@@ -793,8 +814,9 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
     ) -> Option<(usize, Fit)> {
         let params = self.params;
         let k = params.candidates.clamp(1, MAX_CANDIDATES);
-        let mut scan = self.candidate_scan(n);
         let whole = !detection.touches_edge;
+        // A part cut by the frame's edge shows too little to tell its sides apart.
+        let mut scan = self.candidate_scan(n, whole);
         if whole {
             self.leave_out_by_size(&mut scan, area);
         }
@@ -810,7 +832,8 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 && d.holes.all_found()
                 && usize::from(d.holes.found) >= significant_holes
         };
-        let mut best = None;
+        let mut best = Tried::default();
+        let mut edges = false;
         // The cost records of the bound order first (a first one that is confident ends the
         // scan); unless one of them verified with a score below CONFIDENT times its limit, one
         // more candidate (a real part's descriptor may rank its template behind a near-alike
@@ -821,7 +844,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let mut ratio = params.candidate_ratio;
         let mut limit = k;
         loop {
-            let Some((ti, m)) = self.next_candidate(&mut scan, n, limit, ratio) else {
+            let Some((slot, m)) = self.next_candidate(&mut scan, n, limit, ratio) else {
                 let near_miss = detection.verify < NEAR_MISS * detection.verify_limit;
                 let confident = confident(detection);
                 // The near ties' pass first; the wider one when that found none (it stopped
@@ -848,18 +871,19 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 }
                 break;
             };
-            if let Some(t) = scan.tried.get_mut(ti) {
+            if let Some(t) = scan.tried.as_flattened_mut().get_mut(slot) {
                 *t = true;
             }
-            if scan.found == 1 {
+            if !edges {
                 self.part_edge(n, counter_clockwise, diff);
+                edges = true;
             }
             self.try_candidate(
                 n,
                 centroid,
                 position,
                 area,
-                ti,
+                slot,
                 m,
                 part_holes,
                 diff,
@@ -867,18 +891,80 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 detection,
                 &mut best,
             );
+            // A mirror image is held against its template (the upside-down reading needs clear
+            // evidence, Fit::beats): the template is tried too, whatever its DP cost.
+            let twin = slot ^ 1;
+            let twin_tried = scan.tried.as_flattened().get(twin).copied().unwrap_or(true);
+            // (Only a mirror image that may be the part: the others are not reported.)
+            let may_be = best
+                .fits
+                .last()
+                .is_some_and(|(s, f)| *s == slot && f.verify < NEAR_MISS * f.limit);
+            if slot % 2 == 1 && !twin_tried && may_be {
+                scan.set(twin, Listing::Out);
+                if let Some(t) = scan.tried.as_flattened_mut().get_mut(twin) {
+                    *t = true;
+                }
+                if let Some(m) = self.search_slot(&mut scan, n, twin, f32::INFINITY) {
+                    self.try_candidate(
+                        n,
+                        centroid,
+                        position,
+                        area,
+                        twin,
+                        m,
+                        part_holes,
+                        diff,
+                        refine_params,
+                        detection,
+                        &mut best,
+                    );
+                }
+            }
             // A first candidate that is confident ends the scan: a later cost record would have
             // to beat a fit within half its limit with all its holes, and the part's. So does
-            // one far off the part in size and shape (UNVERIFIED_FAMILY).
+            // one far off the part in size and shape (UNVERIFIED_FAMILY). Before a confident
+            // end, a chiral template's mirror image (or the template, after its mirror image)
+            // is searched, bounded by this cost — unless the fit is already closer than the
+            // mirror image could come (MIRROR_CLOSER): a part upside down may fit a nearly
+            // mirror-symmetric template confidently, and its mirror image better.
             if scan.found == 1
                 && (confident(detection)
                     || (!detection.verify.is_finite() && m.normalized >= UNVERIFIED_FAMILY * params.epsilon))
             {
+                let twin = slot ^ 1;
+                let scale = best.best.map_or(1.0, |(_, f)| f.pose.scale);
+                let closer = self
+                    .templates
+                    .get(slot / 2)
+                    .is_some_and(|t| detection.verify < MIRROR_CLOSER * t.mirror_score() * t.size() * scale);
+                if confident(detection) && !closer && scan.listing(twin) != Listing::Out {
+                    scan.set(twin, Listing::Out);
+                    let bound = scan.lowest * params.candidate_ratio;
+                    if let Some(m) = self.search_slot(&mut scan, n, twin, bound) {
+                        if let Some(t) = scan.tried.as_flattened_mut().get_mut(twin) {
+                            *t = true;
+                        }
+                        self.try_candidate(
+                            n,
+                            centroid,
+                            position,
+                            area,
+                            twin,
+                            m,
+                            part_holes,
+                            diff,
+                            refine_params,
+                            detection,
+                            &mut best,
+                        );
+                    }
+                }
                 break;
             }
         }
         detection.searches = u8::try_from(scan.searches).unwrap_or(u8::MAX);
-        best
+        best.best
     }
 
     /// Leaves out of `scan` every template that a whole part of this `area` could not verify
@@ -897,7 +983,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             let ratio = if t.area() > 0.0 { area / t.area() } else { f32::NAN };
             // Compared squared (no square root): NaN is left out too.
             if !(ratio >= lo * lo && ratio <= hi * hi) {
-                *state = Listing::Out;
+                *state = [Listing::Out; 2];
             }
         }
     }
@@ -905,17 +991,18 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
     /// The scan of [`Self::next_candidate`] over this part's templates: the part's sorted
     /// descriptor and every template's [`sorted_window_bound`] (the exact sorted-value bounds
     /// are computed as the scan needs them).
-    fn candidate_scan(&mut self, n: usize) -> CandidateScan<T, M> {
+    fn candidate_scan(&mut self, n: usize, mirrors: bool) -> CandidateScan<T, M> {
         let mut scan = CandidateScan {
             sorted: [0.0; M],
-            window: [f32::NAN; T],
-            exact: [f32::NAN; T],
-            state: [Listing::Out; T],
+            window: [[f32::NAN; 2]; T],
+            exact: [[f32::NAN; 2]; T],
+            state: [[Listing::Out; 2]; T],
             lowest: f32::INFINITY,
             found: 0,
-            tried: [false; T],
+            tried: [[false; 2]; T],
             searches: 0,
         };
+        let flips = self.params.flipped_parts && mirrors;
         let (Some(part), Some(sorted)) = (self.descriptor.get(..n), scan.sorted.get_mut(..n)) else {
             return scan;
         };
@@ -928,8 +1015,10 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             .zip(scan.state.iter_mut())
         {
             if let Some(v) = sorted_window_bound(sorted, t.sorted_descriptor()).filter(|v| !v.is_nan()) {
-                *w = v;
-                *state = Listing::Window;
+                // The mirror image has the same descriptor values, so the same bounds.
+                let mirror = flips && t.is_chiral();
+                *w = [v, if mirror { v } else { f32::NAN }];
+                *state = [Listing::Window, if mirror { Listing::Window } else { Listing::Out }];
             }
         }
         scan
@@ -955,23 +1044,64 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             } else {
                 scan.lowest * ratio
             };
-            let ti = self.next_template(scan, n, bound)?;
-            let (Some(t), Some(part), Some(assignment)) = (
-                self.templates.get(ti),
-                self.descriptor.get(..n),
-                self.assignment.get_mut(..n),
-            ) else {
-                continue;
-            };
-            scan.searches = scan.searches.saturating_add(1);
-            let Ok(Some(m)) = best_match(part, t.descriptor(), bound, &mut self.table, assignment) else {
+            let slot = self.next_template(scan, n, bound)?;
+            let Some(m) = self.search_slot(scan, n, slot, bound) else {
                 continue;
             };
             scan.lowest = scan.lowest.min(m.cost);
-            scan.found += 1;
-            return Some((ti, m));
+            // A template and its mirror image count as one candidate.
+            if !scan.tried.as_flattened().get(slot ^ 1).copied().unwrap_or(false) {
+                scan.found += 1;
+            }
+            return Some((slot, m));
         }
         None
+    }
+
+    /// The DP search of the part against slot `slot` (template `slot / 2`, its mirror image
+    /// for an odd slot), bounded by `bound`; counted in `scan.searches`. `None` when it does
+    /// not come in (or the slot holds no template).
+    fn search_slot(&mut self, scan: &mut CandidateScan<T, M>, n: usize, slot: usize, bound: f32) -> Option<Match> {
+        if slot % 2 == 1 {
+            self.prepare_mirror(slot / 2);
+        }
+        let t = if slot % 2 == 1 {
+            (self.mirror_of == Some((slot / 2) as u16)).then_some(&self.mirror)
+        } else {
+            self.templates.get(slot / 2)
+        };
+        let (Some(t), Some(part), Some(assignment)) = (t, self.descriptor.get(..n), self.assignment.get_mut(..n))
+        else {
+            return None;
+        };
+        scan.searches = scan.searches.saturating_add(1);
+        best_match(part, t.descriptor(), bound, &mut self.table, assignment)
+            .ok()
+            .flatten()
+    }
+
+    /// Makes `self.mirror` the mirror image of template `ti` (unless it is already).
+    fn prepare_mirror(&mut self, ti: usize) {
+        let Ok(index) = u16::try_from(ti) else {
+            return;
+        };
+        if self.mirror_of == Some(index) {
+            return;
+        }
+        if let Some(t) = self.templates.get(ti) {
+            self.mirror.mirror_from(t);
+            self.mirror_of = Some(index);
+        }
+    }
+
+    /// The template of slot `slot` of a [`CandidateScan`]: template `slot / 2`, or for an odd
+    /// slot its mirror image (`None` unless `self.mirror` holds it: [`Self::prepare_mirror`]).
+    fn slot_template(&self, slot: usize) -> Option<&Template<M>> {
+        if slot % 2 == 1 {
+            (self.mirror_of == Some((slot / 2) as u16)).then_some(&self.mirror)
+        } else {
+            self.templates.get(slot / 2)
+        }
     }
 
     /// The next template of the scan in ascending order of its [`sorted_lower_bound`] (ties:
@@ -992,36 +1122,47 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             let Some(u) = scan.least(Listing::Window, &scan.window) else {
                 break best;
             };
-            let wu = scan.window.get(u).copied().unwrap_or(f32::INFINITY);
-            let before_best = best.is_none_or(|b| wu <= scan.exact.get(b).copied().unwrap_or(f32::INFINITY));
+            let wu = scan.window.as_flattened().get(u).copied().unwrap_or(f32::INFINITY);
+            let before_best =
+                best.is_none_or(|b| wu <= scan.exact.as_flattened().get(b).copied().unwrap_or(f32::INFINITY));
             if !(before_best && may_come_in(wu)) {
                 break best;
             }
-            let (Some(t), Some(sorted)) = (self.templates.get(u), scan.sorted.get(..n)) else {
+            let (Some(t), Some(sorted)) = (self.templates.get(u / 2), scan.sorted.get(..n)) else {
                 scan.set(u, Listing::Out);
                 continue;
             };
+            // A template and its mirror image share their sorted values: one bound for both.
+            let twin = u ^ 1;
             match sorted_lower_bound(sorted, t.sorted_descriptor(), f32::INFINITY, &mut self.table) {
                 Ok(Some(lb)) => {
-                    if let Some(e) = scan.exact.get_mut(u) {
-                        *e = lb;
+                    for slot in [u, twin] {
+                        if slot == u || scan.listing(slot) == Listing::Window {
+                            if let Some(e) = scan.exact.as_flattened_mut().get_mut(slot) {
+                                *e = lb;
+                            }
+                            scan.set(slot, Listing::Exact);
+                        }
                     }
-                    scan.set(u, Listing::Exact);
                 }
-                _ => scan.set(u, Listing::Out),
+                _ => {
+                    scan.set(u, Listing::Out);
+                    scan.set(twin, Listing::Out);
+                }
             }
         };
-        let ti = best?;
-        if !may_come_in(scan.exact.get(ti).copied().unwrap_or(f32::INFINITY)) {
+        let slot = best?;
+        if !may_come_in(scan.exact.as_flattened().get(slot).copied().unwrap_or(f32::INFINITY)) {
             return None;
         }
-        scan.set(ti, Listing::Out);
-        Some(ti)
+        scan.set(slot, Listing::Out);
+        Some(slot)
     }
 
-    /// Aligns and verifies one candidate (template index and DP match, its correspondence in
-    /// `self.assignment`); when its fit is better than `best`'s so far ([`Fit::better_than`]),
-    /// it becomes `best` and fills the detection's DP fields, `verify` and `holes`.
+    /// Aligns and verifies one candidate (slot and DP match, its correspondence in
+    /// `self.assignment`); when its fit beats the best so far and the fit of its own mirror
+    /// image or template, where tried ([`Fit::beats`]), it becomes the best and fills the
+    /// detection's DP fields, `verify`, `holes` and `flipped`.
     #[allow(clippy::too_many_arguments)]
     fn try_candidate<B: AsRef<[u8]>>(
         &mut self,
@@ -1029,28 +1170,44 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         centroid: [f32; 2],
         position: [f32; 2],
         area: f32,
-        ti: usize,
+        slot: usize,
         m: Match,
         part_holes: &Holes,
         diff: &Difference<'_, B>,
         refine_params: &RefineParams,
         detection: &mut Detection,
-        best: &mut Option<(usize, Fit)>,
+        best: &mut Tried,
     ) {
-        let Some((signed, paper)) = self.angles(n, centroid, ti) else {
+        let Some((signed, paper)) = self.angles(n, centroid, slot) else {
             return;
         };
         let family = m.normalized < self.params.epsilon;
-        let Some(fit) = self.align_and_verify(n, position, signed, area, ti, family, part_holes, diff, refine_params)
+        let Some(fit) = self.align_and_verify(n, position, signed, area, slot, family, part_holes, diff, refine_params)
         else {
             return;
         };
-        if best.as_ref().is_none_or(|(_, b)| fit.better_than(b)) {
-            *best = Some((ti, fit));
+        // A template and its mirror image are held against each other even when neither is
+        // the best so far.
+        let twin = best.fits.iter().find(|(s, _)| *s == slot ^ 1).map(|(_, f)| *f);
+        // (At most `candidates` and one twin are tried: a full list only forgets.)
+        let _ = best.fits.push((slot, fit));
+        let margin = self
+            .templates
+            .get(slot / 2)
+            .map_or(0.0, |t| FLIP_EVIDENCE * t.mirror_score() * t.size() * fit.pose.scale);
+        let beats_twin = twin.is_none_or(|t| fit.beats(slot, &t, slot ^ 1, margin));
+        if beats_twin
+            && best
+                .best
+                .as_ref()
+                .is_none_or(|(b_slot, b)| fit.beats(slot, b, *b_slot, margin))
+        {
+            best.best = Some((slot, fit));
             detection.verify = fit.verify;
             detection.verify_limit = fit.limit;
             detection.holes = fit.holes;
-            detection.best_template = Some(ti as u16);
+            detection.best_template = Some((slot / 2) as u16);
+            detection.flipped = slot % 2 == 1;
             detection.score = m.normalized;
             detection.angle_paper_deg = paper;
             detection.angle_dp_deg = signed;
@@ -1064,10 +1221,10 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         1.0 + 2.0 * self.params.offset_relative * (1.0 + WALL_FACTOR)
     }
 
-    /// The signed and the paper's angles (degrees) over the correspondence with template `ti`
-    /// in `self.assignment`.
-    fn angles(&self, n: usize, centroid: [f32; 2], ti: usize) -> Option<(f32, f32)> {
-        let t = self.templates.get(ti)?;
+    /// The signed and the paper's angles (degrees) over the correspondence with slot `slot`'s
+    /// template ([`Self::slot_template`]) in `self.assignment`.
+    fn angles(&self, n: usize, centroid: [f32; 2], slot: usize) -> Option<(f32, f32)> {
+        let t = self.slot_template(slot)?;
         let part_pts = self.points.get(..n)?;
         let assignment = self.assignment.get(..n)?;
         let signed = angle_signed_refined(part_pts, centroid, t.points(), t.centroid(), assignment).unwrap_or(0.0);
@@ -1096,14 +1253,22 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
     /// its sorted-value bound is searched bounded by the lowest cost so far, until the bound
     /// rules the rest out; the last that came in is the same template as searching all of them
     /// (the first in the bound order among equal costs). Also returns the DP searches run.
-    fn dp_best_match(&mut self, n: usize) -> (Option<(usize, Match)>, usize) {
-        let mut scan = self.candidate_scan(n);
+    fn dp_best_match(&mut self, n: usize, mirrors: bool) -> (Option<(usize, Match)>, usize) {
+        let mut scan = self.candidate_scan(n, mirrors);
         let mut best = None;
         while let Some(found) = self.next_candidate(&mut scan, n, usize::MAX, 1.0) {
             best = Some(found);
         }
         (best, scan.searches)
     }
+}
+
+/// The candidates one part was aligned and verified against: the best fit so far (by
+/// [`Fit::beats`]) and every fit, so that a mirror image is held against its template.
+#[derive(Default)]
+struct Tried {
+    best: Option<(usize, Fit)>,
+    fits: heapless::Vec<(usize, Fit), { MAX_CANDIDATES + 1 }>,
 }
 
 /// Where a template is in a [`CandidateScan`].
@@ -1117,41 +1282,49 @@ enum Listing {
     Exact,
 }
 
-/// Where [`Recognizer::next_candidate`] is in a part's templates.
+/// Where [`Recognizer::next_candidate`] is in a part's templates. Each template has two
+/// slots, `2·ti` for itself and `2·ti + 1` for its mirror image (a part lying upside down;
+/// [`Listing::Out`] unless the template is chiral and [`Params::flipped_parts`] is on): the
+/// arrays below hold them in pairs, and read flattened they are indexed by slot.
 struct CandidateScan<const T: usize, const M: usize> {
     /// The part's descriptor, sorted (its first `n` values).
     sorted: [f32; M],
-    /// Each template's [`sorted_window_bound`].
-    window: [f32; T],
-    /// Each template's [`sorted_lower_bound`], where computed.
-    exact: [f32; T],
-    /// Where each template is.
-    state: [Listing; T],
+    /// Each slot's [`sorted_window_bound`].
+    window: [[f32; 2]; T],
+    /// Each slot's [`sorted_lower_bound`], where computed.
+    exact: [[f32; 2]; T],
+    /// Where each slot is.
+    state: [[Listing; 2]; T],
     /// The lowest DP cost found so far.
     lowest: f32,
     /// Candidates found so far.
     found: usize,
-    /// Templates that were candidates.
-    tried: [bool; T],
+    /// Slots that were candidates.
+    tried: [[bool; 2]; T],
     /// DP searches run so far.
     searches: usize,
 }
 
 impl<const T: usize, const M: usize> CandidateScan<T, M> {
-    /// The template in `listing` of least value (ties: the lower index).
-    fn least(&self, listing: Listing, values: &[f32; T]) -> Option<usize> {
+    /// The slot in `listing` of least value (ties: the lower slot).
+    fn least(&self, listing: Listing, values: &[[f32; 2]; T]) -> Option<usize> {
         let mut best: Option<(f32, usize)> = None;
-        for (ti, (&state, &v)) in self.state.iter().zip(values).enumerate() {
+        for (slot, (&state, &v)) in self.state.as_flattened().iter().zip(values.as_flattened()).enumerate() {
             if state == listing && best.is_none_or(|(b, _)| v < b) {
-                best = Some((v, ti));
+                best = Some((v, slot));
             }
         }
-        best.map(|(_, ti)| ti)
+        best.map(|(_, slot)| slot)
     }
 
-    /// Moves template `ti` to `listing`.
-    fn set(&mut self, ti: usize, listing: Listing) {
-        if let Some(s) = self.state.get_mut(ti) {
+    /// Where slot `slot` is.
+    fn listing(&self, slot: usize) -> Listing {
+        self.state.as_flattened().get(slot).copied().unwrap_or(Listing::Out)
+    }
+
+    /// Moves slot `slot` to `listing`.
+    fn set(&mut self, slot: usize, listing: Listing) {
+        if let Some(s) = self.state.as_flattened_mut().get_mut(slot) {
             *s = listing;
         }
     }
@@ -1162,9 +1335,10 @@ impl<const T: usize, const M: usize> CandidateScan<T, M> {
     fn reopen(&mut self) {
         for ((state, &tried), (&exact, &window)) in self
             .state
+            .as_flattened_mut()
             .iter_mut()
-            .zip(&self.tried)
-            .zip(self.exact.iter().zip(&self.window))
+            .zip(self.tried.as_flattened())
+            .zip(self.exact.as_flattened().iter().zip(self.window.as_flattened()))
         {
             *state = if tried {
                 Listing::Out
@@ -1239,6 +1413,27 @@ impl Fit {
     }
 }
 
+impl Fit {
+    /// Whether this fit, of candidate slot `slot`, beats `other`, of slot `other_slot`
+    /// ([`CandidateScan`]'s slots): [`Self::better_than`] — except between a template and its
+    /// own mirror image: then the upside-down reading needs clear evidence, a verification
+    /// score lower by `margin` px (whatever the holes and the DP's family say, which follow
+    /// the same outline). The caller gives [`FLIP_EVIDENCE`] times the score the mirror image
+    /// gets against the template ([`Template::mirror_score`] at the part's size): the part
+    /// must be nearer to one than to the midpoint between the two. A part whose mirror axis
+    /// the template nearly has (a real part photographed for its template, with its walls and
+    /// variation) fits both alike, and is not flipped.
+    fn beats(&self, slot: usize, other: &Fit, other_slot: usize, margin: f32) -> bool {
+        if slot ^ 1 == other_slot {
+            let (flipped, plain) = if slot % 2 == 1 { (self, other) } else { (other, self) };
+            // (An infinite plain score loses to any finite one; NaN never wins.)
+            let flip_wins = flipped.verify.is_finite() && flipped.verify + margin < plain.verify;
+            return flip_wins == (slot % 2 == 1);
+        }
+        self.better_than(other)
+    }
+}
+
 /// Whether an aligned candidate is the part: its verification score is below its limit — or,
 /// for a template with holes, all of them found where the pose puts them, at least one of them
 /// off its centre ([`HoleAgreement::off_centre`]: a central hole fits a washer, a bore, a
@@ -1255,6 +1450,19 @@ fn accepted(fit: Fit) -> bool {
     // A fit that took a wall to get there has used its freedom: the outline alone decides.
     r < 1.0 || (fit.wall == 0.0 && fit.family && fit.holes.off_centre > 0 && fit.holes.all_found() && r < NEAR_MISS)
 }
+
+/// How much closer than the template itself its mirror image must fit a part for the part to
+/// be reported upside down: this share of the score the mirror image gets
+/// against the template ([`Template::mirror_score`] at the part's size). 0.5: the part is
+/// nearer to the mirror image than the midpoint between the two. A part that lies upside down
+/// fits the mirror image at the noise's level and the template by about that score; a
+/// mirror-symmetric part whose template is not quite (a real rod) fits both alike.
+pub const FLIP_EVIDENCE: f32 = 0.5;
+
+/// A part whose verification score against a chiral template (or its mirror image) is below
+/// this share of the score the mirror image would get ([`Template::mirror_score`] times the
+/// part's size) is not the other way up: its twin is not searched after a confident fit.
+pub const MIRROR_CLOSER: f32 = 0.5;
 
 /// Relative margin by which a template's sorted lower bound must exceed the `k`-th best DP cost
 /// before the template is skipped (the two are rounded differently in `f32`).
@@ -1537,6 +1745,139 @@ mod tests {
         }
     }
 
+    /// An L of unequal arms (chiral), `inside` in offsets from its area centroid.
+    fn l_inside(t: [f32; 2]) -> bool {
+        // A bar 44 × 10 and a foot 10 × 16 below its left end; area centroid
+        // ((440·22 + 160·5)/600, (440·5 + 160·18)/600).
+        let (u, v) = (t[0] + 10480.0 / 600.0, t[1] + 5080.0 / 600.0);
+        ((0.0..44.0).contains(&u) && (0.0..10.0).contains(&v))
+            || ((0.0..10.0).contains(&u) && (10.0..26.0).contains(&v))
+    }
+
+    /// A T (mirror-symmetric), `inside` in offsets from its area centroid.
+    fn t_inside(t: [f32; 2]) -> bool {
+        // Bar 44 × 10, stem 10 × 30 below its middle; area centroid (22, (440·5 + 300·25)/740).
+        let (u, v) = (t[0] + 22.0, t[1] + 9700.0 / 740.0);
+        ((0.0..44.0).contains(&u) && (0.0..10.0).contains(&v))
+            || ((17.0..27.0).contains(&u) && (10.0..40.0).contains(&v))
+    }
+
+    /// A part of [`scene`]: an L (else a T), its centroid `(x, y)`, its angle (°) and whether it
+    /// lies upside down.
+    type Placed = (bool, f32, f32, f32, bool);
+
+    /// A scene of dark parts (level 20) on a platform of 200: each shape mirrored left-right
+    /// first when flipped, then turned counter-clockwise on screen and placed with its centroid
+    /// at `(x, y)`; 4 × 4 samples per pixel.
+    fn scene(w: usize, h: usize, parts: &[Placed]) -> std::vec::Vec<u8> {
+        let mut px = std::vec![200u8; w * h];
+        for (y, row) in px.chunks_exact_mut(w).enumerate() {
+            for (x, p) in row.iter_mut().enumerate() {
+                let mut cover = 0.0f32;
+                for &(is_l, cx, cy, deg, flipped) in parts {
+                    let inside = if is_l { l_inside } else { t_inside };
+                    let (s, c) = libm::sincosf(deg.to_radians());
+                    for k in 0..16 {
+                        let dx = x as f32 - 0.375 + 0.25 * (k % 4) as f32 - cx;
+                        let dy = y as f32 - 0.375 + 0.25 * (k / 4) as f32 - cy;
+                        // The inverse of t → (t0·c + t1·s, −t0·s + t1·c), then the mirror.
+                        let t = [c * dx - s * dy, s * dx + c * dy];
+                        let t = if flipped { [-t[0], t[1]] } else { t };
+                        cover += inside(t) as u8 as f32 / 16.0;
+                    }
+                }
+                *p = (200.0 - 180.0 * cover.min(1.0)).round() as u8;
+            }
+        }
+        px
+    }
+
+    /// A chiral part lying upside down is its template's mirror image: found, reported
+    /// `flipped` with the angle of the contract (the template mirrored, then turned), and
+    /// positioned like any other part; the same part the right way up is not flipped; with
+    /// `flipped_parts` off it is not matched; a mirror-symmetric part is never flipped.
+    #[test]
+    fn parts_upside_down_are_matched_by_the_mirror_image() {
+        let (w, h) = (200usize, 100usize);
+        let teach = |inside: fn([f32; 2]) -> bool| {
+            let (tw, th) = (80usize, 80usize);
+            let px: std::vec::Vec<u8> = (0..tw * th)
+                .map(|i| {
+                    if inside([(i % tw) as f32 - 30.0, (i / tw) as f32 - 30.0]) {
+                        255
+                    } else {
+                        0
+                    }
+                })
+                .collect();
+            let mut labels = std::vec![0u8; tw * th];
+            let mut store = std::boxed::Box::new(ContourStore::<4096, 16>::new());
+            Template::<96>::from_silhouette(
+                &Frame::new_checked(&px[..], tw, th).unwrap(),
+                &Params::DEFAULT,
+                &mut labels,
+                &mut store,
+            )
+            .unwrap()
+        };
+        let (l, t) = (teach(l_inside), teach(t_inside));
+        assert!(l.is_chiral() && !t.is_chiral(), "{} {}", l.mirror_gap(), t.mirror_gap());
+        let parts: [Placed; 4] = [
+            (true, 40.0, 50.0, 30.0, false),
+            (true, 95.0, 48.0, 250.0, true),
+            (false, 150.0, 50.0, 115.0, false),
+            (false, 150.0, 50.0, 115.0, true),
+        ];
+        let bg_px = std::vec![200u8; w * h];
+        let mut bg = Background::new(std::vec![0u8; w * h], w, h).unwrap();
+        bg.set_from_frame(&Frame::new_checked(&bg_px[..], w, h).unwrap(), Params::DEFAULT.alpha())
+            .unwrap();
+        for flips in [true, false] {
+            // The T's two scenes (it looks the same flipped) one after the other.
+            for scene_parts in [&parts[..3], &[parts[0], parts[1], parts[3]][..]] {
+                let px = scene(w, h, scene_parts);
+                let mut rec: std::boxed::Box<Recognizer<4, 96, 4096, 64, 2112>> = std::boxed::Box::default();
+                rec.set_params(Params {
+                    flipped_parts: flips,
+                    ..Params::DEFAULT
+                })
+                .unwrap();
+                rec.add_template(l.clone()).unwrap();
+                rec.add_template(t.clone()).unwrap();
+                let mut labels = std::vec![0u8; w * h];
+                let report = rec
+                    .process(&Frame::new_checked(&px[..], w, h).unwrap(), &bg, &mut labels)
+                    .unwrap();
+                assert_eq!(report.detections.len(), 3, "{:?}", report.detections);
+                for &(is_l, x, y, deg, flipped) in scene_parts {
+                    let d = report
+                        .detections
+                        .iter()
+                        .find(|d| (d.x - x).abs() < 2.0 && (d.y - y).abs() < 2.0)
+                        .unwrap_or_else(|| panic!("no part at ({x}, {y}): {:?}", report.detections));
+                    if is_l && flipped && !flips {
+                        // Off: the L upside down is another part.
+                        assert!(!d.flipped && d.template.is_none(), "{d:?}");
+                        continue;
+                    }
+                    assert_eq!(d.template, Some(if is_l { 0 } else { 1 }), "{d:?}");
+                    // A T is never flipped: upside down it is the T turned about its axis.
+                    assert_eq!(d.flipped, is_l && flipped, "{d:?}");
+                    // (The T's mirror axis is its template's y axis: mirrored, it is itself.)
+                    let want = deg;
+                    let err = (d.angle_deg - want + 540.0) % 360.0 - 180.0;
+                    assert!(err.abs() < 0.3, "angle {} want {want}: {d:?}", d.angle_deg);
+                    assert!(
+                        (d.x - x).abs() < 0.1 && (d.y - y).abs() < 0.1,
+                        "({}, {}) want ({x}, {y})",
+                        d.x,
+                        d.y
+                    );
+                }
+            }
+        }
+    }
+
     /// Smooth descriptor-like values with a little noise, from a seed.
     fn values(seed: u64, len: usize, out: &mut [f32]) {
         let mut x = seed | 1;
@@ -1596,7 +1937,10 @@ mod tests {
                 let lb = sorted_lower_bound(&sorted[..N], t.sorted_descriptor(), f32::INFINITY, &mut row);
                 skippable += lb.unwrap().is_some_and(|lb| lb > all[2].1) as usize;
             }
-            let (ti, m) = r.dp_best_match(N).0.unwrap();
+            let (slot, m) = r.dp_best_match(N, true).0.unwrap();
+            // A circle's outline is not chiral: no mirror image is searched.
+            assert_eq!(slot % 2, 0);
+            let ti = slot / 2;
             assert_eq!(ti, all[0].0, "seed {seed}");
             assert!((m.cost - all[0].1).abs() <= 1e-5 * m.cost.max(1.0));
             // The start is the one whose correspondence costs that much, and the
@@ -1676,9 +2020,12 @@ mod tests {
                     }
                     lowest = lowest.min(c);
                 }
-                let mut scan = r.candidate_scan(N);
+                let mut scan = r.candidate_scan(N, true);
                 let mut got = std::vec::Vec::new();
-                while let Some((ti, m)) = r.next_candidate(&mut scan, N, k, ratio) {
+                while let Some((slot, m)) = r.next_candidate(&mut scan, N, k, ratio) {
+                    // A circle's outline is not chiral: no mirror image is searched.
+                    assert_eq!(slot % 2, 0);
+                    let ti = slot / 2;
                     got.push(ti);
                     let want_cost = all.iter().find(|a| a.1 == ti).unwrap().2;
                     assert!((m.cost - want_cost).abs() <= 1e-5 * want_cost.max(1.0));
@@ -1697,7 +2044,12 @@ mod tests {
                 }
                 let count = got.len();
                 assert_eq!(got, want, "seed {seed} k {k} ratio {ratio}");
-                never_bounded += scan.state.iter().filter(|&&s| s == Listing::Window).count();
+                never_bounded += scan
+                    .state
+                    .as_flattened()
+                    .iter()
+                    .filter(|&&s| s == Listing::Window)
+                    .count();
                 if k == 3 && ratio == 1.0 {
                     more_than_one += (count > 1) as usize;
                     cut_short += (count < 3) as usize;

@@ -1217,6 +1217,7 @@ mod tests {
             contour: 0,
             area: 100.0,
             touches_edge: false,
+            flipped: false,
             searches: 1,
         };
         assert_eq!(

@@ -15,9 +15,26 @@ use crate::descriptor::describe;
 use crate::error::{Error, Result};
 use crate::frame::Frame;
 use crate::holes::{Holes, MIN_HOLE_FRACTION};
+use crate::math;
 use crate::params::Params;
 use crate::pose::area_centroid;
 use crate::resample::resample;
+
+/// [`Template::mirror_gap`] from which a template is chiral (its mirror image fits no turn of
+/// it): 1 % of its size, as far from a mirror axis as [`crate::recognizer::HALF_TURN_SYMMETRIC`]
+/// is from 2-fold symmetry, and well above what resampling leaves of an exact mirror axis.
+pub const CHIRAL_GAP: f32 = 0.01;
+
+/// How far a mirrored hole may lie from the hole it matches before [`Template::mirror_gap`]
+/// counts the distance, px: two pixel-grid centres half a pixel off a mirror axis each.
+const HOLE_GRID_SLACK: f32 = 1.0;
+
+/// Turns of the coarse grid of [`Template::mirror_gap`] (4° apart).
+const MIRROR_GRID: usize = 90;
+/// Lowest local minima of the coarse grid that [`Template::mirror_gap`] refines.
+const MIRROR_MINIMA: usize = 3;
+/// Golden-section steps refining a coarse minimum of [`Template::mirror_gap`] (±4° to 0.004°).
+const MIRROR_REFINE_STEPS: usize = 16;
 
 /// One taught part: `m` resampled border points, their descriptor and centroids, and the
 /// sub-pixel edge the refine stage aligns.
@@ -41,6 +58,13 @@ pub struct Template<const M: usize> {
     /// Mean distance of the edge turned by 180° about the area centroid to the edge itself,
     /// over [`Self::size`] (0 for a 2-fold symmetric part).
     half_turn: f32,
+    /// Mean distance of the edge mirrored left-right and turned to where it fits best to the
+    /// edge itself, over [`Self::size`] (0 for a part with a mirror axis): see
+    /// [`Self::mirror_gap`].
+    mirror_gap: f32,
+    /// The same over the nearest [`crate::recognizer::VERIFY_KEPT`] of the points: see
+    /// [`Self::mirror_score`].
+    mirror_score: f32,
     /// The silhouette's holes, centres as offsets from `area_centroid`.
     holes: Holes,
     /// What a class taught from several examples needs beyond the parameters' limits.
@@ -99,6 +123,8 @@ impl<const M: usize> Template<M> {
             normals: [[0.0; 2]; M],
             position: [0.0; 2],
             half_turn: f32::INFINITY,
+            mirror_gap: 0.0,
+            mirror_score: 0.0,
             holes: Holes::new(),
             tolerance: Tolerance::NONE,
         }
@@ -157,8 +183,9 @@ impl<const M: usize> Template<M> {
         self.measure_half_turn();
     }
 
-    /// [`Self::half_turn`] from the edge.
+    /// [`Self::half_turn`] and [`Self::mirror_gap`] from the edge.
     fn measure_half_turn(&mut self) {
+        self.measure_mirror_gap();
         let edge = self.edge.get(..self.m).unwrap_or(&[]);
         let size = self.size();
         if edge.is_empty() || !(size > 0.0) {
@@ -169,6 +196,197 @@ impl<const M: usize> Template<M> {
         let cap = size;
         let sum: f32 = edge.iter().map(|e| outline.capped_distance([-e[0], -e[1]], cap)).sum();
         self.half_turn = sum / edge.len() as f32 / size;
+    }
+
+    /// [`Self::mirror_gap`] from the edge and the holes.
+    fn measure_mirror_gap(&mut self) {
+        let edge = self.edge.get(..self.m).unwrap_or(&[]);
+        let size = self.size();
+        if edge.len() < 3 || !(size > 0.0) {
+            self.mirror_gap = 0.0;
+            self.mirror_score = 0.0;
+            return;
+        }
+        let outline = crate::refine::Outline::new(edge);
+        // Mean capped distance of the mirrored edge turned by `theta`.
+        let gap = |theta: f32| -> f32 {
+            let (s, c) = math::sin_cos(theta);
+            let (mut sum, mut count) = (0.0f32, 0usize);
+            for e in edge {
+                let f = [-e[0], e[1]];
+                sum += outline.capped_distance([f[0] * c + f[1] * s, -f[0] * s + f[1] * c], size);
+                count += 1;
+            }
+            sum / count.max(1) as f32
+        };
+        // A coarse turn grid, then its lowest local minima refined by golden-section search.
+        // Every point counts on the grid too: a subsample of a gear's outline sees the same
+        // place on every tooth and finds minima that are not there.
+        let step = core::f32::consts::TAU / MIRROR_GRID as f32;
+        let mut coarse = [0.0f32; MIRROR_GRID];
+        for (k, g) in coarse.iter_mut().enumerate() {
+            *g = gap(k as f32 * step);
+        }
+        let at = |k: usize| coarse.get(k % MIRROR_GRID).copied().unwrap_or(f32::INFINITY);
+        let mut lowest = [(f32::INFINITY, 0usize); MIRROR_MINIMA];
+        for k in 0..MIRROR_GRID {
+            let v = at(k);
+            if v <= at(k + MIRROR_GRID - 1) && v <= at(k + 1) {
+                // Insert in ascending order, the highest falling off the end.
+                let mut item = (v, k);
+                for slot in lowest.iter_mut() {
+                    if item.0 < slot.0 {
+                        core::mem::swap(slot, &mut item);
+                    }
+                }
+            }
+        }
+        let mut best = (f32::INFINITY, 0.0f32);
+        for (v, k) in lowest {
+            if !v.is_finite() {
+                continue;
+            }
+            let (mut a, mut b) = ((k as f32 - 1.0) * step, (k as f32 + 1.0) * step);
+            const INV_PHI: f32 = 0.618_034;
+            let (mut x1, mut x2) = (b - INV_PHI * (b - a), a + INV_PHI * (b - a));
+            let (mut g1, mut g2) = (gap(x1), gap(x2));
+            for _ in 0..MIRROR_REFINE_STEPS {
+                if g1 <= g2 {
+                    (b, x2, g2) = (x2, x1, g1);
+                    x1 = b - INV_PHI * (b - a);
+                    g1 = gap(x1);
+                } else {
+                    (a, x1, g1) = (x1, x2, g2);
+                    x2 = a + INV_PHI * (b - a);
+                    g2 = gap(x2);
+                }
+            }
+            let (g, theta) = if g1 <= g2 { (g1, x1) } else { (g2, x2) };
+            if g < best.0 {
+                best = (g, theta);
+            }
+        }
+        // The holes at that turn: each mirrored hole needs a hole of like area near it.
+        let (s, c) = math::sin_cos(best.1);
+        let holes = self.holes.as_slice();
+        let mut hole_gap = 0.0f32;
+        for h in holes {
+            let f = [-h.centre[0], h.centre[1]];
+            let p = [f[0] * c + f[1] * s, -f[0] * s + f[1] * c];
+            let nearest = holes
+                .iter()
+                .filter(|q| q.area <= 1.5 * h.area && h.area <= 1.5 * q.area)
+                .map(|q| math::hypot(q.centre[0] - p[0], q.centre[1] - p[1]))
+                .fold(f32::INFINITY, f32::min);
+            // (A hole's centre on the pixel grid may sit half a pixel off the axis, and its
+            // mirror image half a pixel off the other way.)
+            hole_gap = hole_gap.max((nearest - HOLE_GRID_SLACK).clamp(0.0, size));
+        }
+        let g = best.0.max(hole_gap) / size;
+        self.mirror_gap = if g.is_finite() { g } else { 0.0 };
+        // The trimmed mean at that turn, as the verification takes it.
+        let mut distances = [0.0f32; M];
+        let count = edge.len().min(M);
+        for (d, e) in distances.iter_mut().zip(edge) {
+            let f = [-e[0], e[1]];
+            *d = outline.capped_distance([f[0] * c + f[1] * s, -f[0] * s + f[1] * c], size);
+        }
+        let kept = distances.get_mut(..count).unwrap_or(&mut []);
+        crate::matching::sort_total(kept);
+        let keep = ((count as f32 * crate::recognizer::VERIFY_KEPT) as usize).clamp(1, count.max(1));
+        let score = kept.iter().take(keep).sum::<f32>() / keep as f32 / size;
+        self.mirror_score = if score.is_finite() { score } else { 0.0 };
+    }
+
+    /// [`Self::mirror_gap`] of the outline alone over its nearest
+    /// [`crate::recognizer::VERIFY_KEPT`] points, as the verification scores an alignment: about
+    /// the score (over [`Self::size`]) a part lying upside down would get against this
+    /// template. A part that fits the template much closer than this is not upside down.
+    pub fn mirror_score(&self) -> f32 {
+        self.mirror_score
+    }
+
+    /// How far the template is from having a mirror axis: the mean distance of its edge,
+    /// mirrored left-right and turned to where it fits best, to the edge itself — or the
+    /// farthest a mirrored hole then lies from a hole of like area (less a pixel), when that
+    /// is more — over
+    /// [`Self::size`]. Near 0 for a part with a mirror axis (a gear, a washer, a T, a U):
+    /// upside down it looks the same. From [`CHIRAL_GAP`] on the template is chiral
+    /// ([`Self::is_chiral`]).
+    ///
+    /// ```
+    /// use vorl_core::{contour::ContourStore, Frame, Params, Template};
+    /// let (w, h) = (64, 64);
+    /// // `inside(x, y)` drawn as a silhouette and taught.
+    /// let teach = |inside: &dyn Fn(usize, usize) -> bool| {
+    ///     let px: Vec<u8> = (0..w * h).map(|i| if inside(i % w, i / w) { 255 } else { 0 }).collect();
+    ///     let mut labels = vec![0u8; w * h];
+    ///     let mut store = ContourStore::<4096, 8>::new();
+    ///     Template::<96>::from_silhouette(&Frame::new_checked(&px[..], w, h).unwrap(), &Params::DEFAULT, &mut labels, &mut store).unwrap()
+    /// };
+    /// // An L of unequal arms: upside down it is another part.
+    /// let l = teach(&|x, y| (10..50).contains(&x) && (10..20).contains(&y) || (10..20).contains(&x) && (10..40).contains(&y));
+    /// assert!(l.is_chiral(), "{}", l.mirror_gap());
+    /// // A T: its mirror image is itself.
+    /// let t = teach(&|x, y| (10..54).contains(&x) && (10..20).contains(&y) || (27..37).contains(&x) && (10..50).contains(&y));
+    /// assert!(!t.is_chiral(), "{}", t.mirror_gap());
+    /// ```
+    pub fn mirror_gap(&self) -> f32 {
+        self.mirror_gap
+    }
+
+    /// Whether the template is chiral: its mirror image matches no turn of it
+    /// ([`Self::mirror_gap`] at least [`CHIRAL_GAP`]). A part lying upside down is then the
+    /// [`Self::mirrored`] template, and the recognizer matches that too
+    /// ([`crate::Params::flipped_parts`]).
+    pub fn is_chiral(&self) -> bool {
+        self.mirror_gap >= CHIRAL_GAP
+    }
+
+    /// The template mirrored left-right about its area centroid (`x → −x` in the template
+    /// image): what the part looks like lying upside down. Its points run the other way round
+    /// the mirrored outline, so that they keep the border's orientation, and its descriptor is
+    /// the original's in that order (the descriptor is the same for a mirror image).
+    pub fn mirrored(&self) -> Self {
+        let mut out = Self::empty();
+        out.mirror_from(self);
+        out
+    }
+
+    /// Makes `self` [`Self::mirrored`] of `src`, in place (no template-sized temporary: on a
+    /// camera it fills a scratch template).
+    pub fn mirror_from(&mut self, src: &Self) {
+        let m = src.m.min(M);
+        let ac = src.area_centroid;
+        let flip = |p: [f32; 2]| [2.0 * ac[0] - p[0], p[1]];
+        let flip0 = |p: [f32; 2]| [-p[0], p[1]];
+        for i in 0..m {
+            let j = (m - i) % m;
+            let get = |a: &[[f32; 2]; M]| a.get(j).copied().unwrap_or([0.0; 2]);
+            if let Some(p) = self.points.get_mut(i) {
+                *p = flip(get(&src.points));
+            }
+            if let Some(e) = self.edge.get_mut(i) {
+                *e = flip0(get(&src.edge));
+            }
+            if let Some(nrm) = self.normals.get_mut(i) {
+                *nrm = flip0(get(&src.normals));
+            }
+            if let (Some(d), Some(s)) = (self.descriptor.get_mut(i), src.descriptor.get(j)) {
+                *d = *s;
+            }
+        }
+        self.m = m;
+        self.sorted = src.sorted;
+        self.centroid = flip(src.centroid);
+        self.area_centroid = ac;
+        self.area = src.area;
+        self.position = flip0(src.position);
+        self.half_turn = src.half_turn;
+        self.mirror_gap = src.mirror_gap;
+        self.mirror_score = src.mirror_score;
+        self.holes = src.holes.mirrored_x();
+        self.tolerance = src.tolerance;
     }
 
     /// How far the outline is from 2-fold symmetric: the mean distance of its edge turned by
@@ -189,6 +407,7 @@ impl<const M: usize> Template<M> {
     /// a template library.
     pub fn set_holes(&mut self, holes: Holes) {
         self.holes = holes;
+        self.measure_mirror_gap();
     }
 
     /// What the template's class needs beyond the parameters ([`Tolerance::NONE`] unless set).
@@ -481,4 +700,101 @@ fn silhouette_crossing<B: AsRef<[u8]>>(img: &Frame<B>, p: [f32; 2], n: [f32; 2])
         prev = cur;
     }
     best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    extern crate std;
+
+    /// A template from an `inside` test on an 80 × 80 silhouette.
+    fn taught(inside: impl Fn(usize, usize) -> bool) -> Template<96> {
+        let (w, h) = (80usize, 80usize);
+        let px: std::vec::Vec<u8> = (0..w * h).map(|i| if inside(i % w, i / w) { 255 } else { 0 }).collect();
+        let mut labels = std::vec![0u8; w * h];
+        let mut store = std::boxed::Box::new(ContourStore::<4096, 16>::new());
+        Template::from_silhouette(
+            &Frame::new_checked(&px[..], w, h).unwrap(),
+            &Params::DEFAULT,
+            &mut labels,
+            &mut store,
+        )
+        .unwrap()
+    }
+
+    /// The mirror image keeps the outline's orientation and the descriptor (read backwards),
+    /// mirrors every offset, and mirrored again is the template.
+    #[test]
+    fn the_mirror_image_is_the_template_mirrored_and_twice_is_itself() {
+        // An L with a hole off its axis.
+        let t = taught(|x, y| {
+            let l = (10..60).contains(&x) && (10..22).contains(&y) || (10..22).contains(&x) && (22..50).contains(&y);
+            l && !((40..48).contains(&x) && (13..19).contains(&y))
+        });
+        assert!(t.is_chiral());
+        let f = t.mirrored();
+        let m = t.len();
+        assert_eq!(f.len(), m);
+        let ac = t.area_centroid();
+        for i in 0..m {
+            let j = (m - i) % m;
+            let (p, q) = (f.points()[i], t.points()[j]);
+            assert!((p[0] - (2.0 * ac[0] - q[0])).abs() < 1e-4 && p[1] == q[1]);
+            assert_eq!(f.descriptor()[i], t.descriptor()[j]);
+            assert_eq!(f.edge()[i], [-t.edge()[j][0], t.edge()[j][1]]);
+            assert_eq!(f.normals()[i], [-t.normals()[j][0], t.normals()[j][1]]);
+        }
+        assert_eq!(
+            f.holes().as_slice()[0].centre,
+            [-t.holes().as_slice()[0].centre[0], t.holes().as_slice()[0].centre[1]]
+        );
+        assert_eq!(f.position_offset()[0], -t.position_offset()[0]);
+        // The outline keeps its orientation: the shoelace sums agree in sign.
+        let area2 = |p: &[[f32; 2]]| {
+            (0..p.len())
+                .map(|k| {
+                    let (a, b) = (p[k], p[(k + 1) % p.len()]);
+                    a[0] * b[1] - b[0] * a[1]
+                })
+                .sum::<f32>()
+        };
+        assert_eq!(area2(f.points()) > 0.0, area2(t.points()) > 0.0);
+        let back = f.mirrored();
+        for (a, b) in back.points().iter().zip(t.points()) {
+            assert!((a[0] - b[0]).abs() < 1e-4 && a[1] == b[1]);
+        }
+        assert_eq!(back.descriptor(), t.descriptor());
+        assert_eq!((back.mirror_gap(), back.area()), (t.mirror_gap(), t.area()));
+    }
+
+    /// Shapes with a mirror axis in any direction are not chiral; shapes without one are, and
+    /// so is one whose outline has a mirror axis but whose hole sits off it.
+    #[test]
+    fn chirality_needs_a_mirror_axis_of_outline_and_holes() {
+        let disc = |x: usize, y: usize, cx: f32, cy: f32, r: f32| {
+            let (dx, dy) = (x as f32 - cx, y as f32 - cy);
+            dx * dx + dy * dy < r * r
+        };
+        // A rectangle, a diagonal kite, a plate with a central hole: mirror axes.
+        let rect = taught(|x, y| (15..65).contains(&x) && (25..50).contains(&y));
+        let kite = taught(|x, y| {
+            let (u, v) = (x as f32 - 40.0, y as f32 - 40.0);
+            // Symmetric about the diagonal u = v.
+            (u + v).abs() < 40.0 && (u - v).abs() < 16.0 + 0.3 * (u + v)
+        });
+        let plate = taught(|x, y| (15..65).contains(&x) && (25..55).contains(&y) && !disc(x, y, 40.0, 40.0, 6.0));
+        for t in [&rect, &kite, &plate] {
+            assert!(!t.is_chiral(), "{}", t.mirror_gap());
+        }
+        // The plate with its hole off the axes; a blob without an axis.
+        let off = taught(|x, y| (15..65).contains(&x) && (25..55).contains(&y) && !disc(x, y, 28.0, 33.0, 5.0));
+        let blob = taught(|x, y| {
+            (15..65).contains(&x) && (25..40).contains(&y)
+                || (15..30).contains(&x) && (40..60).contains(&y)
+                || (50..65).contains(&x) && (40..47).contains(&y)
+        });
+        for t in [&off, &blob] {
+            assert!(t.is_chiral(), "{}", t.mirror_gap());
+        }
+    }
 }

@@ -66,6 +66,9 @@ pub struct Config {
     /// Whether an outer border inside a hole of another part (print, a label, a small part in
     /// a ring) is a part of its own (else it is reported as a skip).
     pub nested_parts: bool,
+    /// Whether parts may lie upside down: chiral templates' mirror images are matched too, and
+    /// a part that fits one is reported `flipped`. false for a feeder that never flips parts.
+    pub flipped_parts: bool,
 }
 
 /// Default of [`Config::platform_every`].
@@ -196,6 +199,7 @@ impl Config {
             exposure: ExposureSetting::Fit,
             platform_every: DEFAULT_PLATFORM_EVERY,
             nested_parts: p.nested_parts,
+            flipped_parts: p.flipped_parts,
         }
     }
 
@@ -247,6 +251,7 @@ impl Config {
                 PositionSetting::Pose => Position::Pose,
             },
             nested_parts: self.nested_parts,
+            flipped_parts: self.flipped_parts,
         };
         p.validate().map_err(|e| format!("invalid parameters: {e}"))?;
         Ok(p)
@@ -341,11 +346,14 @@ impl Config {
              platform_every = {}\n\
              # Whether an outer border inside a hole of another part (print, a label, a small part resting in a ring) is a part\n\
              # of its own; false: it is reported as a skip (\"inside a hole of another part\"), not as a part.\n\
-             nested_parts = {}\n",
+             nested_parts = {}\n\
+             # Whether parts may lie upside down: every chiral template's mirror image (`vorl templates info` says which are\n\
+             # chiral) is matched too, and a part that fits it is reported \"flipped\": true; false for a feeder that never flips parts.\n\
+             flipped_parts = {}\n",
             d.alpha, thr, setting_name(&d.cleanup), d.min_points, d.min_area, d.n, d.m, d.k, d.omega, d.epsilon, angle,
             setting_name(&d.refine), d.candidates, toml_float(d.candidate_ratio), d.verify_threshold,
             d.verify_relative, d.offset_relative, d.scale_min, d.scale_max, setting_name(&d.position),
-            setting_name(&d.exposure), d.platform_every, d.nested_parts
+            setting_name(&d.exposure), d.platform_every, d.nested_parts, d.flipped_parts
         )
     }
 }

@@ -542,6 +542,8 @@ impl Engine {
                     d.pose,
                     d.best_template.and_then(|i| self.rec.templates().get(i as usize)),
                 ) {
+                    // A part upside down: the mirror image's outline.
+                    (Some(pose), Some(t)) if d.flipped => t.mirrored().edge().iter().map(|e| pose.apply(*e)).collect(),
                     (Some(pose), Some(t)) => t.edge().iter().map(|e| pose.apply(*e)).collect(),
                     _ => Vec::new(),
                 },

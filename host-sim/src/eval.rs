@@ -288,6 +288,7 @@ mod tests {
             symmetry: sym,
             score: None,
             partial: None,
+            flipped: None,
             extra: Default::default(),
         }
     }

@@ -32,6 +32,10 @@ pub struct PartJson {
     /// Cut by the frame border.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub partial: Option<bool>,
+    /// Lying upside down: the template mirrored left-right about its centroid, then turned by
+    /// `angle_deg` (DESIGN.md).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub flipped: Option<bool>,
     /// Any other fields.
     #[serde(flatten)]
     pub extra: BTreeMap<String, serde_json::Value>,

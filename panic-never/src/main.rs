@@ -177,6 +177,7 @@ fn params() -> Params {
             Position::PartialVolume
         },
         nested_parts: flag(),
+        flipped_parts: flag(),
     }
 }
 
@@ -497,6 +498,11 @@ fn borders() {
             t.area(),
             t.len(),
         ));
+        black_box((t.mirror_gap(), t.mirror_score(), t.is_chiral()));
+        let mirrored = t.mirrored();
+        black_box(&mirrored);
+        t.mirror_from(&mirrored);
+        black_box(&t);
     }
     let tp = pairs2();
     let td = floats();

@@ -479,6 +479,7 @@ mod tests {
             symmetry: None,
             score: None,
             partial: None,
+            flipped: None,
             extra: Default::default(),
         };
         cal.apply(&mut part);

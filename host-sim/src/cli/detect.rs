@@ -217,6 +217,7 @@ pub fn to_json(result: &FrameResult) -> Vec<PartJson> {
                 symmetry: None,
                 score: d.core.score.is_finite().then_some(round6(d.core.score as f64)),
                 partial: d.core.touches_edge.then_some(true),
+                flipped: (d.core.flipped && d.class.is_some()).then_some(true),
                 extra,
             }
         })

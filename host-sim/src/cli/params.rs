@@ -80,6 +80,10 @@ pub struct ParamArgs {
     /// Report outer borders inside a hole of another part (print, a nested part) as parts.
     #[arg(long, value_name = "true|false")]
     pub nested_parts: Option<bool>,
+    /// Match chiral templates' mirror images too, reporting parts upside down as flipped
+    /// (default true; false for a feeder that never flips parts).
+    #[arg(long, value_name = "true|false")]
+    pub flipped_parts: Option<bool>,
 }
 
 impl ParamArgs {
@@ -135,7 +139,8 @@ impl ParamArgs {
             position,
             exposure,
             platform_every,
-            nested_parts
+            nested_parts,
+            flipped_parts
         );
         Ok(c)
     }

@@ -194,11 +194,19 @@ fn info(args: InfoArgs) -> Result<ExitCode, String> {
             )
         };
         println!(
-            "  {i:>3}  {:<31}  area {:>9.1} px²  centroid ({ax:.2}, {ay:.2})  holes {}  {tolerance}",
+            "  {i:>3}  {:<31}  area {:>9.1} px²  centroid ({ax:.2}, {ay:.2})  holes {}  {}  {tolerance}",
             lib.name(i).unwrap_or("?"),
             t.area(),
-            t.holes().len()
+            t.holes().len(),
+            chirality(&t)
         );
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// `chiral (mirror gap 0.123)` or `mirror-symmetric (mirror gap 0.001)`: whether a part of this
+/// template lying upside down is another shape ([`vorl_core::Template::is_chiral`]).
+pub fn chirality<const M: usize>(t: &vorl_core::Template<M>) -> String {
+    let kind = if t.is_chiral() { "chiral" } else { "mirror-symmetric" };
+    format!("{kind} (mirror gap {:.3})", t.mirror_gap())
 }

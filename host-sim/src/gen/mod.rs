@@ -818,6 +818,7 @@ fn truth_entry(spec: &PartSpec, p: &Placed) -> PartJson {
         symmetry: Some(spec.symmetry),
         score: None,
         partial: p.partial.then_some(true),
+        flipped: None,
         extra,
     }
 }
