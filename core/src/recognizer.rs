@@ -708,16 +708,17 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let once = |s: Pose, retry_allowed: bool| {
             let mut distances = [0.0f32; M];
             let aligned = align_recording(diff, t.edge(), t.normals(), s, &rp, &mut distances);
-            let verify = verify_score(&aligned, &mut distances, t, part_edges, diff, &rp, params);
-            let fit = |pose: Pose, verify: f32, wall: f32| Fit {
+            let (verify, full) = verify_score(&aligned, &mut distances, t, part_edges, diff, &rp, params);
+            let fit = |pose: Pose, (verify, full): (f32, f32), wall: f32| Fit {
                 pose,
                 verify,
+                full,
                 limit: limit_at(pose.scale),
                 holes: agreement(t.holes(), &pose, part_holes),
                 family,
                 wall,
             };
-            let first = fit(aligned.pose, verify, 0.0);
+            let first = fit(aligned.pose, (verify, full), 0.0);
             let near_miss = verify < NEAR_MISS * first.limit;
             // A scale just beyond the range may be the outline grown by walls or blur, which
             // the offset and the wall explain instead — for a template of the DP's family
@@ -758,8 +759,8 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 }
             };
             let again = align_recording(diff, t.edge(), t.normals(), start, &retry, &mut distances);
-            let verify = verify_score(&again, &mut distances, t, part_edges, diff, &retry, params);
-            let second = fit(again.pose, verify, again.wall);
+            let scores = verify_score(&again, &mut distances, t, part_edges, diff, &retry, params);
+            let second = fit(again.pose, scores, again.wall);
             if second.ratio() < first.ratio() {
                 second
             } else {
@@ -925,23 +926,22 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             // to beat a fit within half its limit with all its holes, and the part's. So does
             // one far off the part in size and shape (UNVERIFIED_FAMILY). Before a confident
             // end, a chiral template's mirror image (or the template, after its mirror image)
-            // is searched, bounded by this cost — unless the fit is already closer than the
-            // mirror image could come (MIRROR_CLOSER): a part upside down may fit a nearly
-            // mirror-symmetric template confidently, and its mirror image better.
+            // is aligned too when a stretch of the outline does not fit (the mean over every
+            // point is STRETCH_OFF times the trimmed score or more): a part upside down may fit
+            // a nearly mirror-symmetric template confidently, the verification leaving out the
+            // stretch where they differ, and its mirror image better (their DP costs are too
+            // close to tell).
             if scan.found == 1
                 && (confident(detection)
                     || (!detection.verify.is_finite() && m.normalized >= UNVERIFIED_FAMILY * params.epsilon))
             {
                 let twin = slot ^ 1;
-                let scale = best.best.map_or(1.0, |(_, f)| f.pose.scale);
-                let closer = self
-                    .templates
-                    .get(slot / 2)
-                    .is_some_and(|t| detection.verify < MIRROR_CLOSER * t.mirror_score() * t.size() * scale);
-                if confident(detection) && !closer && scan.listing(twin) != Listing::Out {
+                let stretch_off = best
+                    .best
+                    .is_some_and(|(s, f)| s == slot && f.full >= STRETCH_OFF * f.verify);
+                if confident(detection) && stretch_off && scan.listing(twin) != Listing::Out {
                     scan.set(twin, Listing::Out);
-                    let bound = scan.lowest * params.candidate_ratio;
-                    if let Some(m) = self.search_slot(&mut scan, n, twin, bound) {
+                    if let Some(m) = self.search_slot(&mut scan, n, twin, f32::INFINITY) {
                         if let Some(t) = scan.tried.as_flattened_mut().get_mut(twin) {
                             *t = true;
                         }
@@ -1191,17 +1191,8 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let twin = best.fits.iter().find(|(s, _)| *s == slot ^ 1).map(|(_, f)| *f);
         // (At most `candidates` and one twin are tried: a full list only forgets.)
         let _ = best.fits.push((slot, fit));
-        let margin = self
-            .templates
-            .get(slot / 2)
-            .map_or(0.0, |t| FLIP_EVIDENCE * t.mirror_score() * t.size() * fit.pose.scale);
-        let beats_twin = twin.is_none_or(|t| fit.beats(slot, &t, slot ^ 1, margin));
-        if beats_twin
-            && best
-                .best
-                .as_ref()
-                .is_none_or(|(b_slot, b)| fit.beats(slot, b, *b_slot, margin))
-        {
+        let beats_twin = twin.is_none_or(|t| fit.beats(slot, &t, slot ^ 1));
+        if beats_twin && best.best.as_ref().is_none_or(|(b_slot, b)| fit.beats(slot, b, *b_slot)) {
             best.best = Some((slot, fit));
             detection.verify = fit.verify;
             detection.verify_limit = fit.limit;
@@ -1360,6 +1351,8 @@ impl<const T: usize, const M: usize> CandidateScan<T, M> {
 struct Fit {
     pose: Pose,
     verify: f32,
+    /// The verification's distances over every point, none left out, px.
+    full: f32,
     limit: f32,
     holes: HoleAgreement,
     family: bool,
@@ -1416,18 +1409,18 @@ impl Fit {
 impl Fit {
     /// Whether this fit, of candidate slot `slot`, beats `other`, of slot `other_slot`
     /// ([`CandidateScan`]'s slots): [`Self::better_than`] — except between a template and its
-    /// own mirror image: then the upside-down reading needs clear evidence, a verification
-    /// score lower by `margin` px (whatever the holes and the DP's family say, which follow
-    /// the same outline). The caller gives [`FLIP_EVIDENCE`] times the score the mirror image
-    /// gets against the template ([`Template::mirror_score`] at the part's size): the part
-    /// must be nearer to one than to the midpoint between the two. A part whose mirror axis
-    /// the template nearly has (a real part photographed for its template, with its walls and
-    /// variation) fits both alike, and is not flipped.
-    fn beats(&self, slot: usize, other: &Fit, other_slot: usize, margin: f32) -> bool {
+    /// own mirror image: then the upside-down reading needs clear evidence, a mean distance
+    /// over every point ([`Fit::full`]: a nearly mirror-symmetric part differs from its mirror
+    /// image only over a stretch, which the verification's trimmed score leaves out) below
+    /// [`FLIP_EVIDENCE`] times the other's, whatever the holes and the DP's family say (they
+    /// follow the same outline). A part whose mirror axis the template nearly has (a real
+    /// part photographed for its template, with its walls and variation) fits both alike, and
+    /// is not flipped.
+    fn beats(&self, slot: usize, other: &Fit, other_slot: usize) -> bool {
         if slot ^ 1 == other_slot {
             let (flipped, plain) = if slot % 2 == 1 { (self, other) } else { (other, self) };
-            // (An infinite plain score loses to any finite one; NaN never wins.)
-            let flip_wins = flipped.verify.is_finite() && flipped.verify + margin < plain.verify;
+            // (An infinite plain mean loses to any finite one; NaN never wins.)
+            let flip_wins = flipped.full.is_finite() && flipped.full < FLIP_EVIDENCE * plain.full;
             return flip_wins == (slot % 2 == 1);
         }
         self.better_than(other)
@@ -1451,18 +1444,17 @@ fn accepted(fit: Fit) -> bool {
     r < 1.0 || (fit.wall == 0.0 && fit.family && fit.holes.off_centre > 0 && fit.holes.all_found() && r < NEAR_MISS)
 }
 
-/// How much closer than the template itself its mirror image must fit a part for the part to
-/// be reported upside down: this share of the score the mirror image gets
-/// against the template ([`Template::mirror_score`] at the part's size). 0.5: the part is
-/// nearer to the mirror image than the midpoint between the two. A part that lies upside down
-/// fits the mirror image at the noise's level and the template by about that score; a
-/// mirror-symmetric part whose template is not quite (a real rod) fits both alike.
-pub const FLIP_EVIDENCE: f32 = 0.5;
+/// A confident fit of a chiral template (or its mirror image) whose mean distance over every
+/// point is this multiple of its trimmed verification score or more has a stretch of outline
+/// that does not fit: the other side is aligned too. A part the right way up gives 1.3–2.
+pub const STRETCH_OFF: f32 = 3.0;
 
-/// A part whose verification score against a chiral template (or its mirror image) is below
-/// this share of the score the mirror image would get ([`Template::mirror_score`] times the
-/// part's size) is not the other way up: its twin is not searched after a confident fit.
-pub const MIRROR_CLOSER: f32 = 0.5;
+/// How much closer than the template itself its mirror image must fit a part for the part to
+/// be reported upside down: the ratio of their mean distances over every point. A part that
+/// lies upside down fits the mirror image at the noise's level and the template by the
+/// stretch where the two differ; a mirror-symmetric part whose template is not quite (a real
+/// rod) fits both alike.
+pub const FLIP_EVIDENCE: f32 = 0.5;
 
 /// Relative margin by which a template's sorted lower bound must exceed the `k`-th best DP cost
 /// before the template is skipped (the two are rounded differently in `f32`).
@@ -1489,6 +1481,8 @@ fn seed_pose<const M: usize>(position: [f32; 2], angle_deg: f32, area: f32, t: &
 /// close lens sees); infinite for a scale outside `[scale_min, scale_max]`.
 /// `distances` holds the template → part distances that the alignment recorded
 /// ([`align_recording`]; measured again here when it gave up) and is scratch afterwards.
+/// Also returns the same mean over every point, none left out (what tells a part upside down
+/// from one the right way up, where they differ only over a stretch: [`Fit::beats`]).
 #[allow(clippy::too_many_arguments)]
 fn verify_score<const M: usize, B: AsRef<[u8]>>(
     a: &Alignment,
@@ -1498,24 +1492,32 @@ fn verify_score<const M: usize, B: AsRef<[u8]>>(
     diff: &Difference<'_, B>,
     params: &RefineParams,
     limits: &Params,
-) -> f32 {
+) -> (f32, f32) {
     let edge = t.edge();
     let pose = a.pose;
     let (lo, hi) = t.tolerance().scale_range(limits.scale_min, limits.scale_max);
     if !(pose.scale >= lo && pose.scale <= hi) {
-        return f32::INFINITY;
+        return (f32::INFINITY, f32::INFINITY);
     }
     let dist = distances;
-    let there = {
+    let mean = |d: &[f32]| {
+        if d.is_empty() {
+            params.cap
+        } else {
+            d.iter().sum::<f32>() / d.len() as f32
+        }
+    };
+    let (there, there_all) = {
         let d = dist.get_mut(..edge.len()).unwrap_or(&mut []);
         if a.gave_up {
             edge_distances_walled(diff, edge, t.normals(), pose, a.offset, a.wall, params, d);
         }
-        trimmed_mean(d, VERIFY_KEPT, params.cap)
+        let all = mean(d);
+        (trimmed_mean(d, VERIFY_KEPT, params.cap), all)
     };
     let valid = part_edges.iter().filter(|e| e[0].is_finite()).count();
-    let back = if valid == 0 {
-        params.cap
+    let (back, back_all) = if valid == 0 {
+        (params.cap, params.cap)
     } else {
         // Distances are measured in the template's frame (the part's edge mapped back by the
         // pose) and scaled back, so the template outline needs no mapping.
@@ -1548,13 +1550,11 @@ fn verify_score<const M: usize, B: AsRef<[u8]>>(
                 None => params.cap,
             };
         }
-        trimmed_mean(
-            dist.get_mut(..part_edges.len()).unwrap_or(&mut []),
-            VERIFY_KEPT,
-            params.cap,
-        )
+        let d = dist.get_mut(..part_edges.len()).unwrap_or(&mut []);
+        let all = mean(d);
+        (trimmed_mean(d, VERIFY_KEPT, params.cap), all)
     };
-    0.5 * (there + back)
+    (0.5 * (there + back), 0.5 * (there_all + back_all))
 }
 
 /// The mean of the smallest `kept` fraction of `values` (at least one; `empty` for none): the

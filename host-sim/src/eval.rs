@@ -10,6 +10,9 @@
 //! - angle error: correctly classified known parts, taken modulo `360/symmetry` (symmetry 0 —
 //!   a round part — has no angle and is left out);
 //! - position error: every paired part not cut by the border.
+//! - parts upside down (truth `"flipped": true`): their own recall and classification; and
+//!   over every correctly classified part, whether the prediction's `flipped` (absent: false)
+//!   is the truth's (absent: false) — reported when either side says a part is flipped.
 //! - stereo (truth with `disparity_px`): disparity error `|d − d_truth|` of the refined
 //!   disparity (`disparity_px`), of the paper's centroid disparity (`disparity_centroid_px`)
 //!   and of the border polygons' centroids (`disparity_polygon_px`), in px; depth error
@@ -108,6 +111,22 @@ pub struct Scores {
     /// Stereo: predictions found only in the right image (not scored).
     #[serde(skip_serializing_if = "is_zero")]
     pub right_only: usize,
+    /// Truth parts lying upside down (not partial).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub flipped: usize,
+    /// … of which paired with a prediction.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub flipped_detected: usize,
+    /// … of which classified right.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub flipped_correct: usize,
+    /// Correctly classified parts whose side was judged: every one, when any truth or
+    /// prediction of the set says `flipped` (else 0).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub flip_judged: usize,
+    /// … of which the prediction's `flipped` is the truth's.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub flip_right: usize,
     /// Confusions: (truth class, predicted class or "unknown", count).
     pub confusions: Vec<(String, String, usize)>,
 }
@@ -128,6 +147,10 @@ impl Scores {
     /// Unknown-rejection rate.
     pub fn rejection(&self) -> f64 {
         ratio(self.unknown_rejected, self.unknown)
+    }
+    /// Share of correctly classified parts whose side (upside down or not) was reported right.
+    pub fn flip_accuracy(&self) -> f64 {
+        ratio(self.flip_right, self.flip_judged)
     }
 }
 
@@ -161,6 +184,8 @@ pub fn score(truth: &FramesJson, pred: &FramesJson) -> Scores {
     let (mut depth_mm, mut depth_pct) = (Vec::new(), Vec::new());
     let mut confusions: std::collections::BTreeMap<(String, String), usize> = Default::default();
     let empty = Vec::new();
+    let flipped = |p: &PartJson| p.flipped == Some(true);
+    let sides_reported = truth.frames.values().flatten().any(flipped) || pred.frames.values().flatten().any(flipped);
     for (name, truth_parts) in &truth.frames {
         let all = pred.frames.get(name).unwrap_or(&empty);
         let right_only = |p: &PartJson| p.extra.get("view").and_then(|v| v.as_str()) == Some("right");
@@ -183,6 +208,10 @@ pub fn score(truth: &FramesJson, pred: &FramesJson) -> Scores {
             .filter(|(pi, p)| p.partial != Some(true) || pairs.iter().any(|&(_, q)| q == *pi))
             .count();
         s.truth_parts += truth_parts.iter().filter(|t| t.partial != Some(true)).count();
+        s.flipped += truth_parts
+            .iter()
+            .filter(|t| t.partial != Some(true) && flipped(t))
+            .count();
         for (ti, pi) in pairs {
             let (t, p) = (&truth_parts[ti], &preds[pi]);
             s.true_predictions += 1;
@@ -190,6 +219,7 @@ pub fn score(truth: &FramesJson, pred: &FramesJson) -> Scores {
                 continue;
             }
             s.detected += 1;
+            s.flipped_detected += flipped(t) as usize;
             position.push(((t.x - p.x).powi(2) + (t.y - p.y).powi(2)).sqrt());
             let num = |part: &PartJson, k: &str| part.extra.get(k).and_then(|v| v.as_f64());
             if let Some(d_true) = num(t, "disparity_px") {
@@ -215,6 +245,11 @@ pub fn score(truth: &FramesJson, pred: &FramesJson) -> Scores {
                     s.known += 1;
                     if p.class.as_deref() == Some(tc.as_str()) {
                         s.known_correct += 1;
+                        s.flipped_correct += flipped(t) as usize;
+                        if sides_reported {
+                            s.flip_judged += 1;
+                            s.flip_right += (flipped(t) == flipped(p)) as usize;
+                        }
                         let sym = t.symmetry.unwrap_or(1);
                         if sym != 0 {
                             angle.push(angle_error(p.angle_deg, t.angle_deg, sym));

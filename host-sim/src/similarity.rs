@@ -72,6 +72,10 @@ pub struct Similarity {
     pub epsilon: f32,
     /// Pairs `(i, j, min(f'[i][j], f'[j][i]))` with `i < j` below `ε`.
     pub too_alike: Vec<(usize, usize, f32)>,
+    /// Each silhouette's [`vorl_core::Template::mirror_gap`]: from
+    /// [`vorl_core::template::CHIRAL_GAP`] on it is chiral, and a part lying upside down is its
+    /// mirror image (which detect matches too, reporting it `flipped`).
+    pub mirror_gap: Vec<f32>,
 }
 
 /// Checks that every silhouette holds one part, describes it and fills the matrix in parallel;
@@ -119,7 +123,9 @@ pub fn similarity(
             }
         }
     }
+    let mirror_gap = described.iter().map(|d| d.template.mirror_gap()).collect();
     Ok(Similarity {
+        mirror_gap,
         names: described.into_iter().map(|d| d.name).collect(),
         matrix,
         epsilon: params.epsilon,

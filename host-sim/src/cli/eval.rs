@@ -175,6 +175,14 @@ pub fn run(args: EvalArgs) -> Result<ExitCode, String> {
     })
 }
 
+fn ratio(a: usize, b: usize) -> f64 {
+    if b == 0 {
+        f64::NAN
+    } else {
+        a as f64 / b as f64
+    }
+}
+
 fn pct(v: f64) -> String {
     if v.is_nan() {
         "n/a".into()
@@ -211,6 +219,28 @@ pub fn print_table(r: &EvalReport) {
         s.unknown_rejected,
         s.unknown
     );
+    if s.flipped > 0 {
+        println!(
+            "  upside down: recall     {:>8}   ({}/{} parts lying upside down)",
+            pct(ratio(s.flipped_detected, s.flipped)),
+            s.flipped_detected,
+            s.flipped
+        );
+        println!(
+            "  upside down: classified {:>8}   ({}/{})",
+            pct(ratio(s.flipped_correct, s.flipped)),
+            s.flipped_correct,
+            s.flipped
+        );
+    }
+    if s.flip_judged > 0 {
+        println!(
+            "  side reported right     {:>8}   ({}/{} parts classified right: flipped or not)",
+            pct(s.flip_accuracy()),
+            s.flip_right,
+            s.flip_judged
+        );
+    }
     println!(
         "  angle error  (reported) median {:.3}°  p95 {:.3}°  max {:.3}°  ({} parts)",
         s.angle.median, s.angle.p95, s.angle.max, s.angle.count

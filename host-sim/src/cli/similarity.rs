@@ -12,7 +12,7 @@ use crate::similarity::similarity;
 pub enum Format {
     /// Comma-separated, a header row of names.
     Csv,
-    /// `{"names", "matrix", "epsilon", "too_alike"}`.
+    /// `{"names", "matrix", "epsilon", "too_alike", "mirror_gap"}`.
     Json,
 }
 
@@ -91,6 +91,19 @@ pub fn run(args: SimilarityArgs) -> Result<ExitCode, String> {
         eprintln!(
             "warning: … and {} more pairs (all are listed by --format json)",
             too_alike.len() - SHOWN
+        );
+    }
+    let chiral: Vec<String> = sim
+        .names
+        .iter()
+        .zip(&sim.mirror_gap)
+        .filter(|(_, g)| **g >= vorl_core::template::CHIRAL_GAP)
+        .map(|(n, g)| format!("{n} ({g:.3})"))
+        .collect();
+    if !chiral.is_empty() {
+        eprintln!(
+            "chiral (upside down another shape; their mirror images are matched too, mirror gap in brackets): {}",
+            chiral.join(", ")
         );
     }
     eprintln!(

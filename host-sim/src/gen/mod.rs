@@ -79,19 +79,23 @@ use std::collections::BTreeMap;
 use std::fmt;
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
+use std::sync::Arc;
 
 use rayon::prelude::*;
 use serde_json::json;
 
 use crate::truth::{FramesJson, PartJson};
 use effects::{paper_texture, Backlight, CloseCamera, Lens, PAPER_STD};
-use raster::coverage_union;
+use raster::{bounds, coverage_union};
 use render::{
     add_drift, blur, capture, draw_part, draw_part_through, silhouette, template, Appearance, Lighting, Texture,
     BLUR_SIGMA, SUBROWS,
 };
 use rng::{purpose, Rng};
 use scene::{plan, Body, CloseFit, Placed, SceneConfig, StereoRig};
+
+/// Share of the chiral template parts that the `flipped` variant lays upside down.
+pub const FLIPPED_SHARE: f64 = 0.5;
 
 /// Nominal scale of parts and templates, px per mm (all variants but `small`).
 pub const PX_PER_MM: f64 = 1.0;
@@ -165,11 +169,15 @@ pub enum Variant {
     /// proportions of its own, at 0.9–1.3× the template's size; washers and screws as
     /// distractors. No background by default; a `vorl.toml` with the scale range.
     Rods,
+    /// As `default`, with about half of the chiral template parts (those whose mirror image
+    /// matches no turn of them: `l_bracket`, `shaft_key`, `wrench`) lying upside down; truth
+    /// adds `"flipped": true` and `"chiral"`.
+    Flipped,
 }
 
 impl Variant {
     /// All variants, in the order of their names.
-    pub const ALL: [Variant; 13] = [
+    pub const ALL: [Variant; 14] = [
         Variant::Default,
         Variant::Noisy,
         Variant::Small,
@@ -183,6 +191,7 @@ impl Variant {
         Variant::Printed,
         Variant::Backlit,
         Variant::Rods,
+        Variant::Flipped,
     ];
 
     /// The command-line name.
@@ -201,6 +210,7 @@ impl Variant {
             Variant::Printed => "printed",
             Variant::Backlit => "backlit",
             Variant::Rods => "rods",
+            Variant::Flipped => "flipped",
         }
     }
 
@@ -240,7 +250,7 @@ impl Variant {
     pub fn is_real_camera(self) -> bool {
         !matches!(
             self,
-            Variant::Default | Variant::Noisy | Variant::Small | Variant::Border | Variant::Stereo
+            Variant::Default | Variant::Noisy | Variant::Small | Variant::Border | Variant::Stereo | Variant::Flipped
         )
     }
 }
@@ -391,6 +401,9 @@ enum Effect {
     Printed,
     /// `backlit`: the platform is this backlight.
     Backlit(Backlight),
+    /// `flipped`: which parts of the catalogue are chiral (by index); about half of those lie
+    /// upside down.
+    Flipped(Vec<bool>),
 }
 
 /// Everything a frame needs that is fixed for the set.
@@ -453,6 +466,7 @@ impl SetPlan {
             Variant::Backlit | Variant::Rods => Effect::Backlit(Backlight::random(&mut fx, w, h)),
             Variant::Exposure => Effect::Exposure,
             Variant::Printed => Effect::Printed,
+            Variant::Flipped => Effect::Flipped(v.catalogue().iter().map(|p| p.is_template && p.is_chiral()).collect()),
             _ => Effect::Ideal,
         };
         let light = match &effect {
@@ -547,6 +561,7 @@ impl SetPlan {
                 "pairs": "frames 2k and 2k+1 show scene k",
             }),
             Effect::Printed => json!({ "printed_share": print::PRINTED_SHARE }),
+            Effect::Flipped(_) => json!({ "flipped_share": FLIPPED_SHARE }),
             Effect::Ideal => json!({}),
         };
         if let (Some(o), Some(p)) = (v.as_object_mut(), params.as_object()) {
@@ -691,6 +706,24 @@ impl SetPlan {
                     };
                     p.body = Body::Opaque { level };
                 }
+                Effect::Flipped(chiral)
+                    if chiral.get(p.spec).copied().unwrap_or(false) && rng.chance(FLIPPED_SHARE) =>
+                {
+                    let mirrored = spec.mirrored();
+                    // Still inside the frame by the margin (the mirror image's bounds differ).
+                    let b = bounds(&p.pose.rings(mirrored.rings()));
+                    let (w, h) = (self.w as f64, self.h as f64);
+                    let m = scene::INSIDE_MARGIN_PX;
+                    if b[0] >= m && b[1] >= m && b[2] <= w - 1.0 - m && b[3] <= h - 1.0 - m {
+                        p.varied = Some(Arc::new(shapes::Varied {
+                            spec: mirrored,
+                            stretch: 1.0,
+                            factors: Vec::new(),
+                        }));
+                        p.flipped = true;
+                        p.look.texture = p.look.texture.mirrored();
+                    }
+                }
                 Effect::Printed => {
                     let printed = rng
                         .chance(print::PRINTED_SHARE)
@@ -762,6 +795,12 @@ impl SetPlan {
             }
             (_, Body::Opaque { level }) => put("level", json!(level)),
             _ => {}
+        }
+        if let Effect::Flipped(chiral) = &self.effect {
+            if spec.is_template {
+                put("chiral", json!(chiral.get(p.spec).copied().unwrap_or(false)));
+            }
+            t.flipped = p.flipped.then_some(true);
         }
         if let Some((gain, offset)) = self.exposure(index) {
             put("gain", json!(gain));

@@ -183,6 +183,35 @@ pub(crate) struct Mark {
 }
 
 impl Texture {
+    /// The same texture on the part mirrored left-right (`x → −x` in the part frame), so that
+    /// it keeps its place on the part lying upside down (its margins from the border too).
+    pub(crate) fn mirrored(&self) -> Texture {
+        match self {
+            Texture::Plain => Texture::Plain,
+            Texture::Gradient { dir, amplitude } => Texture::Gradient {
+                dir: [-dir[0], dir[1]],
+                amplitude: *amplitude,
+            },
+            Texture::Label { bars, level } => Texture::Label {
+                bars: bars.iter().map(|b| [-b[2], b[1], -b[0], b[3]]).collect(),
+                level: *level,
+            },
+            Texture::Print { marks } => Texture::Print {
+                marks: marks
+                    .iter()
+                    .map(|m| Mark {
+                        rings: m
+                            .rings
+                            .iter()
+                            .map(|r| r.iter().map(|p| [-p[0], p[1]]).collect())
+                            .collect(),
+                        ..m.clone()
+                    })
+                    .collect(),
+            },
+        }
+    }
+
     /// Short name for the truth file.
     pub(crate) fn name(&self) -> &'static str {
         match self {

@@ -96,8 +96,11 @@ pub(crate) struct Placed {
     pub(crate) depth: Option<(f64, f64)>,
     /// Set after planning by the variants that need it.
     pub(crate) body: Body,
-    /// The part's own proportions (`rods`), or `None`: drawn as its template.
+    /// The part's own proportions (`rods`) or its mirror image (`flipped`), or `None`: drawn as
+    /// its template.
     pub(crate) varied: Option<Arc<Varied>>,
+    /// Lying upside down (`flipped`): drawn as its template's mirror image.
+    pub(crate) flipped: bool,
 }
 
 impl Placed {
@@ -218,6 +221,7 @@ fn try_place(rng: &mut Rng, cat: &[PartSpec], spec_i: usize, cfg: &SceneConfig, 
         depth,
         body: Body::Flat,
         varied: varied.map(Arc::new),
+        flipped: false,
     })
 }
 

@@ -793,3 +793,65 @@ fn gen_rods_set_has_its_scale_range_and_no_background() {
     assert!(gray(&dir.join("templates").join("rod_a.png")).width() > 100);
     let _ = std::fs::remove_dir_all(dir);
 }
+
+/// The catalogue's chiral templates are the parts without a mirror axis (`l_bracket`,
+/// `shaft_key`, `wrench`); the others' mirror gap is nothing but sampling. A part of the
+/// `flipped` set lying upside down is drawn as its template mirrored left-right about its
+/// centroid, then turned by its truth angle (DESIGN.md), keeps its own centroid, and says so in
+/// its truth; only chiral parts lie upside down, about half of them.
+#[test]
+fn gen_flipped_parts_are_mirror_images_and_truth_says_so() {
+    let cat = Variant::Flipped.catalogue();
+    let gaps: Vec<f64> = cat
+        .iter()
+        .map(|s| if s.is_template { s.mirror_gap() } else { 0.0 })
+        .collect();
+    let is_chiral = |i: usize| gaps[i] >= shapes::CHIRAL_GAP;
+    let chiral: Vec<&str> = (0..cat.len()).filter(|&i| is_chiral(i)).map(|i| cat[i].name).collect();
+    assert_eq!(chiral, ["l_bracket", "shaft_key", "wrench"]);
+    for (s, gap) in cat.iter().zip(&gaps).filter(|(s, _)| s.is_template) {
+        assert!(*gap < 0.002 || *gap > 0.02, "{}: {gap}", s.name);
+        // Mirrored twice: the same rings.
+        let back = s.mirrored().mirrored();
+        assert!((back.area_mm2() - s.area_mm2()).abs() < 1e-9);
+        for (a, b) in back.rings().iter().flatten().zip(s.rings().iter().flatten()) {
+            assert!(dist(*a, *b) < 1e-9, "{}", s.name);
+        }
+    }
+    let opts = small_opts(Variant::Flipped, 3, 10);
+    let (mut flipped, mut upright) = (0, 0);
+    for index in 0..10 {
+        let (set, parts, _, _) = clean_frame(&opts, index);
+        for p in &parts {
+            let t = set.truth(p, index);
+            let spec = &set.cat[p.spec];
+            assert_eq!(t.flipped, p.flipped.then_some(true));
+            if spec.is_template {
+                assert_eq!(t.extra["chiral"], json!(is_chiral(p.spec)), "{}", spec.name);
+            }
+            if !is_chiral(p.spec) {
+                assert!(!p.flipped, "{}", spec.name);
+                continue;
+            }
+            let drawn = p.drawn(&set.cat);
+            // The drawn shape is the template's mirror image, point by point.
+            for k in 0..400 {
+                let q = [(k % 20) as f64 * 6.0 - 57.0, (k / 20) as f64 * 6.0 - 57.0];
+                let want = if p.flipped {
+                    spec.coverage(-q[0], q[1])
+                } else {
+                    spec.coverage(q[0], q[1])
+                };
+                assert_eq!(drawn.coverage(q[0], q[1]), want, "{} at {q:?}", spec.name);
+            }
+            let (_, c) = silhouette(drawn, &p.pose, set.w, set.h).moments();
+            assert!(dist(c, [t.x, t.y]) < 0.02, "{}", spec.name);
+            if p.flipped {
+                flipped += 1;
+            } else {
+                upright += 1;
+            }
+        }
+    }
+    assert!(flipped >= 2 && upright >= 2, "{flipped} flipped, {upright} upright");
+}
