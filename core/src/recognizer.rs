@@ -924,43 +924,46 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             }
             // A first candidate that is confident ends the scan: a later cost record would have
             // to beat a fit within half its limit with all its holes, and the part's. So does
-            // one far off the part in size and shape (UNVERIFIED_FAMILY). Before a confident
-            // end, a chiral template's mirror image (or the template, after its mirror image)
-            // is aligned too when a stretch of the outline does not fit (the mean over every
-            // point is STRETCH_OFF times the trimmed score or more): a part upside down may fit
-            // a nearly mirror-symmetric template confidently, the verification leaving out the
-            // stretch where they differ, and its mirror image better (their DP costs are too
-            // close to tell).
+            // one far off the part in size and shape (UNVERIFIED_FAMILY).
             if scan.found == 1
                 && (confident(detection)
                     || (!detection.verify.is_finite() && m.normalized >= UNVERIFIED_FAMILY * params.epsilon))
             {
-                let twin = slot ^ 1;
-                let stretch_off = best
-                    .best
-                    .is_some_and(|(s, f)| s == slot && f.full >= STRETCH_OFF * f.verify);
-                if confident(detection) && stretch_off && scan.listing(twin) != Listing::Out {
-                    scan.set(twin, Listing::Out);
-                    if let Some(m) = self.search_slot(&mut scan, n, twin, f32::INFINITY) {
-                        if let Some(t) = scan.tried.as_flattened_mut().get_mut(twin) {
-                            *t = true;
-                        }
-                        self.try_candidate(
-                            n,
-                            centroid,
-                            position,
-                            area,
-                            twin,
-                            m,
-                            part_holes,
-                            diff,
-                            refine_params,
-                            detection,
-                            &mut best,
-                        );
-                    }
-                }
                 break;
+            }
+        }
+        // The best fit's other side, when it was not tried and the fit is accepted but not
+        // confident, or a stretch of its outline does not fit (the mean over every point is
+        // STRETCH_OFF times the trimmed score or more): a part upside down may fit a nearly
+        // mirror-symmetric template well, the verification leaving out the stretch where they
+        // differ, or a chiral one loosely, and its mirror image better (their DP costs can be
+        // too close to tell).
+        let doubtful = |f: &Fit| f.full >= STRETCH_OFF * f.verify || f.verify >= CONFIDENT * f.limit;
+        if let Some((slot, _)) = best.best.filter(|(_, f)| accepted(*f) && doubtful(f)) {
+            let twin = slot ^ 1;
+            let open =
+                scan.listing(twin) != Listing::Out || scan.window.as_flattened().get(twin).is_some_and(|w| !w.is_nan());
+            let tried = scan.tried.as_flattened().get(twin).copied().unwrap_or(true);
+            if open && !tried {
+                scan.set(twin, Listing::Out);
+                if let Some(t) = scan.tried.as_flattened_mut().get_mut(twin) {
+                    *t = true;
+                }
+                if let Some(m) = self.search_slot(&mut scan, n, twin, f32::INFINITY) {
+                    self.try_candidate(
+                        n,
+                        centroid,
+                        position,
+                        area,
+                        twin,
+                        m,
+                        part_holes,
+                        diff,
+                        refine_params,
+                        detection,
+                        &mut best,
+                    );
+                }
             }
         }
         detection.searches = u8::try_from(scan.searches).unwrap_or(u8::MAX);
@@ -1000,6 +1003,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             lowest: f32::INFINITY,
             found: 0,
             tried: [[false; 2]; T],
+            cost: [[f32::NAN; 2]; T],
             searches: 0,
         };
         let flips = self.params.flipped_parts && mirrors;
@@ -1045,7 +1049,19 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 scan.lowest * ratio
             };
             let slot = self.next_template(scan, n, bound)?;
-            let Some(m) = self.search_slot(scan, n, slot, bound) else {
+            // A mirror image whose template was searched comes in only well below its cost: a
+            // part that is neither fits both about alike.
+            let twin_cost = scan.cost.as_flattened().get(slot ^ 1).copied().unwrap_or(f32::NAN);
+            let bound = if slot % 2 == 1 && twin_cost.is_finite() {
+                bound.min(MIRROR_GAIN * twin_cost)
+            } else {
+                bound
+            };
+            let found = self.search_slot(scan, n, slot, bound);
+            if let (Some(m), Some(c)) = (found, scan.cost.as_flattened_mut().get_mut(slot)) {
+                *c = m.cost;
+            }
+            let Some(m) = found else {
                 continue;
             };
             scan.lowest = scan.lowest.min(m.cost);
@@ -1292,6 +1308,8 @@ struct CandidateScan<const T: usize, const M: usize> {
     found: usize,
     /// Slots that were candidates.
     tried: [[bool; 2]; T],
+    /// Each slot's DP cost where its search came in (NaN elsewhere).
+    cost: [[f32; 2]; T],
     /// DP searches run so far.
     searches: usize,
 }
@@ -1322,16 +1340,19 @@ impl<const T: usize, const M: usize> CandidateScan<T, M> {
 
     /// Back to the start of the bound order, without the templates that were candidates: the
     /// others are in the scan again, with the exact bounds already computed (the order is the
-    /// same as a new scan's, which would compute them again).
+    /// same as a new scan's, which would compute them again). Mirror images are not: a part
+    /// upside down fits its template's mirror image better than any other template, so the
+    /// first pass finds it; the wider passes are for near misses of the right way up.
     fn reopen(&mut self) {
-        for ((state, &tried), (&exact, &window)) in self
+        for (slot, ((state, &tried), (&exact, &window))) in self
             .state
             .as_flattened_mut()
             .iter_mut()
             .zip(self.tried.as_flattened())
             .zip(self.exact.as_flattened().iter().zip(self.window.as_flattened()))
+            .enumerate()
         {
-            *state = if tried {
+            *state = if tried || slot % 2 == 1 {
                 Listing::Out
             } else if !exact.is_nan() {
                 Listing::Exact
@@ -1444,10 +1465,17 @@ fn accepted(fit: Fit) -> bool {
     r < 1.0 || (fit.wall == 0.0 && fit.family && fit.holes.off_centre > 0 && fit.holes.all_found() && r < NEAR_MISS)
 }
 
-/// A confident fit of a chiral template (or its mirror image) whose mean distance over every
+/// An accepted fit of a chiral template (or its mirror image) whose mean distance over every
 /// point is this multiple of its trimmed verification score or more has a stretch of outline
 /// that does not fit: the other side is aligned too. A part the right way up gives 1.3–2.
 pub const STRETCH_OFF: f32 = 3.0;
+
+/// A mirror image whose template was searched for this part is a candidate only when its DP
+/// cost is below this share of the template's: a part upside down fits the mirror image
+/// clearly better, one that is neither (an unknown part) about alike. A nearly
+/// mirror-symmetric part upside down, whose two costs are too close to tell, is caught by its
+/// fit instead ([`STRETCH_OFF`]).
+pub const MIRROR_GAIN: f32 = 0.8;
 
 /// How much closer than the template itself its mirror image must fit a part for the part to
 /// be reported upside down: the ratio of their mean distances over every point. A part that
