@@ -1057,6 +1057,11 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             } else {
                 bound
             };
+            // (Its sorted-value bound may already rule that out: no search.)
+            let lower = scan.exact.as_flattened().get(slot).copied().unwrap_or(0.0);
+            if lower * (1.0 - LOWER_BOUND_MARGIN) >= bound {
+                continue;
+            }
             let found = self.search_slot(scan, n, slot, bound);
             if let (Some(m), Some(c)) = (found, scan.cost.as_flattened_mut().get_mut(slot)) {
                 *c = m.cost;
