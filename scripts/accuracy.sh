@@ -47,3 +47,10 @@ for v in exposure thick; do
     echo "### $v without an empty shot"
     "$VORL" eval "$OUT/$v-noshot"
 done
+# Parts upside down (the touching/flipped/cut issue): seeds 1-3, the default world.
+for s in 1 2 3; do
+    frames=$([ "$s" = 1 ] && echo 60 || echo 150)
+    "$VORL" gen "$OUT/flipped-$s" --seed "$s" --frames "$frames" --variant flipped >/dev/null
+    echo "### flipped, seed $s"
+    "$VORL" eval "$OUT/flipped-$s"
+done

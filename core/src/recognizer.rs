@@ -7,8 +7,8 @@
 //!
 //! | parameter | meaning | bytes (32-bit) |
 //! |---|---|---|
-//! | `T` | templates in the library | `T·(32·M + 32)` |
-//! | `M` | points of a template (≥ `m`, and ≥ `n`) | part buffers `22·M` |
+//! | `T` | templates in the library | `T·(32·M + 156)` |
+//! | `M` | points of a template (≥ `m`, and ≥ `n`) | part buffers `22·M`, and one template (the mirror image a part upside down is matched against) |
 //! | `P` | border points stored per frame | `4·P` |
 //! | `C` | borders kept per frame | `32·C + 16` |
 //! | `D` | DP table cells, ≥ `n·(m − n + 1)` | `4·D` |
@@ -32,6 +32,16 @@
 //! - On the paper's path (`refine = Off`, and `Pose`) the searches are bounded by the best cost
 //!   so far until the bound rules the rest out (exact: the DP's best template, as searching
 //!   all); it is the class when `f' < ε`.
+//! - Upside down ([`Params::flipped_parts`], on by default): every chiral template
+//!   ([`Template::is_chiral`]) has a second place in the scan for its mirror image, with the same
+//!   bounds (its descriptor values are the same, in reverse order), built on demand into one
+//!   scratch template. After its template was searched it comes in only below [`MIRROR_GAIN`]
+//!   of that cost; a mirror image that wins is held against its template, and the upside-down
+//!   reading needs clear evidence ([`FLIP_EVIDENCE`], on the mean distance over every point);
+//!   an accepted fit that is not confident, or whose outline is off over a stretch
+//!   ([`STRETCH_OFF`]), has its other side aligned too. A part touching the frame's edge is
+//!   never matched upside down. On the bench set this costs 0.7 % more instructions; every
+//!   accuracy set and the real photographs keep their classes and poses (`docs/accuracy.md`).
 //!
 //! The rotation comes from the aligned pose (or the best template's correspondence), the
 //! position from the partial-volume centroid (or the border's area centroid) — or, for a part

@@ -6,7 +6,7 @@
 //! [`Template::from_silhouette`] takes the largest outer border of a silhouette image (part 255,
 //! rest 0; `docs/pipeline-spec.md` §9).
 //!
-//! Memory: `32·M + 152` bytes per template of capacity `M` on a 32-bit camera, its holes and
+//! Memory: `32·M + 156` bytes per template of capacity `M` on a 32-bit camera, its holes and
 //! tolerance included
 //! (see `vorl budget`).
 
@@ -21,9 +21,13 @@ use crate::pose::area_centroid;
 use crate::resample::resample;
 
 /// [`Template::mirror_gap`] from which a template is chiral (its mirror image fits no turn of
-/// it): 1 % of its size, as far from a mirror axis as [`crate::recognizer::HALF_TURN_SYMMETRIC`]
-/// is from 2-fold symmetry, and well above what resampling leaves of an exact mirror axis.
-pub const CHIRAL_GAP: f32 = 0.01;
+/// it): 2 % of its size. Resampling and the pixel grid leave up to about 1 % of an exact
+/// mirror axis (a 12-tooth gear of sharp corners 0.010, a small arrow 0.016, a real gear 0.009);
+/// the catalogue's chiral parts are at 0.029–0.31, a scalene triangle two sides of which differ
+/// by 3 % at 0.024. A template photographed from a real mirror-symmetric part may land above
+/// it (a real rod: 0.037): it is then matched upside down too, and the evidence rule of the
+/// recognizer keeps such parts the right way up ([`crate::recognizer::FLIP_EVIDENCE`]).
+pub const CHIRAL_GAP: f32 = 0.02;
 
 /// How far a mirrored hole may lie from the hole it matches before [`Template::mirror_gap`]
 /// counts the distance, px: two pixel-grid centres half a pixel off a mirror axis each.
