@@ -1220,7 +1220,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         // A template and its mirror image are held against each other even when neither is
         // the best so far.
         let twin = best.fits.iter().find(|(s, _)| *s == slot ^ 1).map(|(_, f)| *f);
-        // (At most `candidates` and one twin are tried: a full list only forgets.)
+        // (Room for every candidate and its twin; a full list would only forget.)
         let _ = best.fits.push((slot, fit));
         let beats_twin = twin.is_none_or(|t| fit.beats(slot, &t, slot ^ 1));
         if beats_twin && best.best.as_ref().is_none_or(|(b_slot, b)| fit.beats(slot, b, *b_slot)) {
@@ -1286,11 +1286,12 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
 }
 
 /// The candidates one part was aligned and verified against: the best fit so far (by
-/// [`Fit::beats`]) and every fit, so that a mirror image is held against its template.
+/// [`Fit::beats`]) and every fit, so that a mirror image is held against its template. At most
+/// [`MAX_CANDIDATES`] templates are candidates, each perhaps with its mirror image.
 #[derive(Default)]
 struct Tried {
     best: Option<(usize, Fit)>,
-    fits: heapless::Vec<(usize, Fit), { MAX_CANDIDATES + 1 }>,
+    fits: heapless::Vec<(usize, Fit), { 2 * MAX_CANDIDATES }>,
 }
 
 /// Where a template is in a [`CandidateScan`].
