@@ -16,7 +16,7 @@
 //! | contour records | `C·size_of::<Contour>()` + the vector's length word + the store's counter |
 //! | templates | `T·size_of::<Template<M>>()` + the vector's length word, `size_of::<Template<M>>() = word + 32·M + 40 + 100 + 12` (the holes, [`HOLES_BYTES`], and the class's tolerance) rounded up to the word |
 //! | DP table | `4·D` (`D ≥ n·(m − n + 1)`) |
-//! | part buffers | `22·M`: points `8·M`, descriptor `4·M`, correspondence `2·M`, sub-pixel edge `8·M`; and one template, the mirror image a part upside down is matched against |
+//! | part buffers | `22·M`: points `8·M`, descriptor `4·M`, correspondence `2·M`, sub-pixel edge `8·M`; one template, the mirror image a part upside down is matched against; the partial search's blob border and open DP, `12·BLOB_POINTS + 4·M·(ARC_ROWS + 2)` ([`split_buffer_bytes`]) |
 //! | parameters, padding | `size_of::<Params>()` and the rounding of the recognizer to its alignment |
 //!
 //! The frame itself is not counted: in the firmware example it is in flash; on a camera it is the
@@ -221,10 +221,19 @@ pub const PART_BYTES_PER_POINT: usize = 22;
 
 /// The buffers of the part being matched: [`PART_BYTES_PER_POINT`] per template point, and
 /// one template more, the mirror image of a chiral template that a part upside down is
-/// matched against ([`crate::Template::mirrored`]).
+/// matched against ([`crate::Template::mirrored`]); and the partial search's
+/// ([`split_buffer_bytes`]).
 pub const fn part_buffer_bytes(layout: Layout, m: usize) -> usize {
     m.saturating_mul(PART_BYTES_PER_POINT)
         .saturating_add(template_bytes(layout, m))
+        .saturating_add(split_buffer_bytes(m))
+}
+
+/// The partial search's buffers ([`crate::split`]): the blob's border at a template's step and
+/// its turning angles, 12 bytes for each of [`crate::split::BLOB_POINTS`]; a template's
+/// turning angles and the open DP's rows, `4·M·(ARC_ROWS + 2)`.
+pub const fn split_buffer_bytes(m: usize) -> usize {
+    (12 * crate::split::BLOB_POINTS).saturating_add(m.saturating_mul(4 * (crate::arcs::ARC_ROWS + 2)))
 }
 
 /// The budget of a configuration on a target.
@@ -357,8 +366,12 @@ mod tests {
         // 32-bit: 8 templates of (4 + 32·96 + 40 + 100 for the holes + 12 for the tolerance)
         // bytes and the length word.
         assert_eq!(budget(Layout::CORTEX_M, caps).templates, 4 + 8 * 3228);
-        // The part buffers: 22 bytes per point and one template, the mirror image.
-        assert_eq!(budget(Layout::CORTEX_M, caps).part_buffers, 22 * 96 + 3228);
+        // The part buffers: 22 bytes per point and one template, the mirror image; the partial
+        // search's 512 border points (8 + 4 bytes) and 15 rows of 96 cells.
+        assert_eq!(
+            budget(Layout::CORTEX_M, caps).part_buffers,
+            22 * 96 + 3228 + 512 * 12 + 15 * 96 * 4
+        );
     }
 
     #[test]

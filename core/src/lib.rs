@@ -44,6 +44,7 @@
 // rejects it); clippy's preferred `x <= 0.0` would let NaN through.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod arcs;
 pub mod background;
 pub mod budget;
 pub mod calibrate;
@@ -65,6 +66,7 @@ pub mod pose;
 pub mod recognizer;
 pub mod refine;
 pub mod resample;
+pub mod split;
 pub mod stereo;
 pub mod template;
 #[cfg(test)]

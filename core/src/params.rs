@@ -117,6 +117,12 @@ pub struct Params {
     /// is reported [`crate::Detection::flipped`] (on by default). Off for a line whose feeder
     /// never flips parts: chiral templates then cost no more than the others.
     pub flipped_parts: bool,
+    /// Whether a blob whose border is not one template's is searched for the parts along it
+    /// ([`crate::split`]: touching and overlapping parts, and parts the frame's edge cuts that
+    /// show at least half their border), reported [`crate::Detection::touching`] with their
+    /// visible share. Off by default for now: on a blob of an unknown part the search costs
+    /// several times the whole-border match (`docs/performance.md`).
+    pub touching_parts: bool,
 }
 
 impl Params {
@@ -144,6 +150,7 @@ impl Params {
         position: Position::PartialVolume,
         nested_parts: false,
         flipped_parts: true,
+        touching_parts: false,
     };
 
     /// Checks every range.

@@ -49,6 +49,7 @@
 //! pose, the top face's. A border that cannot be described is reported as a [`Skip`] with the
 //! reason.
 
+use crate::arcs::ARC_ROWS;
 use crate::background::Background;
 use crate::contour::{clear_labels, trace_borders_in, BorderKind, ContourStore, TraceStats};
 use crate::descriptor::describe;
@@ -66,6 +67,7 @@ use crate::refine::{
     RefineParams,
 };
 use crate::resample::resample;
+use crate::split::BLOB_POINTS;
 use crate::template::Template;
 
 /// Most detections reported for one frame.
@@ -125,8 +127,19 @@ pub struct Detection {
     /// DP searches run for this part: one per template searched along the candidate scan
     /// (whether or not it came in), saturating at 255. The work the part took: 1 for a part
     /// settled by its first candidate, more for a near miss or an unknown part near some
-    /// template ([`UNVERIFIED_FAMILY`]).
+    /// template ([`UNVERIFIED_FAMILY`]). For a part found by the partial search
+    /// ([`crate::split`]): the templates whose arcs were searched.
     pub searches: u8,
+    /// Found in a blob that held other parts too (touching or overlapping another part, or
+    /// beside a rest no template explains): by the partial search ([`crate::split`]).
+    pub touching: bool,
+    /// The share of the template's edge points that the image confirms (1 for a part matched
+    /// whole; 0 for the unexplained rest of a blob). See [`crate::split`].
+    pub visible_fraction: f32,
+    /// The position is the aligned template's ([`Pose::apply`] on its position offset), not
+    /// the silhouette's centroid: a part found by the partial search, whose silhouette is not
+    /// whole.
+    pub position_from_pose: bool,
 }
 
 /// Why a border was not turned into a detection.
@@ -178,6 +191,9 @@ pub struct Report {
     pub mask: MaskStats,
     /// The border stage's figures (dropped, subsampled and skipped borders are counted here).
     pub trace: TraceStats,
+    /// Blobs whose whole-border match failed and that were too long for the partial search
+    /// ([`crate::split::BLOB_POINTS`]): reported whole, as unknown parts.
+    pub unsplit: usize,
 }
 
 impl Report {
@@ -219,10 +235,10 @@ impl Report {
 /// ```
 #[derive(Debug, Clone)]
 pub struct Recognizer<const T: usize, const M: usize, const P: usize, const C: usize, const D: usize> {
-    params: Params,
-    templates: heapless::Vec<Template<M>, T>,
-    store: ContourStore<P, C>,
-    points: [[f32; 2]; M],
+    pub(crate) params: Params,
+    pub(crate) templates: heapless::Vec<Template<M>, T>,
+    pub(crate) store: ContourStore<P, C>,
+    pub(crate) points: [[f32; 2]; M],
     descriptor: [f32; M],
     assignment: [u16; M],
     table: [f32; D],
@@ -231,6 +247,14 @@ pub struct Recognizer<const T: usize, const M: usize, const P: usize, const C: u
     /// matched against it.
     mirror: Template<M>,
     mirror_of: Option<u16>,
+    /// The partial search's blob border at a template's step ([`crate::split`]).
+    pub(crate) arc_points: [[f32; 2]; BLOB_POINTS],
+    /// Its turning angles (and, after the search, marks of the explained points).
+    pub(crate) arc_turning: [f32; BLOB_POINTS],
+    /// A template's turning angles.
+    pub(crate) arc_template: [f32; M],
+    /// The partial DP's rows ([`crate::arcs::ARC_ROWS`] of `M` cells and one for the pads).
+    pub(crate) arc_rows: [[f32; M]; ARC_ROWS + 1],
 }
 
 impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: usize> Default
@@ -255,6 +279,10 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             part_edges: [[0.0; 2]; M],
             mirror: Template::empty(),
             mirror_of: None,
+            arc_points: [[0.0; 2]; BLOB_POINTS],
+            arc_turning: [0.0; BLOB_POINTS],
+            arc_template: [0.0; M],
+            arc_rows: [[0.0; M]; ARC_ROWS + 1],
         }
     }
 
@@ -428,8 +456,36 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             }
             match self.part(index, frame, background.plane(), labels) {
                 Ok(detection) => {
-                    if report.detections.push(detection).is_err() {
-                        report.skip(index, SkipReason::TooManyParts);
+                    // A whole-border match that failed: the parts along the blob's border.
+                    // Or one that explains too little of its blob: a part accepted on a blob
+                    // that holds more (another part touching it) than its template covers.
+                    let parts = if params.touching_parts
+                        && params.refine == Refine::Verify
+                        && self.blob_not_explained(&detection)
+                    {
+                        let diff = Difference::new(frame, background.plane(), params.alpha());
+                        let holes = Holes::from_borders(self.store.holes_of(index).map(|i| self.store.points(i)), 0.0);
+                        match self.split_blob(index, &diff, &holes, &detection) {
+                            Ok(parts) => parts,
+                            Err(()) => {
+                                report.unsplit += 1;
+                                heapless::Vec::new()
+                            }
+                        }
+                    } else {
+                        heapless::Vec::new()
+                    };
+                    if parts.is_empty() {
+                        if report.detections.push(detection).is_err() {
+                            report.skip(index, SkipReason::TooManyParts);
+                        }
+                    } else {
+                        for d in parts {
+                            if report.detections.push(d).is_err() {
+                                report.skip(index, SkipReason::TooManyParts);
+                                break;
+                            }
+                        }
                     }
                 }
                 Err(reason) => report.skip(index, reason),
@@ -496,6 +552,9 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             touches_edge: contour.touches_edge,
             flipped: false,
             searches: 0,
+            touching: false,
+            visible_fraction: 1.0,
+            position_from_pose: false,
         };
         let diff = Difference::new(frame, background, params.alpha());
         let best_fit = if params.refine == Refine::Verify {
@@ -1834,6 +1893,78 @@ mod tests {
             }
         }
         px
+    }
+
+    /// Two parts that touch and overlap (the L's bar under the T's by about a tenth of the L)
+    /// form one blob; the whole-border match fails on it, and the partial search finds both,
+    /// each with its template, `touching`, a visible share below 1 and the pose of its
+    /// template (position within 0.5 px, angle within 0.5°); a lone part beside them is
+    /// matched whole, as before.
+    #[test]
+    fn touching_parts_are_found_along_their_blob() {
+        let (w, h) = (220usize, 110usize);
+        let teach = |inside: fn([f32; 2]) -> bool| {
+            let (tw, th) = (80usize, 80usize);
+            let px: std::vec::Vec<u8> = (0..tw * th)
+                .map(|i| {
+                    if inside([(i % tw) as f32 - 30.0, (i / tw) as f32 - 30.0]) {
+                        255
+                    } else {
+                        0
+                    }
+                })
+                .collect();
+            let mut labels = std::vec![0u8; tw * th];
+            let mut store = std::boxed::Box::new(ContourStore::<4096, 16>::new());
+            Template::<96>::from_silhouette(
+                &Frame::new_checked(&px[..], tw, th).unwrap(),
+                &Params::DEFAULT,
+                &mut labels,
+                &mut store,
+            )
+            .unwrap()
+        };
+        let (l, t) = (teach(l_inside), teach(t_inside));
+        let parts: [Placed; 3] = [
+            (true, 60.0, 55.0, 0.0, false),
+            (false, 95.0, 55.0, 0.0, false),
+            (true, 175.0, 55.0, 75.0, false),
+        ];
+        let px = scene(w, h, &parts);
+        let bg_px = std::vec![200u8; w * h];
+        let mut bg = Background::new(std::vec![0u8; w * h], w, h).unwrap();
+        bg.set_from_frame(&Frame::new_checked(&bg_px[..], w, h).unwrap(), Params::DEFAULT.alpha())
+            .unwrap();
+        let mut rec: std::boxed::Box<Recognizer<4, 96, 4096, 64, 2112>> = std::boxed::Box::default();
+        rec.set_params(Params {
+            touching_parts: true,
+            ..Params::DEFAULT
+        })
+        .unwrap();
+        rec.add_template(l).unwrap();
+        rec.add_template(t).unwrap();
+        let mut labels = std::vec![0u8; w * h];
+        let report = rec
+            .process(&Frame::new_checked(&px[..], w, h).unwrap(), &bg, &mut labels)
+            .unwrap();
+        assert_eq!(report.detections.len(), 3, "{:?}", report.detections);
+        for (k, &(is_l, x, y, deg, _)) in parts.iter().enumerate() {
+            let d = report
+                .detections
+                .iter()
+                .find(|d| (d.x - x).abs() < 0.5 && (d.y - y).abs() < 0.5)
+                .unwrap_or_else(|| panic!("no part at ({x}, {y}): {:?}", report.detections));
+            assert_eq!(d.template, Some(if is_l { 0 } else { 1 }), "{d:?}");
+            let err = (d.angle_deg - deg + 540.0).rem_euclid(360.0) - 180.0;
+            assert!(err.abs() < 0.5, "{d:?}");
+            let touching = k < 2;
+            assert_eq!(d.touching, touching, "{d:?}");
+            assert_eq!(d.position_from_pose, touching, "{d:?}");
+            assert!(
+                touching == (d.visible_fraction < 1.0) && d.visible_fraction >= 0.75,
+                "{d:?}"
+            );
+        }
     }
 
     /// A chiral part lying upside down is its template's mirror image: found, reported

@@ -1219,6 +1219,9 @@ mod tests {
             touches_edge: false,
             flipped: false,
             searches: 1,
+            touching: false,
+            visible_fraction: 1.0,
+            position_from_pose: false,
         };
         assert_eq!(
             StereoPart::from(&d),

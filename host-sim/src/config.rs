@@ -69,6 +69,9 @@ pub struct Config {
     /// Whether parts may lie upside down: chiral templates' mirror images are matched too, and
     /// a part that fits one is reported `flipped`. false for a feeder that never flips parts.
     pub flipped_parts: bool,
+    /// Whether blobs whose border is not one template's are searched for the parts along them
+    /// (touching, overlapping and cut parts).
+    pub touching_parts: bool,
 }
 
 /// Default of [`Config::platform_every`].
@@ -200,6 +203,7 @@ impl Config {
             platform_every: DEFAULT_PLATFORM_EVERY,
             nested_parts: p.nested_parts,
             flipped_parts: p.flipped_parts,
+            touching_parts: p.touching_parts,
         }
     }
 
@@ -252,6 +256,7 @@ impl Config {
             },
             nested_parts: self.nested_parts,
             flipped_parts: self.flipped_parts,
+            touching_parts: self.touching_parts,
         };
         p.validate().map_err(|e| format!("invalid parameters: {e}"))?;
         Ok(p)
@@ -349,11 +354,15 @@ impl Config {
              nested_parts = {}\n\
              # Whether parts may lie upside down: every chiral template's mirror image (`vorl templates info` says which are\n\
              # chiral) is matched too, and a part that fits it is reported \"flipped\": true; false for a feeder that never flips parts.\n\
-             flipped_parts = {}\n",
+             flipped_parts = {}\n\
+             # Whether a blob whose border is not one template's is searched for the parts along it (touching and overlapping\n\
+             # parts, parts the frame's edge cuts that show half their border), reported \"touching\": true with \"visible_fraction\".\n\
+             touching_parts = {}\n",
             d.alpha, thr, setting_name(&d.cleanup), d.min_points, d.min_area, d.n, d.m, d.k, d.omega, d.epsilon, angle,
             setting_name(&d.refine), d.candidates, toml_float(d.candidate_ratio), d.verify_threshold,
             d.verify_relative, d.offset_relative, d.scale_min, d.scale_max, setting_name(&d.position),
-            setting_name(&d.exposure), d.platform_every, d.nested_parts, d.flipped_parts
+            setting_name(&d.exposure), d.platform_every, d.nested_parts, d.flipped_parts,
+            d.touching_parts
         )
     }
 }

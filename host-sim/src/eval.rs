@@ -324,6 +324,7 @@ mod tests {
             score: None,
             partial: None,
             flipped: None,
+            touching: None,
             extra: Default::default(),
         }
     }

@@ -36,6 +36,10 @@ pub struct PartJson {
     /// `angle_deg` (DESIGN.md).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub flipped: Option<bool>,
+    /// Found in, or drawn as part of, a blob that holds other parts too: against or partly
+    /// over another part.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub touching: Option<bool>,
     /// Any other fields.
     #[serde(flatten)]
     pub extra: BTreeMap<String, serde_json::Value>,

@@ -178,6 +178,7 @@ fn params() -> Params {
         },
         nested_parts: flag(),
         flipped_parts: flag(),
+        touching_parts: flag(),
     }
 }
 

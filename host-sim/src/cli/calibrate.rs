@@ -480,6 +480,7 @@ mod tests {
             score: None,
             partial: None,
             flipped: None,
+            touching: None,
             extra: Default::default(),
         };
         cal.apply(&mut part);

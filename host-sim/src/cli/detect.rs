@@ -209,6 +209,15 @@ pub fn to_json(result: &FrameResult) -> Vec<PartJson> {
                 extra.insert("best_class".into(), serde_json::json!(b));
             }
             extra.insert("searches".into(), serde_json::json!(d.core.searches));
+            if d.core.touching || d.core.visible_fraction < 1.0 {
+                extra.insert(
+                    "visible_fraction".into(),
+                    serde_json::json!(round6(d.core.visible_fraction as f64)),
+                );
+            }
+            if d.core.position_from_pose {
+                extra.insert("position".into(), serde_json::json!("pose"));
+            }
             PartJson {
                 class: d.class.clone(),
                 x: round6(d.core.x as f64),
@@ -218,6 +227,7 @@ pub fn to_json(result: &FrameResult) -> Vec<PartJson> {
                 score: d.core.score.is_finite().then_some(round6(d.core.score as f64)),
                 partial: d.core.touches_edge.then_some(true),
                 flipped: (d.core.flipped && d.class.is_some()).then_some(true),
+                touching: d.core.touching.then_some(true),
                 extra,
             }
         })

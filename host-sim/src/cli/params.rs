@@ -84,6 +84,10 @@ pub struct ParamArgs {
     /// (default true; false for a feeder that never flips parts).
     #[arg(long, value_name = "true|false")]
     pub flipped_parts: Option<bool>,
+    /// Search blobs whose border is not one template's for the parts along it: touching and
+    /// overlapping parts, parts cut by the frame's edge (default false).
+    #[arg(long, value_name = "true|false")]
+    pub touching_parts: Option<bool>,
 }
 
 impl ParamArgs {
@@ -140,7 +144,8 @@ impl ParamArgs {
             exposure,
             platform_every,
             nested_parts,
-            flipped_parts
+            flipped_parts,
+            touching_parts
         );
         Ok(c)
     }

@@ -70,6 +70,7 @@ mod render;
 mod rng;
 mod scene;
 mod shapes;
+mod touching;
 #[cfg(test)]
 mod variant_tests;
 
@@ -93,6 +94,11 @@ use render::{
 };
 use rng::{purpose, Rng};
 use scene::{plan, Body, CloseFit, Placed, SceneConfig, StereoRig};
+
+/// The `touching` variant's `vorl.toml`: the partial search on (off by default).
+pub const TOUCHING_CONFIG: &str = "# Parameters for this set (keys of `vorl config --defaults`).\n\
+# Parts touch and lie over one another: search the blobs for the parts along them.\n\
+touching_parts = true\n";
 
 /// Share of the chiral template parts that the `flipped` variant lays upside down.
 pub const FLIPPED_SHARE: f64 = 0.5;
@@ -173,11 +179,15 @@ pub enum Variant {
     /// matches no turn of them: `l_bracket`, `shaft_key`, `wrench`) lying upside down; truth
     /// adds `"flipped": true` and `"chiral"`.
     Flipped,
+    /// As `default`, with about 60 % of the parts moved against another part, merely touching
+    /// it or lying over it by up to 12 % of the smaller one's area; truth marks
+    /// both `"touching": true`, and the lower one's `visible_fraction`.
+    Touching,
 }
 
 impl Variant {
     /// All variants, in the order of their names.
-    pub const ALL: [Variant; 14] = [
+    pub const ALL: [Variant; 15] = [
         Variant::Default,
         Variant::Noisy,
         Variant::Small,
@@ -192,6 +202,7 @@ impl Variant {
         Variant::Backlit,
         Variant::Rods,
         Variant::Flipped,
+        Variant::Touching,
     ];
 
     /// The command-line name.
@@ -211,6 +222,7 @@ impl Variant {
             Variant::Backlit => "backlit",
             Variant::Rods => "rods",
             Variant::Flipped => "flipped",
+            Variant::Touching => "touching",
         }
     }
 
@@ -241,16 +253,26 @@ impl Variant {
     }
 
     /// The set's own `vorl.toml`, for the variants whose parts need other parameters than the
-    /// defaults (`rods`: [`RODS_CONFIG`]).
+    /// defaults (`rods`: [`RODS_CONFIG`]; `touching`: [`TOUCHING_CONFIG`]).
     pub fn set_config(self) -> Option<&'static str> {
-        (self == Variant::Rods).then_some(RODS_CONFIG)
+        match self {
+            Variant::Rods => Some(RODS_CONFIG),
+            Variant::Touching => Some(TOUCHING_CONFIG),
+            _ => None,
+        }
     }
 
     /// One of the variants that model a real camera's failure modes (they write `variant.json`).
     pub fn is_real_camera(self) -> bool {
         !matches!(
             self,
-            Variant::Default | Variant::Noisy | Variant::Small | Variant::Border | Variant::Stereo | Variant::Flipped
+            Variant::Default
+                | Variant::Noisy
+                | Variant::Small
+                | Variant::Border
+                | Variant::Stereo
+                | Variant::Flipped
+                | Variant::Touching
         )
     }
 }
@@ -404,6 +426,8 @@ enum Effect {
     /// `flipped`: which parts of the catalogue are chiral (by index); about half of those lie
     /// upside down.
     Flipped(Vec<bool>),
+    /// `touching`: parts moved against and over one another.
+    Touching,
 }
 
 /// Everything a frame needs that is fixed for the set.
@@ -467,6 +491,7 @@ impl SetPlan {
             Variant::Exposure => Effect::Exposure,
             Variant::Printed => Effect::Printed,
             Variant::Flipped => Effect::Flipped(v.catalogue().iter().map(|p| p.is_template && p.is_chiral()).collect()),
+            Variant::Touching => Effect::Touching,
             _ => Effect::Ideal,
         };
         let light = match &effect {
@@ -562,6 +587,11 @@ impl SetPlan {
             }),
             Effect::Printed => json!({ "printed_share": print::PRINTED_SHARE }),
             Effect::Flipped(_) => json!({ "flipped_share": FLIPPED_SHARE }),
+            Effect::Touching => json!({
+                "touching_share": touching::TOUCHING_SHARE,
+                "overlap_max": touching::OVERLAP_MAX,
+                "just_touching": touching::JUST_TOUCHING,
+            }),
             Effect::Ideal => json!({}),
         };
         if let (Some(o), Some(p)) = (v.as_object_mut(), params.as_object()) {
@@ -598,6 +628,8 @@ impl SetPlan {
             self.light.clone()
         };
         add_drift(&mut img, w, h, drift, self.drift_max);
+        // A part over another hides it: what lies beneath goes back to the platform first.
+        let platform = matches!(self.effect, Effect::Touching).then(|| img.clone());
         for p in parts {
             let pose = if right {
                 p.pose.shifted(-p.depth.map_or(0.0, |d| d.1))
@@ -605,6 +637,12 @@ impl SetPlan {
                 p.pose
             };
             let spec = p.drawn(&self.cat);
+            if let Some(base) = &platform {
+                silhouette(spec, &pose, w, h).for_each(|x, y, c| {
+                    let i = y as usize * w + x as usize;
+                    img[i] -= c * (img[i] - base[i]);
+                });
+            }
             match (&self.effect, p.body) {
                 (Effect::Lens(lens), _) => draw_part_through(&mut img, w, h, spec, &pose, &p.look, Some(lens)),
                 (Effect::Thick(cam), Body::Thick { thickness_mm, wall }) => {
@@ -742,6 +780,10 @@ impl SetPlan {
         let scene = self.scene_of(index);
         let mut rng = Rng::stream(self.seed, purpose::LAYOUT, scene as u64);
         let mut parts = plan(&mut rng, &self.cat, &self.scene);
+        if matches!(self.effect, Effect::Touching) {
+            let mut fx = Rng::stream(self.seed, purpose::EFFECT_SCENE, scene as u64);
+            touching::bring_together(&mut fx, &self.cat, &mut parts, self.w, self.h);
+        }
         self.finish_parts(&mut parts, scene);
         if self.scene.stereo.is_some() {
             let left = self.view(&parts, false, index as u64, &mut rng);
@@ -840,7 +882,7 @@ fn truth_entry(spec: &PartSpec, p: &Placed) -> PartJson {
     extra.insert("contrast".to_string(), json!(p.look.contrast));
     extra.insert("texture".to_string(), json!(p.look.texture.name()));
     extra.insert("shape".to_string(), json!(spec.name));
-    if p.partial {
+    if p.partial || p.touching {
         extra.insert("visible_fraction".to_string(), json!(p.visible));
     }
     if let Some((z, d)) = p.depth {
@@ -858,6 +900,7 @@ fn truth_entry(spec: &PartSpec, p: &Placed) -> PartJson {
         score: None,
         partial: p.partial.then_some(true),
         flipped: None,
+        touching: p.touching.then_some(true),
         extra,
     }
 }

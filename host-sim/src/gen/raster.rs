@@ -100,7 +100,6 @@ pub(crate) struct Coverage {
 
 impl Coverage {
     /// Coverage at image pixel (x, y), 0 outside the window.
-    #[cfg(test)]
     pub(crate) fn at(&self, x: i64, y: i64) -> f64 {
         let (i, j) = (x - self.x0, y - self.y0);
         if i < 0 || j < 0 || i >= self.w as i64 || j >= self.h as i64 {

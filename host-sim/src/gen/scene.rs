@@ -101,6 +101,8 @@ pub(crate) struct Placed {
     pub(crate) varied: Option<Arc<Varied>>,
     /// Lying upside down (`flipped`): drawn as its template's mirror image.
     pub(crate) flipped: bool,
+    /// Against or partly over another part (`touching`).
+    pub(crate) touching: bool,
 }
 
 impl Placed {
@@ -222,6 +224,7 @@ fn try_place(rng: &mut Rng, cat: &[PartSpec], spec_i: usize, cfg: &SceneConfig, 
         body: Body::Flat,
         varied: varied.map(Arc::new),
         flipped: false,
+        touching: false,
     })
 }
 

@@ -1,0 +1,489 @@
+//! Several parts in one blob, and parts cut by the frame's edge: the partial search.
+//!
+//! A blob whose border is not one template's (its whole-border match is not verified) may hold
+//! parts that touch or lie partly over one another, or a part the frame's edge cuts. Each
+//! template is then matched against arcs of the blob's border ([`crate::arcs`]: the paper's
+//! order-preserving DP, open instead of cyclic, on turning angles), and each of the best runs
+//! ([`MAX_HYPOTHESES`] over all templates, [`RUNS_PER_TEMPLATE`] of one) seeds a pose: the
+//! similarity that maps the run's template points onto its border points (least squares). The
+//! template is aligned on the frame from there as a whole part is ([`crate::refine`]), and
+//! verified on the **visible edge only**: the share of its edge points whose profile finds the
+//! part's edge within [`CONFIRM_PX`] (scaled as the verification's limit) is its
+//! `visible_fraction`, and the mean distance over those is its score. A fit is kept when it
+//! shows at least [`MIN_VISIBLE`] of its border (the documented half), scores within
+//! [`PARTIAL_LIMIT`] of its limit, lies in its scale range and shows every hole it has where
+//! the pose puts it; kept fits are taken best first (the larger visible share, then the lower
+//! score) unless their centre falls within half a size of one taken already (the same part
+//! matched twice, from both sides of the blob or by two templates).
+//!
+//! Border points of the blob farther than [`EXPLAINED_PX`] from every taken part's outline are
+//! the rest no template explains: when they make up [`REST_SHARE`] of the border or more, the
+//! rest is reported as one more, unknown part at their mean, so nothing is silently lost.
+//!
+//! Positions of parts found this way are their aligned template's (the pose applied to the
+//! template's position offset): the partial-volume centroid needs the whole silhouette.
+//!
+//! Work is bounded: a blob longer than [`BLOB_POINTS`] template steps is not searched (the
+//! whole-border result stands, and [`crate::recognizer::Report::unsplit`] counts it), each
+//! template's DP visits `(n + m)·2m` cells, and at most [`MAX_HYPOTHESES`] alignments run.
+//! Memory: the recognizer's `arc_points` and `arc_turning` ([`BLOB_POINTS`] each) and
+//! `arc_rows` ([`crate::arcs::ARC_ROWS`]`·M`).
+
+use crate::arcs::{best_arcs, turning, ArcMatch, ArcParams};
+use crate::holes::{agreement, HoleAgreement, Holes};
+use crate::math;
+use crate::recognizer::{Detection, Recognizer};
+use crate::refine::{align_recording, Difference, Outline, Pose, RefineParams};
+use crate::resample::resample;
+use crate::template::Template;
+
+/// Most points of a blob's border at a template's step: a longer blob is not searched.
+pub const BLOB_POINTS: usize = 512;
+/// Most parts (with the unexplained rest) reported from one blob.
+pub const MAX_BLOB_PARTS: usize = 8;
+/// Most poses aligned for one blob.
+pub const MAX_HYPOTHESES: usize = 16;
+/// Runs kept per template ([`best_arcs`]).
+pub const RUNS_PER_TEMPLATE: usize = 3;
+/// The partial DP takes every `STRIDE`-th template point, and the border at that step.
+pub const STRIDE: usize = 2;
+/// Neighbourhood of the turning angle, points each way (at the DP's step).
+pub const TURN_K: usize = 3;
+/// An edge point is confirmed when its profile finds the edge this close (px, times the
+/// verification limit over its threshold).
+pub const CONFIRM_PX: f32 = 1.0;
+/// Least share of a template's edge points the image must confirm for a part the frame's
+/// edge cuts (the documented half).
+pub const MIN_VISIBLE: f32 = 0.5;
+/// Least share for a part in a blob inside the frame: a part that touches or lies under
+/// another shows most of its border (a bar-like part fits an arm of a bracket over less).
+pub const MIN_VISIBLE_INSIDE: f32 = 0.75;
+/// The mean distance over the confirmed points must stay below this share of the limit.
+pub const PARTIAL_LIMIT: f32 = 0.5;
+/// A border point this far (px) from every part found is not explained.
+pub const EXPLAINED_PX: f32 = 2.5;
+/// The unexplained share of the border from which the rest is reported as a part.
+pub const REST_SHARE: f32 = 0.15;
+
+/// One pose to align: a template and where a run of its outline puts it.
+#[derive(Debug, Clone, Copy)]
+struct Hypothesis {
+    template: usize,
+    seed: Pose,
+    score: f32,
+}
+
+/// A verified partial fit.
+#[derive(Debug, Clone, Copy)]
+struct PartFit {
+    template: usize,
+    pose: Pose,
+    visible: f32,
+    distance: f32,
+    limit: f32,
+    holes: HoleAgreement,
+}
+
+/// Closed polygon length.
+fn perimeter(points: impl Iterator<Item = [f32; 2]> + Clone) -> f32 {
+    let mut it = points.clone();
+    let Some(first) = it.next() else {
+        return 0.0;
+    };
+    let (mut len, mut last) = (0.0f32, first);
+    for p in it.chain(core::iter::once(first)) {
+        len += math::hypot(p[0] - last[0], p[1] - last[1]);
+        last = p;
+    }
+    len
+}
+
+/// The similarity mapping template offsets `t(j)` onto border points `q(i)` for the run, in
+/// least squares (template index advancing linearly along the border's run).
+fn pose_from_run<const M: usize>(run: &ArcMatch, border: &[[f32; 2]], t: &Template<M>) -> Option<Pose> {
+    let (n, edge) = (border.len(), t.edge());
+    let m = edge.len();
+    if n == 0 || m == 0 || run.part_len < 2 {
+        return None;
+    }
+    let along = (run.template_len.saturating_sub(1)) as f32 / (run.part_len - 1) as f32;
+    let pair = |k: usize| {
+        let q = border.get((run.part_start + k) % n).copied()?;
+        let j = run.template_start as f32 + k as f32 * along;
+        let j0 = math::floor(j);
+        let f = j - j0;
+        let a = edge.get(j0 as usize % m).copied()?;
+        let b = edge.get((j0 as usize + 1) % m).copied()?;
+        Some(([a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1])], q))
+    };
+    let count = run.part_len as f32;
+    let (mut mt, mut mq) = ([0.0f32; 2], [0.0f32; 2]);
+    for k in 0..run.part_len {
+        let (u, q) = pair(k)?;
+        mt = [mt[0] + u[0] / count, mt[1] + u[1] / count];
+        mq = [mq[0] + q[0] / count, mq[1] + q[1] / count];
+    }
+    // R(θ)·u = [u0 c + u1 s, −u0 s + u1 c] (counter-clockwise on screen).
+    let (mut dot, mut cross, mut norm) = (0.0f32, 0.0f32, 0.0f32);
+    for k in 0..run.part_len {
+        let (u, q) = pair(k)?;
+        let (u, v) = ([u[0] - mt[0], u[1] - mt[1]], [q[0] - mq[0], q[1] - mq[1]]);
+        dot += u[0] * v[0] + u[1] * v[1];
+        cross += u[1] * v[0] - u[0] * v[1];
+        norm += u[0] * u[0] + u[1] * u[1];
+    }
+    if !(norm > 0.0) {
+        return None;
+    }
+    let angle = math::atan2(cross, dot);
+    let scale = math::hypot(dot, cross) / norm;
+    let probe = Pose {
+        x: 0.0,
+        y: 0.0,
+        angle,
+        scale,
+    };
+    let r = probe.apply(mt);
+    Some(Pose {
+        x: mq[0] - r[0],
+        y: mq[1] - r[1],
+        angle,
+        scale,
+    })
+}
+
+impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: usize> Recognizer<T, M, P, C, D> {
+    /// The parts along blob `index`'s border whose whole-border result `whole` was not
+    /// verified (see the module doc); empty when none is found (then `whole` stands) or the
+    /// blob is too long to search (`Err(())`).
+    pub(crate) fn split_blob<B: AsRef<[u8]>>(
+        &mut self,
+        index: usize,
+        diff: &Difference<'_, B>,
+        part_holes: &Holes,
+        whole: &Detection,
+    ) -> Result<heapless::Vec<Detection, MAX_BLOB_PARTS>, ()> {
+        let params = self.params;
+        let mut found = heapless::Vec::new();
+        let border = self.store.points(index);
+        let chain = perimeter(border.iter().map(|p| [p.x as f32, p.y as f32]));
+        let mut hyps: heapless::Vec<Hypothesis, MAX_HYPOTHESES> = heapless::Vec::new();
+        let mut searched = 0usize;
+        let mut too_long = false;
+        // The least area a part may show: half of the smallest template at its least scale.
+        let least = self
+            .templates
+            .iter()
+            .map(|t| {
+                let (lo, _) = t.tolerance().scale_range(params.scale_min, params.scale_max);
+                MIN_VISIBLE * lo * lo * t.area()
+            })
+            .fold(f32::INFINITY, f32::min);
+        for ti in 0..self.templates.len() {
+            let Some(t) = self.templates.get(ti) else {
+                continue;
+            };
+            let (lo, _) = t.tolerance().scale_range(params.scale_min, params.scale_max);
+            // A blob inside the frame holds the template and another part (or a rest) that
+            // shows at least `least`; one the frame's edge cuts, half of the template.
+            let needed = if whole.touches_edge {
+                MIN_VISIBLE * lo * lo * t.area()
+            } else {
+                lo * lo * t.area() + least
+            };
+            if needed > whole.area {
+                continue;
+            }
+            // Every STRIDE-th template point, the border at the same step.
+            let m = t.len();
+            let coarse = m / STRIDE;
+            let step = STRIDE as f32 * perimeter(t.points().iter().copied()) / m.max(1) as f32;
+            let count = if step > 0.0 { math::round(chain / step) } else { 0.0 };
+            if !(count >= 8.0) || coarse < 8 {
+                continue;
+            }
+            if count > BLOB_POINTS as f32 {
+                too_long = true;
+                continue;
+            }
+            let count = count as usize;
+            let pts = self.arc_points.get_mut(..count).unwrap_or(&mut []);
+            if resample(border, pts).is_err() {
+                continue;
+            }
+            let kappa = self.arc_turning.get_mut(..count).unwrap_or(&mut []);
+            if turning(pts, TURN_K, kappa).is_err() {
+                continue;
+            }
+            let tp = self.points.get_mut(..coarse).unwrap_or(&mut []);
+            for (slot, p) in tp.iter_mut().zip(t.points().iter().step_by(STRIDE)) {
+                *slot = *p;
+            }
+            let tk = self.arc_template.get_mut(..coarse).unwrap_or(&mut []);
+            if turning(tp, TURN_K, tk).is_err() {
+                continue;
+            }
+            let mut runs: heapless::Vec<ArcMatch, RUNS_PER_TEMPLATE> = heapless::Vec::new();
+            let arc_params = ArcParams {
+                min_template: coarse / 3,
+                ..ArcParams::DEFAULT
+            };
+            let rows = self.arc_rows.as_flattened_mut();
+            if best_arcs(kappa, tk, &arc_params, rows, &mut runs).is_err() {
+                continue;
+            }
+            searched += 1;
+            let pts = self.arc_points.get(..count).unwrap_or(&[]);
+            for run in &runs {
+                // Back to the template's own points.
+                let run = ArcMatch {
+                    template_start: run.template_start * STRIDE,
+                    template_len: (run.template_len - 1) * STRIDE + 1,
+                    ..*run
+                };
+                let Some(seed) = pose_from_run(&run, pts, t) else {
+                    continue;
+                };
+                let h = Hypothesis {
+                    template: ti,
+                    seed,
+                    score: run.score,
+                };
+                if hyps.push(h).is_err() {
+                    let low = hyps
+                        .iter_mut()
+                        .min_by(|a, b| a.score.total_cmp(&b.score))
+                        .filter(|l| l.score < h.score);
+                    if let Some(l) = low {
+                        *l = h;
+                    }
+                }
+            }
+        }
+        if too_long && hyps.is_empty() {
+            return Err(());
+        }
+        // Align and verify each pose on the visible edge.
+        let mut fits: heapless::Vec<PartFit, MAX_HYPOTHESES> = heapless::Vec::new();
+        for h in &hyps {
+            let Some(t) = self.templates.get(h.template) else {
+                continue;
+            };
+            let least_visible = if whole.touches_edge {
+                MIN_VISIBLE
+            } else {
+                MIN_VISIBLE_INSIDE
+            };
+            if let Some(fit) = self
+                .partial_fit(t, h, diff, part_holes)
+                .filter(|f| f.visible >= least_visible)
+            {
+                let _ = fits.push(PartFit {
+                    template: h.template,
+                    ..fit
+                });
+            }
+        }
+        // Best first: the larger visible share, then the lower score.
+        let before = |a: &PartFit, b: &PartFit| {
+            a.visible > b.visible || (a.visible == b.visible && a.distance / a.limit < b.distance / b.limit)
+        };
+        for i in 1..fits.len() {
+            let mut j = i;
+            while j > 0 && fits.get(j).zip(fits.get(j - 1)).is_some_and(|(a, b)| before(a, b)) {
+                fits.swap(j, j - 1);
+                j -= 1;
+            }
+        }
+        let mut taken: heapless::Vec<PartFit, MAX_BLOB_PARTS> = heapless::Vec::new();
+        for f in &fits {
+            let size = self.templates.get(f.template).map_or(0.0, |t| t.size() * f.pose.scale);
+            let clash = taken.iter().any(|g| {
+                let other = self.templates.get(g.template).map_or(0.0, |t| t.size() * g.pose.scale);
+                math::hypot(f.pose.x - g.pose.x, f.pose.y - g.pose.y) < 0.5 * size.min(other)
+            });
+            if !clash && taken.push(*f).is_err() {
+                break;
+            }
+        }
+        if taken.is_empty() {
+            return Ok(found);
+        }
+        // The rest of the border that no part found explains.
+        let count = BLOB_POINTS.min(math::round(chain / 2.0).max(8.0) as usize);
+        let pts = self.arc_points.get_mut(..count).unwrap_or(&mut []);
+        let (mut rest, mut rx, mut ry) = (0usize, 0.0f32, 0.0f32);
+        if resample(border, pts).is_ok() {
+            // 1 marks a point some part explains.
+            let marks = self.arc_turning.get_mut(..count).unwrap_or(&mut []);
+            marks.fill(0.0);
+            for f in &taken {
+                let Some(t) = self.templates.get(f.template) else {
+                    continue;
+                };
+                let outline = Outline::new(t.edge());
+                let cap = EXPLAINED_PX / f.pose.scale;
+                for (q, mark) in pts.iter().zip(marks.iter_mut()) {
+                    if *mark == 0.0 && f.pose.invert(*q).is_some_and(|u| outline.capped_distance(u, cap) < cap) {
+                        *mark = 1.0;
+                    }
+                }
+            }
+            for (q, mark) in pts.iter().zip(marks.iter()) {
+                if *mark == 0.0 {
+                    rest += 1;
+                    rx += q[0];
+                    ry += q[1];
+                }
+            }
+        }
+        // The blob's area less the parts' (their overlaps counted twice).
+        let holes: f32 = self
+            .store
+            .holes_of(index)
+            .filter_map(|h| self.store.contours().get(h).map(|c| c.area()))
+            .sum();
+        let blob = whole.area - holes;
+        let mut left_over = blob;
+        for f in &taken {
+            if let Some(t) = self.templates.get(f.template) {
+                left_over -= t.area() * f.pose.scale * f.pose.scale;
+            }
+        }
+        // A rest: enough of the border unexplained, and the area of a part that shows half.
+        let rest_part = rest as f32 >= REST_SHARE * count as f32 && left_over >= least;
+        let several = taken.len() > 1 || rest_part;
+        for f in &taken {
+            let Some(t) = self.templates.get(f.template) else {
+                continue;
+            };
+            let [x, y] = f.pose.apply(t.position_offset());
+            let d = Detection {
+                template: Some(f.template as u16),
+                best_template: Some(f.template as u16),
+                score: f32::INFINITY,
+                x,
+                y,
+                angle_deg: math::wrap_degrees(math::degrees(f.pose.angle)),
+                verify: f.distance,
+                verify_limit: f.limit,
+                scale: f.pose.scale,
+                pose: Some(f.pose),
+                holes: f.holes,
+                flipped: false,
+                searches: u8::try_from(searched).unwrap_or(u8::MAX),
+                touching: several,
+                visible_fraction: f.visible,
+                position_from_pose: true,
+                ..*whole
+            };
+            let _ = found.push(d);
+        }
+        if rest_part && rest > 0 {
+            // The rest's centroid: the blob's area moments less the parts' (their overlaps
+            // counted twice), or the unexplained border's mean when that leaves too little.
+            let (mut a, mut mx, mut my) = (blob, blob * whole.polygon_centroid[0], blob * whole.polygon_centroid[1]);
+            for f in &taken {
+                if let Some(t) = self.templates.get(f.template) {
+                    let ak = t.area() * f.pose.scale * f.pose.scale;
+                    a -= ak;
+                    mx -= ak * f.pose.x;
+                    my -= ak * f.pose.y;
+                }
+            }
+            let [x, y] = if a >= least {
+                [mx / a, my / a]
+            } else {
+                [rx / rest as f32, ry / rest as f32]
+            };
+            let d = Detection {
+                template: None,
+                x,
+                y,
+                touching: true,
+                visible_fraction: 0.0,
+                position_from_pose: false,
+                ..*whole
+            };
+            let _ = found.push(d);
+        }
+        Ok(found)
+    }
+
+    /// Whether a blob's whole-border result leaves it to the partial search: no part was
+    /// verified, or the verified template covers less of the blob than its area less half the
+    /// smallest template's (the least a second part shows) — for a blob inside the frame.
+    pub(crate) fn blob_not_explained(&self, whole: &Detection) -> bool {
+        let Some(ti) = whole.template else {
+            return true;
+        };
+        if whole.touches_edge {
+            return false;
+        }
+        let params = &self.params;
+        let least = self
+            .templates
+            .iter()
+            .map(|t| {
+                let (lo, _) = t.tolerance().scale_range(params.scale_min, params.scale_max);
+                MIN_VISIBLE * lo * lo * t.area()
+            })
+            .fold(f32::INFINITY, f32::min);
+        let covered = self
+            .templates
+            .get(usize::from(ti))
+            .map_or(f32::INFINITY, |t| t.area() * whole.scale * whole.scale);
+        whole.area - covered > least
+    }
+
+    /// Template `t` aligned from the hypothesis' seed and verified on its visible edge; `None`
+    /// when it does not hold (see the module doc).
+    fn partial_fit<B: AsRef<[u8]>>(
+        &self,
+        t: &Template<M>,
+        h: &Hypothesis,
+        diff: &Difference<'_, B>,
+        part_holes: &Holes,
+    ) -> Option<PartFit> {
+        let params = &self.params;
+        let (lo, hi) = t.tolerance().scale_range(params.scale_min, params.scale_max);
+        let seed = Pose {
+            scale: math::clamp(h.seed.scale, lo, hi),
+            ..h.seed
+        };
+        let limit_at = |scale: f32| params.verify_limit(t.size() * scale) * t.tolerance().verify;
+        let reach = limit_at(seed.scale) / params.verify_threshold.max(f32::MIN_POSITIVE);
+        let reach = if reach.is_finite() { reach.max(1.0) } else { 1.0 };
+        let rp = RefineParams {
+            cap: RefineParams::DEFAULT.cap * reach,
+            ..RefineParams::DEFAULT
+        };
+        let mut distances = [0.0f32; M];
+        let a = align_recording(diff, t.edge(), t.normals(), seed, &rp, &mut distances);
+        let pose = a.pose;
+        if !(pose.scale >= lo && pose.scale <= hi) {
+            return None;
+        }
+        let confirm = CONFIRM_PX * reach;
+        let m = t.edge().len();
+        let (mut seen, mut sum) = (0usize, 0.0f32);
+        for d in distances.iter().take(m) {
+            if *d <= confirm {
+                seen += 1;
+                sum += *d;
+            }
+        }
+        let visible = seen as f32 / m.max(1) as f32;
+        let limit = limit_at(pose.scale);
+        let distance = if seen > 0 { sum / seen as f32 } else { f32::INFINITY };
+        let holes = agreement(t.holes(), &pose, part_holes);
+        (visible >= MIN_VISIBLE && distance < PARTIAL_LIMIT * limit && holes.missing() == 0).then_some(PartFit {
+            template: 0,
+            pose,
+            visible,
+            distance,
+            limit,
+            holes,
+        })
+    }
+}
