@@ -62,7 +62,7 @@ impl Layout {
     pub const CORTEX_M: Layout = Layout {
         name: "Cortex-M (32-bit)",
         word: 4,
-        params: 68,
+        params: 72,
         contour: 32,
         contour_align: 8,
     };
