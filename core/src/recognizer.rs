@@ -197,7 +197,7 @@ pub struct Report {
 }
 
 impl Report {
-    fn skip(&mut self, contour: usize, reason: SkipReason) {
+    pub(crate) fn skip(&mut self, contour: usize, reason: SkipReason) {
         if self
             .skips
             .push(Skip {
@@ -459,33 +459,12 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                     // A whole-border match that failed: the parts along the blob's border.
                     // Or one that explains too little of its blob: a part accepted on a blob
                     // that holds more (another part touching it) than its template covers.
-                    let parts = if params.touching_parts
+                    let split = params.touching_parts
                         && params.refine == Refine::Verify
                         && self.blob_not_explained(&detection)
-                    {
-                        let diff = Difference::new(frame, background.plane(), params.alpha());
-                        let holes = Holes::from_borders(self.store.holes_of(index).map(|i| self.store.points(i)), 0.0);
-                        match self.split_blob(index, &diff, &holes, &detection) {
-                            Ok(parts) => parts,
-                            Err(()) => {
-                                report.unsplit += 1;
-                                heapless::Vec::new()
-                            }
-                        }
-                    } else {
-                        heapless::Vec::new()
-                    };
-                    if parts.is_empty() {
-                        if report.detections.push(detection).is_err() {
-                            report.skip(index, SkipReason::TooManyParts);
-                        }
-                    } else {
-                        for d in parts {
-                            if report.detections.push(d).is_err() {
-                                report.skip(index, SkipReason::TooManyParts);
-                                break;
-                            }
-                        }
+                        && self.split_into(index, frame, background.plane(), &detection, &mut report);
+                    if !split && report.detections.push(detection).is_err() {
+                        report.skip(index, SkipReason::TooManyParts);
                     }
                 }
                 Err(reason) => report.skip(index, reason),

@@ -30,9 +30,10 @@
 //! `arc_rows` ([`crate::arcs::ARC_ROWS`]`·M`).
 
 use crate::arcs::{best_arcs, turning, ArcMatch, ArcParams};
+use crate::frame::Frame;
 use crate::holes::{agreement, HoleAgreement, Holes};
 use crate::math;
-use crate::recognizer::{Detection, Recognizer};
+use crate::recognizer::{Detection, Recognizer, Report, SkipReason};
 use crate::refine::{align_recording, Difference, Outline, Pose, RefineParams};
 use crate::resample::resample;
 use crate::template::Template;
@@ -153,10 +154,43 @@ fn pose_from_run<const M: usize>(run: &ArcMatch, border: &[[f32; 2]], t: &Templa
 }
 
 impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: usize> Recognizer<T, M, P, C, D> {
+    /// The partial search on blob `index` (whole-border result `whole`), its parts pushed to
+    /// `report` (skips when it is full); false when it found none (then `whole` stands) or the
+    /// blob is too long to search ([`Report::unsplit`]). Kept out of line, so its buffers take
+    /// stack only while it runs.
+    #[inline(never)]
+    pub(crate) fn split_into<B: AsRef<[u8]>>(
+        &mut self,
+        index: usize,
+        frame: &Frame<B>,
+        background: &[u8],
+        whole: &Detection,
+        report: &mut Report,
+    ) -> bool {
+        let diff = Difference::new(frame, background, self.params.alpha());
+        let holes = Holes::from_borders(self.store.holes_of(index).map(|i| self.store.points(i)), 0.0);
+        match self.split_blob(index, &diff, &holes, whole) {
+            Ok(parts) if !parts.is_empty() => {
+                for d in parts {
+                    if report.detections.push(d).is_err() {
+                        report.skip(index, SkipReason::TooManyParts);
+                        break;
+                    }
+                }
+                true
+            }
+            Ok(_) => false,
+            Err(()) => {
+                report.unsplit += 1;
+                false
+            }
+        }
+    }
+
     /// The parts along blob `index`'s border whose whole-border result `whole` was not
     /// verified (see the module doc); empty when none is found (then `whole` stands) or the
     /// blob is too long to search (`Err(())`).
-    pub(crate) fn split_blob<B: AsRef<[u8]>>(
+    fn split_blob<B: AsRef<[u8]>>(
         &mut self,
         index: usize,
         diff: &Difference<'_, B>,
@@ -477,7 +511,20 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let limit = limit_at(pose.scale);
         let distance = if seen > 0 { sum / seen as f32 } else { f32::INFINITY };
         let holes = agreement(t.holes(), &pose, part_holes);
-        (visible >= MIN_VISIBLE && distance < PARTIAL_LIMIT * limit && holes.missing() == 0).then_some(PartFit {
+        // Every hole the pose puts wholly inside the frame must be there.
+        let (w, h) = (diff.width() as f32, diff.height() as f32);
+        let in_frame = t
+            .holes()
+            .as_slice()
+            .iter()
+            .filter(|hole| {
+                let [x, y] = pose.apply(hole.centre);
+                let r = math::sqrt(hole.area / core::f32::consts::PI) * pose.scale + 1.0;
+                x >= r && y >= r && x <= w - 1.0 - r && y <= h - 1.0 - r
+            })
+            .count();
+        let holes_there = usize::from(holes.found) >= in_frame;
+        (visible >= MIN_VISIBLE && distance < PARTIAL_LIMIT * limit && holes_there).then_some(PartFit {
             template: 0,
             pose,
             visible,

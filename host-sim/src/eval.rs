@@ -13,6 +13,12 @@
 //! - parts upside down (truth `"flipped": true`): their own recall and classification; and
 //!   over every correctly classified part, whether the prediction's `flipped` (absent: false)
 //!   is the truth's (absent: false) — reported when either side says a part is flipped.
+//! - parts touching or lying over another (truth `"touching": true`), the parts that touch
+//!   nothing in a set that has such parts, and parts cut by the frame's edge that show at
+//!   least half their area (`"partial": true`, `visible_fraction` ≥ 0.5): each group's own
+//!   recall, classification (of its known parts, unpaired ones counting as wrong), angle and
+//!   position errors (a cut part's truth is the whole part's centroid, which a pose from the
+//!   aligned template gives).
 //! - stereo (truth with `disparity_px`): disparity error `|d − d_truth|` of the refined
 //!   disparity (`disparity_px`), of the paper's centroid disparity (`disparity_centroid_px`)
 //!   and of the border polygons' centroids (`disparity_polygon_px`), in px; depth error
@@ -127,8 +133,80 @@ pub struct Scores {
     /// … of which the prediction's `flipped` is the truth's.
     #[serde(skip_serializing_if = "is_zero")]
     pub flip_right: usize,
+    /// Parts touching or lying over another (truth `"touching": true`, not partial).
+    #[serde(skip_serializing_if = "Group::is_empty")]
+    pub touching: Group,
+    /// Parts that touch nothing, in a set that has touching parts.
+    #[serde(skip_serializing_if = "Group::is_empty")]
+    pub apart: Group,
+    /// Parts cut by the frame's edge with at least half of their area visible (truth
+    /// `"partial": true`, `visible_fraction` ≥ 0.5).
+    #[serde(skip_serializing_if = "Group::is_empty")]
+    pub cut_half: Group,
     /// Confusions: (truth class, predicted class or "unknown", count).
     pub confusions: Vec<(String, String, usize)>,
+}
+
+/// Recall, classification, angle and position over one group of truth parts.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct Group {
+    /// Truth parts in the group.
+    pub parts: usize,
+    /// … paired with a prediction.
+    pub detected: usize,
+    /// … of them templates.
+    pub known: usize,
+    /// … of those, classified right.
+    pub correct: usize,
+    /// Angle error over those classified right (symmetry ≠ 0), degrees.
+    pub angle: Spread,
+    /// Position error over the paired parts, px.
+    pub position: Spread,
+    #[serde(skip)]
+    angles: Vec<f64>,
+    #[serde(skip)]
+    positions: Vec<f64>,
+}
+
+impl Group {
+    /// Whether the group has no part.
+    pub fn is_empty(&self) -> bool {
+        self.parts == 0
+    }
+
+    /// Recall of the group.
+    pub fn recall(&self) -> f64 {
+        ratio(self.detected, self.parts)
+    }
+
+    /// Classification of the group's known parts (unpaired ones count as wrong).
+    pub fn classification(&self) -> f64 {
+        ratio(self.correct, self.known)
+    }
+
+    fn add(&mut self, t: &PartJson, p: Option<&PartJson>) {
+        self.parts += 1;
+        self.known += t.class.is_some() as usize;
+        let Some(p) = p else {
+            return;
+        };
+        self.detected += 1;
+        self.positions.push(((t.x - p.x).powi(2) + (t.y - p.y).powi(2)).sqrt());
+        if let Some(tc) = &t.class {
+            if p.class.as_deref() == Some(tc.as_str()) {
+                self.correct += 1;
+                let sym = t.symmetry.unwrap_or(1);
+                if sym != 0 {
+                    self.angles.push(angle_error(p.angle_deg, t.angle_deg, sym));
+                }
+            }
+        }
+    }
+
+    fn finish(&mut self) {
+        self.angle = Spread::of(&self.angles);
+        self.position = Spread::of(&self.positions);
+    }
 }
 
 impl Scores {
@@ -212,6 +290,20 @@ pub fn score(truth: &FramesJson, pred: &FramesJson) -> Scores {
             .iter()
             .filter(|t| t.partial != Some(true) && flipped(t))
             .count();
+        let any_touching = truth.frames.values().flatten().any(|t| t.touching == Some(true));
+        for (ti, t) in truth_parts.iter().enumerate() {
+            let p = pairs.iter().find(|&&(a, _)| a == ti).map(|&(_, b)| &preds[b]);
+            let visible = t.extra.get("visible_fraction").and_then(|v| v.as_f64()).unwrap_or(1.0);
+            if t.partial == Some(true) {
+                if visible >= 0.5 {
+                    s.cut_half.add(t, p);
+                }
+            } else if t.touching == Some(true) {
+                s.touching.add(t, p);
+            } else if any_touching {
+                s.apart.add(t, p);
+            }
+        }
         for (ti, pi) in pairs {
             let (t, p) = (&truth_parts[ti], &preds[pi]);
             s.true_predictions += 1;
@@ -283,6 +375,9 @@ pub fn score(truth: &FramesJson, pred: &FramesJson) -> Scores {
     s.depth_mm = Spread::of(&depth_mm);
     s.depth_pct = Spread::of(&depth_pct);
     s.confusions = confusions.into_iter().map(|((a, b), n)| (a, b, n)).collect();
+    for g in [&mut s.touching, &mut s.apart, &mut s.cut_half] {
+        g.finish();
+    }
     s
 }
 

@@ -241,6 +241,32 @@ pub fn print_table(r: &EvalReport) {
             s.flip_judged
         );
     }
+    for (name, g, what) in [
+        ("touching", &s.touching, "parts against or over another"),
+        ("apart", &s.apart, "parts touching nothing"),
+        (
+            "cut ≥ half",
+            &s.cut_half,
+            "parts the frame's edge cuts, half or more visible",
+        ),
+    ] {
+        if g.is_empty() {
+            continue;
+        }
+        println!(
+            "  {name:<10}: recall {:>7} ({}/{} {what}), classified {:>7} ({}/{})",
+            pct(g.recall()),
+            g.detected,
+            g.parts,
+            pct(g.classification()),
+            g.correct,
+            g.known
+        );
+        println!(
+            "  {:<10}  angle median {:.3}°  p95 {:.3}°, position median {:.3} px  p95 {:.3} px",
+            "", g.angle.median, g.angle.p95, g.position.median, g.position.p95
+        );
+    }
     println!(
         "  angle error  (reported) median {:.3}°  p95 {:.3}°  max {:.3}°  ({} parts)",
         s.angle.median, s.angle.p95, s.angle.max, s.angle.count
