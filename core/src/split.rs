@@ -63,6 +63,9 @@ pub const MIN_VISIBLE_INSIDE: f32 = 0.75;
 pub const PARTIAL_LIMIT: f32 = 0.5;
 /// A border point this far (px) from every part found is not explained.
 pub const EXPLAINED_PX: f32 = 2.5;
+/// The turning angle given to border points a part found explains: no template point has it,
+/// so no run of the second round passes them.
+pub const EXPLAINED_TURN: f32 = 1.0e3;
 /// The unexplained share of the border from which the rest is reported as a part.
 pub const REST_SHARE: f32 = 0.15;
 
@@ -83,6 +86,47 @@ struct PartFit {
     distance: f32,
     limit: f32,
     holes: HoleAgreement,
+}
+
+/// Where the rest of a blob lies: the area centroid of the longest run of unexplained border
+/// points (`marks` 0) closed by the chord across its ends — the outline of the part that no
+/// template explains, cut where it meets the parts found — or the run's mean where that
+/// polygon has no area.
+fn rest_centroid(points: &[[f32; 2]], marks: &[f32]) -> [f32; 2] {
+    let n = points.len().min(marks.len());
+    let unexplained = |i: usize| marks.get(i % n.max(1)).is_some_and(|m| *m == 0.0);
+    // The longest cyclic run: start after an explained point (anywhere when none is).
+    let first = (0..n).find(|&i| !unexplained(i)).map_or(0, |i| i + 1);
+    let (mut best, mut run) = ((0usize, 0usize), (first, 0usize));
+    for k in 0..n {
+        let i = first + k;
+        if unexplained(i) {
+            run.1 += 1;
+            if run.1 > best.1 {
+                best = run;
+            }
+        } else {
+            run = (i + 1, 0);
+        }
+    }
+    let at = |k: usize| points.get((best.0 + k) % n.max(1)).copied().unwrap_or_default();
+    let (mut a2, mut cx, mut cy, mut mx, mut my) = (0.0f32, 0.0f32, 0.0f32, 0.0f32, 0.0f32);
+    for k in 0..best.1 {
+        let (p, q) = (at(k), at((k + 1) % best.1.max(1)));
+        let cross = p[0] * q[1] - q[0] * p[1];
+        a2 += cross;
+        cx += (p[0] + q[0]) * cross;
+        cy += (p[1] + q[1]) * cross;
+        mx += p[0];
+        my += p[1];
+    }
+    if a2.abs() > 1.0 {
+        [cx / (3.0 * a2), cy / (3.0 * a2)]
+    } else if best.1 > 0 {
+        [mx / best.1 as f32, my / best.1 as f32]
+    } else {
+        [0.0, 0.0]
+    }
 }
 
 /// Closed polygon length.
@@ -201,9 +245,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let mut found = heapless::Vec::new();
         let border = self.store.points(index);
         let chain = perimeter(border.iter().map(|p| [p.x as f32, p.y as f32]));
-        let mut hyps: heapless::Vec<Hypothesis, MAX_HYPOTHESES> = heapless::Vec::new();
         let mut searched = 0usize;
-        let mut too_long = false;
         // The least area a part may show: half of the smallest template at its least scale.
         let least = self
             .templates
@@ -213,6 +255,107 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 MIN_VISIBLE * lo * lo * t.area()
             })
             .fold(f32::INFINITY, f32::min);
+        let mut taken: heapless::Vec<PartFit, MAX_BLOB_PARTS> = heapless::Vec::new();
+        // Round 1 over the whole border; round 2, when the first left a rest, over the border
+        // that no part found explains (the first round's runs all on the parts it found).
+        for round in 0..2 {
+            let before = taken.len();
+            let (hyps, s, too_long) = self.hypotheses(index, whole, least, chain, &taken);
+            searched += s;
+            if round == 0 && too_long && hyps.is_empty() {
+                return Err(());
+            }
+            self.take_fits(&hyps, whole, diff, part_holes, &mut taken);
+            if taken.is_empty() || taken.len() == before {
+                break;
+            }
+            let count = BLOB_POINTS.min(math::round(chain / 2.0).max(8.0) as usize);
+            let (rest, _) = self.unexplained(index, count, &taken);
+            if (rest as f32) < REST_SHARE * count as f32 {
+                break;
+            }
+        }
+        if taken.is_empty() {
+            return Ok(found);
+        }
+        // The rest of the border that no part found explains.
+        let count = BLOB_POINTS.min(math::round(chain / 2.0).max(8.0) as usize);
+        let (rest, rest_at) = self.unexplained(index, count, &taken);
+        // The blob's area less the parts' (their overlaps counted twice).
+        let holes: f32 = self
+            .store
+            .holes_of(index)
+            .filter_map(|h| self.store.contours().get(h).map(|c| c.area()))
+            .sum();
+        let blob = whole.area - holes;
+        let mut left_over = blob;
+        for f in &taken {
+            if let Some(t) = self.templates.get(f.template) {
+                left_over -= t.area() * f.pose.scale * f.pose.scale;
+            }
+        }
+        // A rest: enough of the border unexplained, and the area of a part that shows half.
+        let rest_part = rest as f32 >= REST_SHARE * count as f32 && left_over >= least;
+        let several = taken.len() > 1 || rest_part;
+        for f in &taken {
+            let Some(t) = self.templates.get(f.template) else {
+                continue;
+            };
+            let [x, y] = f.pose.apply(t.position_offset());
+            let d = Detection {
+                template: Some(f.template as u16),
+                best_template: Some(f.template as u16),
+                score: f32::INFINITY,
+                x,
+                y,
+                angle_deg: math::wrap_degrees(math::degrees(f.pose.angle)),
+                verify: f.distance,
+                verify_limit: f.limit,
+                scale: f.pose.scale,
+                pose: Some(f.pose),
+                holes: f.holes,
+                flipped: false,
+                searches: u8::try_from(searched).unwrap_or(u8::MAX),
+                touching: several,
+                visible_fraction: f.visible,
+                position_from_pose: true,
+                ..*whole
+            };
+            let _ = found.push(d);
+        }
+        if rest_part && rest > 0 {
+            let [x, y] = rest_at;
+            let d = Detection {
+                template: None,
+                x,
+                y,
+                touching: true,
+                visible_fraction: 0.0,
+                position_from_pose: false,
+                ..*whole
+            };
+            let _ = found.push(d);
+        }
+        Ok(found)
+    }
+
+    /// The poses to align for blob `index`: the best runs of each template along its border
+    /// ([`best_arcs`]), at most [`MAX_HYPOTHESES`]; border points the parts in `taken`
+    /// explain take part in no run. Also the templates searched, and whether the blob was too
+    /// long for one of them.
+    fn hypotheses(
+        &mut self,
+        index: usize,
+        whole: &Detection,
+        least: f32,
+        chain: f32,
+        taken: &[PartFit],
+    ) -> (heapless::Vec<Hypothesis, MAX_HYPOTHESES>, usize, bool) {
+        let params = self.params;
+        let border = self.store.points(index);
+        let mut hyps: heapless::Vec<Hypothesis, MAX_HYPOTHESES> = heapless::Vec::new();
+        let mut searched = 0usize;
+        let mut too_long = false;
         for ti in 0..self.templates.len() {
             let Some(t) = self.templates.get(ti) else {
                 continue;
@@ -248,6 +391,19 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             let kappa = self.arc_turning.get_mut(..count).unwrap_or(&mut []);
             if turning(pts, TURN_K, kappa).is_err() {
                 continue;
+            }
+            // Explained points: a turning no template point has, so no run passes them.
+            for f in taken {
+                let Some(tf) = self.templates.get(f.template) else {
+                    continue;
+                };
+                let outline = Outline::new(tf.edge());
+                let cap = EXPLAINED_PX / f.pose.scale;
+                for (q, k) in pts.iter().zip(kappa.iter_mut()) {
+                    if f.pose.invert(*q).is_some_and(|u| outline.capped_distance(u, cap) < cap) {
+                        *k = EXPLAINED_TURN;
+                    }
+                }
             }
             let tp = self.points.get_mut(..coarse).unwrap_or(&mut []);
             for (slot, p) in tp.iter_mut().zip(t.points().iter().step_by(STRIDE)) {
@@ -294,12 +450,23 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 }
             }
         }
-        if too_long && hyps.is_empty() {
-            return Err(());
-        }
+        (hyps, searched, too_long)
+    }
+
+    /// Each pose aligned and verified on the visible edge ([`Self::partial_fit`]); the fits
+    /// taken into `taken` best first (the larger visible share, then the lower score), unless
+    /// their centre falls within half a size of one taken already.
+    fn take_fits<B: AsRef<[u8]>>(
+        &self,
+        hyps: &[Hypothesis],
+        whole: &Detection,
+        diff: &Difference<'_, B>,
+        part_holes: &Holes,
+        taken: &mut heapless::Vec<PartFit, MAX_BLOB_PARTS>,
+    ) {
         // Align and verify each pose on the visible edge.
         let mut fits: heapless::Vec<PartFit, MAX_HYPOTHESES> = heapless::Vec::new();
-        for h in &hyps {
+        for h in hyps {
             let Some(t) = self.templates.get(h.template) else {
                 continue;
             };
@@ -329,7 +496,6 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 j -= 1;
             }
         }
-        let mut taken: heapless::Vec<PartFit, MAX_BLOB_PARTS> = heapless::Vec::new();
         for f in &fits {
             let size = self.templates.get(f.template).map_or(0.0, |t| t.size() * f.pose.scale);
             let clash = taken.iter().any(|g| {
@@ -340,108 +506,33 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 break;
             }
         }
-        if taken.is_empty() {
-            return Ok(found);
-        }
-        // The rest of the border that no part found explains.
-        let count = BLOB_POINTS.min(math::round(chain / 2.0).max(8.0) as usize);
+    }
+
+    /// How many of `count` points along blob `index`'s border no part in `taken` explains
+    /// (farther than [`EXPLAINED_PX`] from each one's aligned outline), and where their
+    /// longest run lies ([`rest_centroid`]).
+    fn unexplained(&mut self, index: usize, count: usize, taken: &[PartFit]) -> (usize, [f32; 2]) {
+        let border = self.store.points(index);
         let pts = self.arc_points.get_mut(..count).unwrap_or(&mut []);
-        let (mut rest, mut rx, mut ry) = (0usize, 0.0f32, 0.0f32);
-        if resample(border, pts).is_ok() {
-            // 1 marks a point some part explains.
-            let marks = self.arc_turning.get_mut(..count).unwrap_or(&mut []);
-            marks.fill(0.0);
-            for f in &taken {
-                let Some(t) = self.templates.get(f.template) else {
-                    continue;
-                };
-                let outline = Outline::new(t.edge());
-                let cap = EXPLAINED_PX / f.pose.scale;
-                for (q, mark) in pts.iter().zip(marks.iter_mut()) {
-                    if *mark == 0.0 && f.pose.invert(*q).is_some_and(|u| outline.capped_distance(u, cap) < cap) {
-                        *mark = 1.0;
-                    }
-                }
-            }
-            for (q, mark) in pts.iter().zip(marks.iter()) {
-                if *mark == 0.0 {
-                    rest += 1;
-                    rx += q[0];
-                    ry += q[1];
-                }
-            }
+        if resample(border, pts).is_err() {
+            return (0, [0.0, 0.0]);
         }
-        // The blob's area less the parts' (their overlaps counted twice).
-        let holes: f32 = self
-            .store
-            .holes_of(index)
-            .filter_map(|h| self.store.contours().get(h).map(|c| c.area()))
-            .sum();
-        let blob = whole.area - holes;
-        let mut left_over = blob;
-        for f in &taken {
-            if let Some(t) = self.templates.get(f.template) {
-                left_over -= t.area() * f.pose.scale * f.pose.scale;
-            }
-        }
-        // A rest: enough of the border unexplained, and the area of a part that shows half.
-        let rest_part = rest as f32 >= REST_SHARE * count as f32 && left_over >= least;
-        let several = taken.len() > 1 || rest_part;
-        for f in &taken {
+        // 1 marks a point some part explains.
+        let marks = self.arc_turning.get_mut(..count).unwrap_or(&mut []);
+        marks.fill(0.0);
+        for f in taken {
             let Some(t) = self.templates.get(f.template) else {
                 continue;
             };
-            let [x, y] = f.pose.apply(t.position_offset());
-            let d = Detection {
-                template: Some(f.template as u16),
-                best_template: Some(f.template as u16),
-                score: f32::INFINITY,
-                x,
-                y,
-                angle_deg: math::wrap_degrees(math::degrees(f.pose.angle)),
-                verify: f.distance,
-                verify_limit: f.limit,
-                scale: f.pose.scale,
-                pose: Some(f.pose),
-                holes: f.holes,
-                flipped: false,
-                searches: u8::try_from(searched).unwrap_or(u8::MAX),
-                touching: several,
-                visible_fraction: f.visible,
-                position_from_pose: true,
-                ..*whole
-            };
-            let _ = found.push(d);
-        }
-        if rest_part && rest > 0 {
-            // The rest's centroid: the blob's area moments less the parts' (their overlaps
-            // counted twice), or the unexplained border's mean when that leaves too little.
-            let (mut a, mut mx, mut my) = (blob, blob * whole.polygon_centroid[0], blob * whole.polygon_centroid[1]);
-            for f in &taken {
-                if let Some(t) = self.templates.get(f.template) {
-                    let ak = t.area() * f.pose.scale * f.pose.scale;
-                    a -= ak;
-                    mx -= ak * f.pose.x;
-                    my -= ak * f.pose.y;
+            let outline = Outline::new(t.edge());
+            let cap = EXPLAINED_PX / f.pose.scale;
+            for (q, mark) in pts.iter().zip(marks.iter_mut()) {
+                if *mark == 0.0 && f.pose.invert(*q).is_some_and(|u| outline.capped_distance(u, cap) < cap) {
+                    *mark = 1.0;
                 }
             }
-            let [x, y] = if a >= least {
-                [mx / a, my / a]
-            } else {
-                [rx / rest as f32, ry / rest as f32]
-            };
-            let d = Detection {
-                template: None,
-                x,
-                y,
-                touching: true,
-                visible_fraction: 0.0,
-                position_from_pose: false,
-                ..*whole
-            };
-            let _ = found.push(d);
         }
-        Ok(found)
+        (marks.iter().filter(|m| **m == 0.0).count(), rest_centroid(pts, marks))
     }
 
     /// Whether a blob's whole-border result leaves it to the partial search: no part was
