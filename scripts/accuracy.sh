@@ -54,3 +54,13 @@ for s in 1 2 3; do
     echo "### flipped, seed $s"
     "$VORL" eval "$OUT/flipped-$s"
 done
+# Touching and overlapping parts (their sets' vorl.toml turns the partial search on), and the
+# parts cut by the frame's edge with the partial search on.
+for s in 1 2; do
+    "$VORL" gen "$OUT/touching-$s" --seed "$s" --frames 60 --variant touching >/dev/null
+    echo "### touching, seed $s"
+    "$VORL" eval "$OUT/touching-$s"
+done
+"$VORL" gen "$OUT/border-touching" --seed 2 --frames 60 --variant border >/dev/null
+echo "### border, seed 2, --touching-parts true"
+"$VORL" eval "$OUT/border-touching" --touching-parts true

@@ -335,3 +335,87 @@ pub fn best_arcs<const K: usize>(
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    extern crate std;
+
+    /// Turning angles do not change when the outline is turned and moved.
+    #[test]
+    fn turning_is_invariant_to_rotation_and_translation() {
+        let mut rng = crate::test_rng::XorShiftStar(0x7a11);
+        for _ in 0..50 {
+            let n = 12 + rng.below(60) as usize;
+            let pts: std::vec::Vec<[f32; 2]> = (0..n)
+                .map(|i| {
+                    let t = i as f32 * core::f32::consts::TAU / n as f32;
+                    let r = 20.0 + rng.below(100) as f32 * 0.05;
+                    [r * libm::cosf(t), r * libm::sinf(t)]
+                })
+                .collect();
+            let (s, c) = libm::sincosf(rng.below(628) as f32 * 0.01);
+            let moved: std::vec::Vec<[f32; 2]> = pts
+                .iter()
+                .map(|p| [c * p[0] - s * p[1] + 31.0, s * p[0] + c * p[1] - 7.5])
+                .collect();
+            let (mut a, mut b) = (std::vec![0.0f32; n], std::vec![0.0f32; n]);
+            let k = 1 + rng.below(3) as usize;
+            turning(&pts, k, &mut a).unwrap();
+            turning(&moved, k, &mut b).unwrap();
+            for (x, y) in a.iter().zip(&b) {
+                assert!((x - y).abs() < 2e-3, "{x} {y}");
+            }
+        }
+    }
+
+    /// A stretch of a template's turning angles (with a little noise) copied into a border of
+    /// unrelated values, anywhere — across the border's first point too — and from any
+    /// template point: the best run is that stretch, matched to those template points.
+    #[test]
+    fn the_best_run_is_the_copied_stretch() {
+        let mut rng = crate::test_rng::XorShiftStar(0xa5c5);
+        let mut rows = std::vec![0.0f32; ARC_ROWS * 64 + ARC_PAD];
+        for case in 0..200 {
+            let m = 16 + rng.below(48) as usize;
+            let n = m + rng.below(120) as usize;
+            let template: std::vec::Vec<f32> = (0..m).map(|_| rng.below(2000) as f32 * 0.001 - 1.0).collect();
+            // Unrelated values: far from every template value (a gain of 0 at best).
+            let mut part: std::vec::Vec<f32> = (0..n).map(|_| 3.0 + rng.below(100) as f32 * 0.01).collect();
+            let len = m / 2 + rng.below((m / 2) as u64) as usize;
+            let (ps, ts) = (rng.below(n as u64) as usize, rng.below(m as u64) as usize);
+            for k in 0..len {
+                let noise = rng.below(200) as f32 * 0.0001 - 0.01;
+                part[(ps + k) % n] = template[(ts + k) % m] + noise;
+            }
+            let mut out = heapless::Vec::<ArcMatch, 3>::new();
+            best_arcs(
+                &part,
+                &template,
+                &ArcParams {
+                    min_template: 4,
+                    ..ArcParams::DEFAULT
+                },
+                &mut rows,
+                &mut out,
+            )
+            .unwrap();
+            let best = out[0];
+            assert_eq!(
+                (best.part_start, best.part_len, best.template_start, best.template_len),
+                (ps, len, ts, len),
+                "case {case}: n {n} m {m}: {out:?}"
+            );
+        }
+    }
+
+    /// Bad input: empty sequences and short scratch are errors, not panics.
+    #[test]
+    fn bad_input_is_an_error() {
+        let mut out = heapless::Vec::<ArcMatch, 2>::new();
+        let mut rows = [0.0f32; 8];
+        assert!(best_arcs(&[], &[1.0], &ArcParams::DEFAULT, &mut rows, &mut out).is_err());
+        assert!(best_arcs(&[1.0; 4], &[1.0; 4], &ArcParams::DEFAULT, &mut rows, &mut out).is_err());
+        assert!(turning(&[[0.0, 0.0]; 2], 1, &mut [0.0; 2]).is_err());
+    }
+}

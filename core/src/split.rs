@@ -63,6 +63,8 @@ pub const MIN_VISIBLE_INSIDE: f32 = 0.75;
 pub const PARTIAL_LIMIT: f32 = 0.5;
 /// A border point this far (px) from every part found is not explained.
 pub const EXPLAINED_PX: f32 = 2.5;
+/// Gauss–Newton steps of a partial fit's alignment (a whole part's: 12).
+pub const PARTIAL_ITERATIONS: usize = 30;
 /// The turning angle given to border points a part found explains: no template point has it,
 /// so no run of the second round passes them.
 pub const EXPLAINED_TURN: f32 = 1.0e3;
@@ -374,7 +376,9 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             // Every STRIDE-th template point, the border at the same step.
             let m = t.len();
             let coarse = m / STRIDE;
-            let step = STRIDE as f32 * perimeter(t.points().iter().copied()) / m.max(1) as f32;
+            // At the middle of the scale range (1 for the default 0.9–1.1).
+            let (lo_s, hi_s) = t.tolerance().scale_range(params.scale_min, params.scale_max);
+            let step = 0.5 * (lo_s + hi_s) * STRIDE as f32 * perimeter(t.points().iter().copied()) / m.max(1) as f32;
             let count = if step > 0.0 { math::round(chain / step) } else { 0.0 };
             if !(count >= 8.0) || coarse < 8 {
                 continue;
@@ -536,14 +540,18 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
     }
 
     /// Whether a blob's whole-border result leaves it to the partial search: no part was
-    /// verified, or the verified template covers less of the blob than its area less half the
-    /// smallest template's (the least a second part shows) — for a blob inside the frame.
+    /// verified, the blob touches the frame's edge, or the verified template covers less of
+    /// the blob than its area less half the smallest template's (the least a second part
+    /// shows).
     pub(crate) fn blob_not_explained(&self, whole: &Detection) -> bool {
         let Some(ti) = whole.template else {
             return true;
         };
+        // A part the frame's edge cuts: its whole-border match saw the edge's straight cut as
+        // outline, and its centroid is the visible piece's. The partial search places the
+        // whole template.
         if whole.touches_edge {
-            return false;
+            return true;
         }
         let params = &self.params;
         let least = self
@@ -579,8 +587,11 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let limit_at = |scale: f32| params.verify_limit(t.size() * scale) * t.tolerance().verify;
         let reach = limit_at(seed.scale) / params.verify_threshold.max(f32::MIN_POSITIVE);
         let reach = if reach.is_finite() { reach.max(1.0) } else { 1.0 };
+        // More steps than a whole part's: the seed of a run can lie a few degrees off, and a
+        // part with a hidden stretch converges slowly.
         let rp = RefineParams {
             cap: RefineParams::DEFAULT.cap * reach,
+            iterations: PARTIAL_ITERATIONS,
             ..RefineParams::DEFAULT
         };
         let mut distances = [0.0f32; M];

@@ -855,3 +855,72 @@ fn gen_flipped_parts_are_mirror_images_and_truth_says_so() {
     }
     assert!(flipped >= 2 && upright >= 2, "{flipped} flipped, {upright} upright");
 }
+
+/// `touching`: moved parts share pixels with their partner (they form one blob) by no more
+/// than the drawn share of the smaller part's area; truth marks both and the lower one's
+/// visible share; the part on top hides the one beneath (inside it the frame is what the top
+/// part alone would give); parts that touch nothing keep their distance.
+#[test]
+fn gen_touching_parts_share_pixels_and_the_upper_hides_the_lower() {
+    let opts = small_opts(Variant::Touching, 5, 20);
+    let (mut pairs, mut deep_pixels) = (0, 0);
+    for index in 0..20 {
+        let set = SetPlan::new(&opts);
+        let mut rng = Rng::stream(opts.seed, purpose::LAYOUT, index as u64);
+        let mut parts = plan(&mut rng, &set.cat, &set.scene);
+        let mut fx = Rng::stream(opts.seed, purpose::EFFECT_SCENE, index as u64);
+        touching::bring_together(&mut fx, &set.cat, &mut parts, set.w, set.h);
+        let cover = |p: &Placed| silhouette(p.drawn(&set.cat), &p.pose, set.w, set.h);
+        for (i, p) in parts.iter().enumerate() {
+            let t = set.truth(p, index);
+            assert_eq!(t.touching, p.touching.then_some(true));
+            for (j, q) in parts.iter().enumerate().skip(i + 1) {
+                let (cp, cq) = (cover(p), cover(q));
+                let (mut shared, mut ap, mut aq) = (0.0, 0.0, 0.0);
+                cp.for_each(|x, y, c| {
+                    ap += c;
+                    shared += c.min(cq.at(x, y));
+                });
+                cq.for_each(|_, _, c| aq += c);
+                if p.touching && q.touching && shared > 0.0 {
+                    pairs += 1;
+                    assert!(
+                        shared / f64::min(ap, aq) <= touching::OVERLAP_MAX + 0.01,
+                        "{index}: {i}-{j}"
+                    );
+                    // The lower one (drawn first) shows what the upper one leaves.
+                    assert!(
+                        (p.visible - (1.0 - shared / ap)).abs() < 0.02,
+                        "{} {}",
+                        p.visible,
+                        shared / ap
+                    );
+                    assert_eq!(t.extra["visible_fraction"], json!(p.visible));
+                    // Inside the upper part the frame is the upper part alone.
+                    let alone = set.compose(&parts[j..=j], false, &mut Rng::stream(1, 1, 1));
+                    let both = set.compose(&parts, false, &mut Rng::stream(1, 1, 1));
+                    let mut inside = 0;
+                    cq.for_each(|x, y, c| {
+                        let k = y as usize * set.w + x as usize;
+                        // Where both cover the pixel, 5 px inside the upper part's edge (past the blur).
+                        let deep = [(5, 0), (-5, 0), (0, 5), (0, -5), (4, 4), (-4, 4), (4, -4), (-4, -4)]
+                            .iter()
+                            .all(|(dx, dy)| cq.at(x + dx, y + dy) == 1.0);
+                        if c == 1.0 && cp.at(x, y) == 1.0 && deep {
+                            inside += 1;
+                            assert!((alone[k] - both[k]).abs() < 1e-6, "{index}: ({x}, {y})");
+                        }
+                    });
+                    deep_pixels += inside;
+                } else if !p.touching || !q.touching {
+                    assert_eq!(shared, 0.0, "{index}: {i}-{j} share pixels but are not touching");
+                }
+            }
+        }
+    }
+    assert!(pairs >= 6, "{pairs} touching pairs in 20 frames");
+    assert!(
+        deep_pixels > 100,
+        "{deep_pixels} pixels of overlap deep inside an upper part"
+    );
+}
