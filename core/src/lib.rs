@@ -21,6 +21,9 @@
 //!  → candidates aligned and verified: the outline,  refine
 //!    and the template's holes where the pose puts   holes
 //!    them; partial-volume centroid                  partial_volume
+//!  → (touching_parts) a blob no template explains:  split
+//!    the parts along its border, open DP on         arcs
+//!    turning angles, aligned on the visible edge
 //!  → detections                                     recognizer
 //! ```
 //!

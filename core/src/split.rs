@@ -1,33 +1,51 @@
 //! Several parts in one blob, and parts cut by the frame's edge: the partial search.
 //!
-//! A blob whose border is not one template's (its whole-border match is not verified) may hold
-//! parts that touch or lie partly over one another, or a part the frame's edge cuts. Each
-//! template is then matched against arcs of the blob's border ([`crate::arcs`]: the paper's
-//! order-preserving DP, open instead of cyclic, on turning angles), and each of the best runs
-//! ([`MAX_HYPOTHESES`] over all templates, [`RUNS_PER_TEMPLATE`] of one) seeds a pose: the
-//! similarity that maps the run's template points onto its border points (least squares). The
-//! template is aligned on the frame from there as a whole part is ([`crate::refine`]), and
-//! verified on the **visible edge only**: the share of its edge points whose profile finds the
-//! part's edge within [`CONFIRM_PX`] (scaled as the verification's limit) is its
-//! `visible_fraction`, and the mean distance over those is its score. A fit is kept when it
-//! shows at least [`MIN_VISIBLE`] of its border (the documented half), scores within
-//! [`PARTIAL_LIMIT`] of its limit, lies in its scale range and shows every hole it has where
-//! the pose puts it; kept fits are taken best first (the larger visible share, then the lower
-//! score) unless their centre falls within half a size of one taken already (the same part
-//! matched twice, from both sides of the blob or by two templates).
+//! With [`crate::Params::touching_parts`] on, a blob goes to the partial search when its
+//! whole-border result does not settle it: no part was verified, or it touches the frame's edge
+//! (its whole-border match took the edge's straight cut for outline, and its centroid is the
+//! visible piece's), or the verified template covers less of the blob than the blob's area less
+//! half the smallest template (another part touches it). Such a blob may hold parts that touch
+//! or lie partly over one another, or a part the frame's edge cuts.
 //!
-//! Border points of the blob farther than [`EXPLAINED_PX`] from every taken part's outline are
-//! the rest no template explains: when they make up [`REST_SHARE`] of the border or more, the
-//! rest is reported as one more, unknown part at their mean, so nothing is silently lost.
+//! **Hypotheses.** Each template that fits in the blob (its area at the least scale, plus half
+//! the smallest template's inside the frame) is matched against arcs of the blob's border
+//! ([`crate::arcs`]: the paper's order-preserving DP, open instead of cyclic, on turning
+//! angles, at every [`STRIDE`]-th template point and the border at that step). Each of the
+//! best runs ([`RUNS_PER_TEMPLATE`] of a template, [`MAX_HYPOTHESES`] over all) seeds a pose:
+//! the similarity that maps the run's template points onto its border points (least squares).
+//!
+//! **Fits.** The template is aligned on the frame from there as a whole part is
+//! ([`crate::refine`], up to [`PARTIAL_ITERATIONS`] steps), and verified on the **visible edge
+//! only**: the share of its edge points whose profile finds the part's edge within
+//! [`CONFIRM_PX`] (scaled as the verification's limit) is its `visible_fraction`, and the mean
+//! distance over those is its score. A fit is kept when it shows at least [`MIN_VISIBLE_INSIDE`]
+//! of its border inside the frame ([`MIN_VISIBLE`], the documented half, for a part the edge
+//! cuts), scores within [`PARTIAL_LIMIT`] of its limit, lies in its scale range and shows every
+//! hole it has that the pose puts inside the frame. Kept fits are taken best first (the larger
+//! visible share, then the lower score) unless their centre falls within half a size of one
+//! taken already (the same part matched twice, from both sides of the blob or by two templates).
+//!
+//! **Two rounds.** When the parts taken leave [`REST_SHARE`] of the border unexplained (farther
+//! than [`EXPLAINED_PX`] from every taken part's outline), the hypotheses are made once more with
+//! the explained border points given a turning no template has ([`EXPLAINED_TURN`]), so the
+//! runs all lie on the rest. What is still unexplained then is reported as one more, unknown
+//! part, so nothing is silently lost: at the area centroid of the longest unexplained run
+//! closed across its ends (the outline of the part no template explains, cut where it meets
+//! the parts found).
 //!
 //! Positions of parts found this way are their aligned template's (the pose applied to the
-//! template's position offset): the partial-volume centroid needs the whole silhouette.
+//! template's position offset, [`crate::Detection::position_from_pose`]): the partial-volume
+//! centroid needs the whole silhouette.
 //!
-//! Work is bounded: a blob longer than [`BLOB_POINTS`] template steps is not searched (the
-//! whole-border result stands, and [`crate::recognizer::Report::unsplit`] counts it), each
-//! template's DP visits `(n + m)·2m` cells, and at most [`MAX_HYPOTHESES`] alignments run.
-//! Memory: the recognizer's `arc_points` and `arc_turning` ([`BLOB_POINTS`] each) and
-//! `arc_rows` ([`crate::arcs::ARC_ROWS`]`·M`).
+//! **Bounds.** A blob longer than [`BLOB_POINTS`] points at a template's step is not searched
+//! for it (when no template could be, the whole-border result stands and
+//! [`crate::recognizer::Report::unsplit`] counts the blob); each template's DP visits
+//! `(n + m′ − 1)·m′` cells (`m′ = m / STRIDE`, `n` the border's points at its step), at most
+//! [`MAX_HYPOTHESES`] alignments run a round, two rounds a blob, and at most
+//! [`MAX_BLOB_PARTS`] parts come out of one. Memory: the recognizer's `arc_points` and
+//! `arc_turning` ([`BLOB_POINTS`] each), `arc_template` (`M`) and `arc_rows`
+//! (`(`[`crate::arcs::ARC_ROWS`]` + 1)·M`), counted by `vorl budget`; the search runs out of
+//! line, so its locals take stack only while it runs.
 
 use crate::arcs::{best_arcs, turning, ArcMatch, ArcParams};
 use crate::frame::Frame;
