@@ -345,10 +345,17 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         }
         if rest_part && rest > 0 {
             let [x, y] = rest_at;
+            // Unknown: no template's pose or verification (the whole blob's were not the
+            // rest's); the blob's DP diagnostics stay.
             let d = Detection {
                 template: None,
                 x,
                 y,
+                verify: f32::INFINITY,
+                scale: 1.0,
+                pose: None,
+                holes: HoleAgreement::default(),
+                flipped: false,
                 touching: true,
                 visible_fraction: 0.0,
                 position_from_pose: false,
