@@ -1946,6 +1946,110 @@ mod tests {
         }
     }
 
+    /// The partial search's defined results on hard blobs, never a panic or an endless search:
+    /// - a heap (60 Ls and Ts in a chain, one blob whose border is longer than
+    ///   [`crate::split::BLOB_POINTS`] points at the templates' step) is not searched: it stays
+    ///   one unknown part and [`Report::unsplit`] counts it;
+    /// - two Ls lying almost wholly over one another (neither shows half its border) are one
+    ///   part, named or not, never two;
+    /// - an L against a square that is no template is found once (at its pose), with the
+    ///   square as the unexplained rest, an unknown part near the square's centre.
+    #[test]
+    fn hard_blobs_have_defined_results() {
+        let (w, h) = (360usize, 300usize);
+        let teach = |inside: fn([f32; 2]) -> bool| {
+            let (tw, th) = (80usize, 80usize);
+            let px: std::vec::Vec<u8> = (0..tw * th)
+                .map(|i| u8::from(inside([(i % tw) as f32 - 30.0, (i / tw) as f32 - 30.0])) * 255)
+                .collect();
+            let mut labels = std::vec![0u8; tw * th];
+            let mut store = std::boxed::Box::new(ContourStore::<4096, 16>::new());
+            Template::<96>::from_silhouette(
+                &Frame::new_checked(&px[..], tw, th).unwrap(),
+                &Params::DEFAULT,
+                &mut labels,
+                &mut store,
+            )
+            .unwrap()
+        };
+        let (l, t) = (teach(l_inside), teach(t_inside));
+        let bg_px = std::vec![200u8; w * h];
+        let mut bg = Background::new(std::vec![0u8; w * h], w, h).unwrap();
+        bg.set_from_frame(&Frame::new_checked(&bg_px[..], w, h).unwrap(), Params::DEFAULT.alpha())
+            .unwrap();
+        let run = |px: &[u8]| {
+            let mut rec: std::boxed::Box<Recognizer<4, 96, 16384, 64, 2112>> = std::boxed::Box::default();
+            rec.set_params(Params {
+                touching_parts: true,
+                ..Params::DEFAULT
+            })
+            .unwrap();
+            rec.add_template(l.clone()).unwrap();
+            rec.add_template(t.clone()).unwrap();
+            let mut labels = std::vec![0u8; w * h];
+            rec.process(&Frame::new_checked(px, w, h).unwrap(), &bg, &mut labels)
+                .unwrap()
+        };
+        // A heap: a chain of 60 parts, each overlapping the next, in a frame of its own.
+        let (hw, hh) = (1060usize, 100usize);
+        let chain: std::vec::Vec<Placed> = (0..60)
+            .map(|k| (k % 2 == 0, 40.0 + 16.0 * k as f32, 50.0, k as f32 * 37.0, false))
+            .collect();
+        let hpx = scene(hw, hh, &chain);
+        let hbg_px = std::vec![200u8; hw * hh];
+        let mut hbg = Background::new(std::vec![0u8; hw * hh], hw, hh).unwrap();
+        hbg.set_from_frame(
+            &Frame::new_checked(&hbg_px[..], hw, hh).unwrap(),
+            Params::DEFAULT.alpha(),
+        )
+        .unwrap();
+        let mut rec: std::boxed::Box<Recognizer<4, 96, 16384, 64, 2112>> = std::boxed::Box::default();
+        rec.set_params(Params {
+            touching_parts: true,
+            ..Params::DEFAULT
+        })
+        .unwrap();
+        rec.add_template(l.clone()).unwrap();
+        rec.add_template(t.clone()).unwrap();
+        let mut labels = std::vec![0u8; hw * hh];
+        let report = rec
+            .process(&Frame::new_checked(&hpx[..], hw, hh).unwrap(), &hbg, &mut labels)
+            .unwrap();
+        assert_eq!(report.unsplit, 1, "{:?}", report.detections);
+        assert_eq!(report.detections.len(), 1, "{:?}", report.detections);
+        assert!(report.detections[0].template.is_none() && !report.detections[0].touching);
+        // Two Ls, the second 3 px and 4° off the first.
+        let report = run(&scene(
+            w,
+            h,
+            &[(true, 150.0, 150.0, 20.0, false), (true, 153.0, 150.0, 24.0, false)],
+        ));
+        assert_eq!(report.detections.len(), 1, "{:?}", report.detections);
+        // An L against a 20 × 20 square below its bar's right end (no template).
+        let mut px = scene(w, h, &[(true, 150.0, 150.0, 0.0, false)]);
+        for y in 151..171 {
+            for x in 158..178 {
+                px[y * w + x] = 20;
+            }
+        }
+        let report = run(&px);
+        let named: std::vec::Vec<_> = report.detections.iter().filter(|d| d.template.is_some()).collect();
+        assert_eq!(named.len(), 1, "{:?}", report.detections);
+        assert!(
+            (named[0].x - 150.0).abs() < 0.5 && (named[0].y - 150.0).abs() < 0.5,
+            "{:?}",
+            named[0]
+        );
+        assert!(named[0].touching, "{:?}", named[0]);
+        let rest: std::vec::Vec<_> = report.detections.iter().filter(|d| d.template.is_none()).collect();
+        assert_eq!(rest.len(), 1, "{:?}", report.detections);
+        assert!(
+            (rest[0].x - 167.5).abs() < 4.0 && (rest[0].y - 161.0).abs() < 4.0,
+            "{:?}",
+            rest[0]
+        );
+    }
+
     /// A chiral part lying upside down is its template's mirror image: found, reported
     /// `flipped` with the angle of the contract (the template mirrored, then turned), and
     /// positioned like any other part; the same part the right way up is not flipped; with
