@@ -18,7 +18,10 @@
 //! ([`crate::refine`], up to [`PARTIAL_ITERATIONS`] steps), and verified on the **visible edge
 //! only**: the share of its edge points whose profile finds the part's edge within
 //! [`CONFIRM_PX`] (scaled as the verification's limit) is its `visible_fraction`, and the mean
-//! distance over those is its score. A fit is kept when it shows at least [`MIN_VISIBLE_INSIDE`]
+//! distance over those is its score; only the edge points that the pose puts inside the frame,
+//! farther from its edge than a profile reaches, are aligned and can be confirmed (a profile
+//! beyond the frame reads the frame's edge pixels, clamped, and would find the silhouette's
+//! cut there). A fit is kept when it shows at least [`MIN_VISIBLE_INSIDE`]
 //! of its border inside the frame ([`MIN_VISIBLE`], the documented half, for a part the edge
 //! cuts), scores within [`PARTIAL_LIMIT`] of its limit, lies in its scale range and shows every
 //! hole it has that the pose puts inside the frame. Kept fits are taken best first (the larger
@@ -52,7 +55,7 @@ use crate::frame::Frame;
 use crate::holes::{agreement, HoleAgreement, Holes};
 use crate::math;
 use crate::recognizer::{Detection, Recognizer, Report, SkipReason};
-use crate::refine::{align_recording, Difference, Outline, Pose, RefineParams};
+use crate::refine::{align_recording, edge_distances, Difference, Outline, Pose, RefineParams};
 use crate::resample::resample;
 use crate::template::Template;
 
@@ -619,16 +622,42 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             iterations: PARTIAL_ITERATIONS,
             ..RefineParams::DEFAULT
         };
+        // Only the edge points the pose puts inside the frame, away from its edge by more than
+        // a profile's reach: a profile beyond the frame reads its edge pixels (clamped) and
+        // finds the silhouette's cut there, which would pull the fit and confirm a hidden edge.
+        let (w, h) = (diff.width() as f32, diff.height() as f32);
+        let margin = rp.search;
+        let inside =
+            |p: [f32; 2]| p[0] >= margin && p[1] >= margin && p[0] <= w - 1.0 - margin && p[1] <= h - 1.0 - margin;
+        let (mut edge, mut normals) = ([[0.0f32; 2]; M], [[0.0f32; 2]; M]);
+        let keep = |pose: &Pose, edge: &mut [[f32; 2]; M], normals: &mut [[f32; 2]; M]| {
+            let mut k = 0usize;
+            for (e, n) in t.edge().iter().zip(t.normals()) {
+                if inside(pose.apply(*e)) {
+                    if let (Some(se), Some(sn)) = (edge.get_mut(k), normals.get_mut(k)) {
+                        (*se, *sn) = (*e, *n);
+                        k += 1;
+                    }
+                }
+            }
+            k
+        };
+        let k = keep(&seed, &mut edge, &mut normals);
         let mut distances = [0.0f32; M];
-        let a = align_recording(diff, t.edge(), t.normals(), seed, &rp, &mut distances);
+        let (e, n) = (edge.get(..k).unwrap_or(&[]), normals.get(..k).unwrap_or(&[]));
+        let a = align_recording(diff, e, n, seed, &rp, &mut distances);
         let pose = a.pose;
         if !(pose.scale >= lo && pose.scale <= hi) {
             return None;
         }
+        // Confirmed at the final pose, over the points inside the frame there.
+        let k = keep(&pose, &mut edge, &mut normals);
+        let (e, n) = (edge.get(..k).unwrap_or(&[]), normals.get(..k).unwrap_or(&[]));
+        edge_distances(diff, e, n, pose, 0.0, &rp, &mut distances);
         let confirm = CONFIRM_PX * reach;
         let m = t.edge().len();
         let (mut seen, mut sum) = (0usize, 0.0f32);
-        for d in distances.iter().take(m) {
+        for d in distances.iter().take(k) {
             if *d <= confirm {
                 seen += 1;
                 sum += *d;
@@ -639,7 +668,6 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let distance = if seen > 0 { sum / seen as f32 } else { f32::INFINITY };
         let holes = agreement(t.holes(), &pose, part_holes);
         // Every hole the pose puts wholly inside the frame must be there.
-        let (w, h) = (diff.width() as f32, diff.height() as f32);
         let in_frame = t
             .holes()
             .as_slice()
