@@ -87,6 +87,21 @@ pub fn draw_detection(img: &mut RgbImage, d: &HostDetection) {
         draw_line_segment_mut(img, tip, back, c);
     }
     let name = d.class.as_deref().unwrap_or("unknown");
+    // A part the partial search found shares its blob with others: its label goes beside its
+    // own centre, and says how much of its edge the image confirms.
+    if d.core.position_from_pose || d.core.touching {
+        let how = if d.core.touching { "touching" } else { "cut" };
+        let text = if d.core.verify.is_finite() {
+            format!(
+                "{name} {how} vis={:.2} v={:.2}/{:.2}px {:.1}deg",
+                d.core.visible_fraction, d.core.verify, d.core.verify_limit, d.core.angle_deg
+            )
+        } else {
+            format!("{name} {how} (the rest of its blob)")
+        };
+        draw_label(img, x.round() as i32 + 6, y.round() as i32 + 6, &text, c);
+        return;
+    }
     let text = if d.core.verify.is_finite() {
         format!(
             "{name} f'={:.3} v={:.2}/{:.2}px {:.1}deg",
