@@ -1874,6 +1874,33 @@ mod tests {
         px
     }
 
+    /// A template taught from the shape `inside` (offsets from its area centroid) drawn at the
+    /// middle of an 80 × 80 silhouette.
+    fn taught(inside: fn([f32; 2]) -> bool) -> Template<96> {
+        let (tw, th) = (80usize, 80usize);
+        let px: std::vec::Vec<u8> = (0..tw * th)
+            .map(|i| u8::from(inside([(i % tw) as f32 - 30.0, (i / tw) as f32 - 30.0])) * 255)
+            .collect();
+        let mut labels = std::vec![0u8; tw * th];
+        let mut store = std::boxed::Box::new(ContourStore::<4096, 16>::new());
+        Template::<96>::from_silhouette(
+            &Frame::new_checked(&px[..], tw, th).unwrap(),
+            &Params::DEFAULT,
+            &mut labels,
+            &mut store,
+        )
+        .unwrap()
+    }
+
+    /// The empty platform of [`scene`] (200 everywhere), as the background model.
+    fn platform(w: usize, h: usize) -> Background<std::vec::Vec<u8>> {
+        let px = std::vec![200u8; w * h];
+        let mut bg = Background::new(std::vec![0u8; w * h], w, h).unwrap();
+        bg.set_from_frame(&Frame::new_checked(&px[..], w, h).unwrap(), Params::DEFAULT.alpha())
+            .unwrap();
+        bg
+    }
+
     /// Two parts that touch and overlap (the L's bar under the T's by about a tenth of the L)
     /// form one blob; the whole-border match fails on it, and the partial search finds both,
     /// each with its template, `touching`, a visible share below 1 and the pose of its
@@ -1882,38 +1909,14 @@ mod tests {
     #[test]
     fn touching_parts_are_found_along_their_blob() {
         let (w, h) = (220usize, 110usize);
-        let teach = |inside: fn([f32; 2]) -> bool| {
-            let (tw, th) = (80usize, 80usize);
-            let px: std::vec::Vec<u8> = (0..tw * th)
-                .map(|i| {
-                    if inside([(i % tw) as f32 - 30.0, (i / tw) as f32 - 30.0]) {
-                        255
-                    } else {
-                        0
-                    }
-                })
-                .collect();
-            let mut labels = std::vec![0u8; tw * th];
-            let mut store = std::boxed::Box::new(ContourStore::<4096, 16>::new());
-            Template::<96>::from_silhouette(
-                &Frame::new_checked(&px[..], tw, th).unwrap(),
-                &Params::DEFAULT,
-                &mut labels,
-                &mut store,
-            )
-            .unwrap()
-        };
-        let (l, t) = (teach(l_inside), teach(t_inside));
+        let (l, t) = (taught(l_inside), taught(t_inside));
         let parts: [Placed; 3] = [
             (true, 60.0, 55.0, 0.0, false),
             (false, 95.0, 55.0, 0.0, false),
             (true, 175.0, 55.0, 75.0, false),
         ];
         let px = scene(w, h, &parts);
-        let bg_px = std::vec![200u8; w * h];
-        let mut bg = Background::new(std::vec![0u8; w * h], w, h).unwrap();
-        bg.set_from_frame(&Frame::new_checked(&bg_px[..], w, h).unwrap(), Params::DEFAULT.alpha())
-            .unwrap();
+        let bg = platform(w, h);
         let mut rec: std::boxed::Box<Recognizer<4, 96, 4096, 64, 2112>> = std::boxed::Box::default();
         rec.set_params(Params {
             touching_parts: true,
@@ -1957,26 +1960,8 @@ mod tests {
     #[test]
     fn hard_blobs_have_defined_results() {
         let (w, h) = (360usize, 300usize);
-        let teach = |inside: fn([f32; 2]) -> bool| {
-            let (tw, th) = (80usize, 80usize);
-            let px: std::vec::Vec<u8> = (0..tw * th)
-                .map(|i| u8::from(inside([(i % tw) as f32 - 30.0, (i / tw) as f32 - 30.0])) * 255)
-                .collect();
-            let mut labels = std::vec![0u8; tw * th];
-            let mut store = std::boxed::Box::new(ContourStore::<4096, 16>::new());
-            Template::<96>::from_silhouette(
-                &Frame::new_checked(&px[..], tw, th).unwrap(),
-                &Params::DEFAULT,
-                &mut labels,
-                &mut store,
-            )
-            .unwrap()
-        };
-        let (l, t) = (teach(l_inside), teach(t_inside));
-        let bg_px = std::vec![200u8; w * h];
-        let mut bg = Background::new(std::vec![0u8; w * h], w, h).unwrap();
-        bg.set_from_frame(&Frame::new_checked(&bg_px[..], w, h).unwrap(), Params::DEFAULT.alpha())
-            .unwrap();
+        let (l, t) = (taught(l_inside), taught(t_inside));
+        let bg = platform(w, h);
         let run = |px: &[u8]| {
             let mut rec: std::boxed::Box<Recognizer<4, 96, 16384, 64, 2112>> = std::boxed::Box::default();
             rec.set_params(Params {
@@ -1996,13 +1981,7 @@ mod tests {
             .map(|k| (k % 2 == 0, 40.0 + 16.0 * k as f32, 50.0, k as f32 * 37.0, false))
             .collect();
         let hpx = scene(hw, hh, &chain);
-        let hbg_px = std::vec![200u8; hw * hh];
-        let mut hbg = Background::new(std::vec![0u8; hw * hh], hw, hh).unwrap();
-        hbg.set_from_frame(
-            &Frame::new_checked(&hbg_px[..], hw, hh).unwrap(),
-            Params::DEFAULT.alpha(),
-        )
-        .unwrap();
+        let hbg = platform(hw, hh);
         let mut rec: std::boxed::Box<Recognizer<4, 96, 16384, 64, 2112>> = std::boxed::Box::default();
         rec.set_params(Params {
             touching_parts: true,
@@ -2057,28 +2036,7 @@ mod tests {
     #[test]
     fn parts_upside_down_are_matched_by_the_mirror_image() {
         let (w, h) = (200usize, 100usize);
-        let teach = |inside: fn([f32; 2]) -> bool| {
-            let (tw, th) = (80usize, 80usize);
-            let px: std::vec::Vec<u8> = (0..tw * th)
-                .map(|i| {
-                    if inside([(i % tw) as f32 - 30.0, (i / tw) as f32 - 30.0]) {
-                        255
-                    } else {
-                        0
-                    }
-                })
-                .collect();
-            let mut labels = std::vec![0u8; tw * th];
-            let mut store = std::boxed::Box::new(ContourStore::<4096, 16>::new());
-            Template::<96>::from_silhouette(
-                &Frame::new_checked(&px[..], tw, th).unwrap(),
-                &Params::DEFAULT,
-                &mut labels,
-                &mut store,
-            )
-            .unwrap()
-        };
-        let (l, t) = (teach(l_inside), teach(t_inside));
+        let (l, t) = (taught(l_inside), taught(t_inside));
         assert!(l.is_chiral() && !t.is_chiral(), "{} {}", l.mirror_gap(), t.mirror_gap());
         let parts: [Placed; 4] = [
             (true, 40.0, 50.0, 30.0, false),
@@ -2086,10 +2044,7 @@ mod tests {
             (false, 150.0, 50.0, 115.0, false),
             (false, 150.0, 50.0, 115.0, true),
         ];
-        let bg_px = std::vec![200u8; w * h];
-        let mut bg = Background::new(std::vec![0u8; w * h], w, h).unwrap();
-        bg.set_from_frame(&Frame::new_checked(&bg_px[..], w, h).unwrap(), Params::DEFAULT.alpha())
-            .unwrap();
+        let bg = platform(w, h);
         for flips in [true, false] {
             // The T's two scenes (it looks the same flipped) one after the other.
             for scene_parts in [&parts[..3], &[parts[0], parts[1], parts[3]][..]] {

@@ -152,6 +152,29 @@ fn rest_centroid(points: &[[f32; 2]], marks: &[f32]) -> [f32; 2] {
     }
 }
 
+/// Sets `out[i]` to `value` for every border point `pts[i]` that a part in `taken` explains:
+/// within [`EXPLAINED_PX`] of its template's outline at its pose.
+fn mark_explained<const M: usize>(
+    templates: &[Template<M>],
+    taken: &[PartFit],
+    pts: &[[f32; 2]],
+    out: &mut [f32],
+    value: f32,
+) {
+    for f in taken {
+        let Some(t) = templates.get(f.template) else {
+            continue;
+        };
+        let outline = Outline::new(t.edge());
+        let cap = EXPLAINED_PX / f.pose.scale;
+        for (q, o) in pts.iter().zip(out.iter_mut()) {
+            if *o != value && f.pose.invert(*q).is_some_and(|u| outline.capped_distance(u, cap) < cap) {
+                *o = value;
+            }
+        }
+    }
+}
+
 /// Closed polygon length.
 fn perimeter(points: impl Iterator<Item = [f32; 2]> + Clone) -> f32 {
     let mut it = points.clone();
@@ -264,23 +287,18 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         part_holes: &Holes,
         whole: &Detection,
     ) -> Result<heapless::Vec<Detection, MAX_BLOB_PARTS>, ()> {
-        let params = self.params;
         let mut found = heapless::Vec::new();
         let border = self.store.points(index);
         let chain = perimeter(border.iter().map(|p| [p.x as f32, p.y as f32]));
         let mut searched = 0usize;
-        // The least area a part may show: half of the smallest template at its least scale.
-        let least = self
-            .templates
-            .iter()
-            .map(|t| {
-                let (lo, _) = t.tolerance().scale_range(params.scale_min, params.scale_max);
-                MIN_VISIBLE * lo * lo * t.area()
-            })
-            .fold(f32::INFINITY, f32::min);
+        let least = self.least_part_area();
         let mut taken: heapless::Vec<PartFit, MAX_BLOB_PARTS> = heapless::Vec::new();
         // Round 1 over the whole border; round 2, when the first left a rest, over the border
         // that no part found explains (the first round's runs all on the parts it found).
+        // The rest of the border that no part found explains, over `count` points: measured
+        // whenever a round takes a part.
+        let count = BLOB_POINTS.min(math::round(chain / 2.0).max(8.0) as usize);
+        let (mut rest, mut rest_at) = (0usize, [0.0f32; 2]);
         for round in 0..2 {
             let before = taken.len();
             let (hyps, s, too_long) = self.hypotheses(index, whole, least, chain, &taken);
@@ -289,11 +307,10 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 return Err(());
             }
             self.take_fits(&hyps, whole, diff, part_holes, &mut taken);
-            if taken.is_empty() || taken.len() == before {
+            if taken.len() == before {
                 break;
             }
-            let count = BLOB_POINTS.min(math::round(chain / 2.0).max(8.0) as usize);
-            let (rest, _) = self.unexplained(index, count, &taken);
+            (rest, rest_at) = self.unexplained(index, count, &taken);
             if (rest as f32) < REST_SHARE * count as f32 {
                 break;
             }
@@ -301,9 +318,6 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         if taken.is_empty() {
             return Ok(found);
         }
-        // The rest of the border that no part found explains.
-        let count = BLOB_POINTS.min(math::round(chain / 2.0).max(8.0) as usize);
-        let (rest, rest_at) = self.unexplained(index, count, &taken);
         // The blob's area less the parts' (their overlaps counted twice).
         let holes: f32 = self
             .store
@@ -425,18 +439,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 continue;
             }
             // Explained points: a turning no template point has, so no run passes them.
-            for f in taken {
-                let Some(tf) = self.templates.get(f.template) else {
-                    continue;
-                };
-                let outline = Outline::new(tf.edge());
-                let cap = EXPLAINED_PX / f.pose.scale;
-                for (q, k) in pts.iter().zip(kappa.iter_mut()) {
-                    if f.pose.invert(*q).is_some_and(|u| outline.capped_distance(u, cap) < cap) {
-                        *k = EXPLAINED_TURN;
-                    }
-                }
-            }
+            mark_explained(&self.templates, taken, pts, kappa, EXPLAINED_TURN);
             let tp = self.points.get_mut(..coarse).unwrap_or(&mut []);
             for (slot, p) in tp.iter_mut().zip(t.points().iter().step_by(STRIDE)) {
                 *slot = *p;
@@ -552,19 +555,20 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         // 1 marks a point some part explains.
         let marks = self.arc_turning.get_mut(..count).unwrap_or(&mut []);
         marks.fill(0.0);
-        for f in taken {
-            let Some(t) = self.templates.get(f.template) else {
-                continue;
-            };
-            let outline = Outline::new(t.edge());
-            let cap = EXPLAINED_PX / f.pose.scale;
-            for (q, mark) in pts.iter().zip(marks.iter_mut()) {
-                if *mark == 0.0 && f.pose.invert(*q).is_some_and(|u| outline.capped_distance(u, cap) < cap) {
-                    *mark = 1.0;
-                }
-            }
-        }
+        mark_explained(&self.templates, taken, pts, marks, 1.0);
         (marks.iter().filter(|m| **m == 0.0).count(), rest_centroid(pts, marks))
+    }
+
+    /// The least area a part may show: half of the smallest template at its least scale.
+    fn least_part_area(&self) -> f32 {
+        let params = &self.params;
+        self.templates
+            .iter()
+            .map(|t| {
+                let (lo, _) = t.tolerance().scale_range(params.scale_min, params.scale_max);
+                MIN_VISIBLE * lo * lo * t.area()
+            })
+            .fold(f32::INFINITY, f32::min)
     }
 
     /// Whether a blob's whole-border result leaves it to the partial search: no part was
@@ -581,15 +585,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         if whole.touches_edge {
             return true;
         }
-        let params = &self.params;
-        let least = self
-            .templates
-            .iter()
-            .map(|t| {
-                let (lo, _) = t.tolerance().scale_range(params.scale_min, params.scale_max);
-                MIN_VISIBLE * lo * lo * t.area()
-            })
-            .fold(f32::INFINITY, f32::min);
+        let least = self.least_part_area();
         let covered = self
             .templates
             .get(usize::from(ti))
