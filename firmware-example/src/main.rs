@@ -11,6 +11,9 @@
 //! 4. runs every QVGA fixture frame through the recognizer, timing each stage, then again with
 //!    `refine = Off` (the paper's path) for the cost of the refine-and-verify stage, and with
 //!    `candidates = 1` (only the first candidate of the bound order aligned and verified);
+//!    then the frame of touching parts (`fixtures/frame_touching.gray`: two parts lying against
+//!    each other, a key upside down and a part apart) with the partial search on
+//!    (`touching_parts`, off by default);
 //! 5. prints every line over semihosting in the stable format below and exits with status 0
 //!    (any error: status 1; a panic: its message and status 1).
 //!
@@ -32,10 +35,13 @@
 //! template index=0 name=arrow
 //! background frames=2 instructions=…
 //! frame name=frame_0 parts=4 borders=4 foreground=… threshold=15
-//! det frame=frame_0 part=0 template=0 class=arrow x=… y=… angle=… angle_paper=… score=… area=… edge=0
+//! det frame=frame_0 part=0 template=0 class=arrow x=… y=… angle=… angle_paper=… score=… area=… edge=0 flipped=0 touching=0 visible=1.0000
 //! instructions frame=frame_0 mask=… borders=… descriptors_matching=… total=… [instructions, not cycles]
 //! instructions_refine_off frame=frame_0 mask=… borders=… descriptors_matching=… total=… [instructions, not cycles]
 //! instructions_one_candidate frame=frame_0 mask=… borders=… descriptors_matching=… total=… [instructions, not cycles]
+//! frame_touching name=frame_touching parts=4 borders=3 foreground=… threshold=15
+//! det_touching frame=frame_touching part=0 template=2 class=key … flipped=1 touching=0 visible=1.0000
+//! instructions_touching frame=frame_touching mask=… borders=… descriptors_matching=… total=… [instructions, not cycles]
 //! summary frames=3 detections=12 instructions_total=… stack_peak=… stack_peak_frames=…
 //! ```
 //!
@@ -157,6 +163,9 @@ static FRAME_2: Aligned<PLANE> = Aligned(*include_bytes!("../fixtures/frame_2.gr
 static BACKGROUNDS: [(&str, &Aligned<PLANE>); 2] = [("background_0", &BACKGROUND_0), ("background_1", &BACKGROUND_1)];
 /// The scenes by name.
 static FRAMES: [(&str, &Aligned<PLANE>); 3] = [("frame_0", &FRAME_0), ("frame_1", &FRAME_1), ("frame_2", &FRAME_2)];
+/// Two parts lying against each other, one upside down and one apart: run with the partial
+/// search on ([`Params::touching_parts`]).
+static FRAME_TOUCHING: Aligned<PLANE> = Aligned(*include_bytes!("../fixtures/frame_touching.gray"));
 
 /// QEMU `-icount shift=0` runs one guest instruction per nanosecond of virtual time, and the
 /// mps2-an386 SysTick counts the 25 MHz processor clock: 1e9 / 25e6 = 40 instructions per tick.
@@ -389,7 +398,13 @@ fn run() -> Result<(), Failure> {
     let (mut detections, mut total) = (0usize, 0u64);
     for (name, pixels) in FRAMES.iter() {
         let frame = Frame::new_checked(&pixels.0[..], W, H)?;
-        let out = run_frame(rec, &frame, &background, &mut labels[..], Some(("frame", "det", name, &library)))?;
+        let out = run_frame(
+            rec,
+            &frame,
+            &background,
+            &mut labels[..],
+            Some(("frame", "det", name, &library)),
+        )?;
         let counts = out.counts;
         hprintln!(
             "instructions frame={} mask={} borders={} descriptors_matching={} total={} [instructions, not cycles]",
@@ -432,6 +447,7 @@ fn run() -> Result<(), Failure> {
         }
     }
     rec.set_params(default)?;
+    touching_frame(rec, &library, &background, labels)?;
 
     let (detections_auto, total_auto) = estimated_frames(rec, &library, bg_plane, labels, grid)?;
     hprintln!(
@@ -443,6 +459,45 @@ fn run() -> Result<(), Failure> {
         total_auto,
         stack_peak(),
         stack_after_frames
+    );
+    Ok(())
+}
+
+/// The frame of touching parts with the partial search on ([`Params::touching_parts`]; the
+/// defaults leave it off): its `frame_touching` line, `det_touching` detections and
+/// `instructions_touching` counts (not in the `summary` line's totals, which are the three
+/// frames' with the defaults). The defaults are back on return.
+#[inline(never)]
+fn touching_frame(
+    rec: &mut Rec,
+    library: &Library<'_>,
+    background: &Background<&mut [u8]>,
+    labels: &mut [u8; PLANE],
+) -> Result<(), Failure> {
+    let default = *rec.params();
+    rec.set_params(Params {
+        touching_parts: true,
+        ..default
+    })?;
+    let name = "frame_touching";
+    let frame = Frame::new_checked(&FRAME_TOUCHING.0[..], W, H)?;
+    let out = run_frame(
+        rec,
+        &frame,
+        background,
+        &mut labels[..],
+        Some(("frame_touching", "det_touching", name, library)),
+    );
+    rec.set_params(default)?;
+    let out = out?;
+    let counts = out.counts;
+    hprintln!(
+        "instructions_touching frame={} mask={} borders={} descriptors_matching={} total={} [instructions, not cycles]",
+        name,
+        counts.mask,
+        counts.borders,
+        counts.parts,
+        counts.total
     );
     Ok(())
 }
@@ -476,7 +531,13 @@ fn estimated_frames(
             PlatformUse::Estimated(_) => 0,
         };
         print_platform(name, &used.stats(), frames_ago);
-        let out = run_frame(rec, &frame, &estimated, &mut labels[..], Some(("frame_auto", "det_auto", name, library)))?;
+        let out = run_frame(
+            rec,
+            &frame,
+            &estimated,
+            &mut labels[..],
+            Some(("frame_auto", "det_auto", name, library)),
+        )?;
         let counts = out.counts;
         hprintln!(
             "instructions_auto frame={} platform={} mask={} borders={} descriptors_matching={} total={} [instructions, not cycles]",
@@ -523,7 +584,7 @@ fn print_detections(tag: &str, name: &str, report: &Report, library: &Library<'_
             .unwrap_or("-");
         match d.template {
             Some(t) => hprintln!(
-                "{} frame={} part={} template={} class={} x={:.4} y={:.4} angle={:.4} angle_paper={:.4} score={:.6} area={:.1} edge={}",
+                "{} frame={} part={} template={} class={} x={:.4} y={:.4} angle={:.4} angle_paper={:.4} score={:.6} area={:.1} edge={} flipped={} touching={} visible={:.4}",
                 tag,
                 name,
                 i,
@@ -535,10 +596,13 @@ fn print_detections(tag: &str, name: &str, report: &Report, library: &Library<'_
                 d.angle_paper_deg,
                 d.score,
                 d.area,
-                u8::from(d.touches_edge)
+                u8::from(d.touches_edge),
+                u8::from(d.flipped),
+                u8::from(d.touching),
+                d.visible_fraction
             ),
             None => hprintln!(
-                "{} frame={} part={} template=- class=unknown best={} x={:.4} y={:.4} angle={:.4} angle_paper={:.4} score={:.6} area={:.1} edge={}",
+                "{} frame={} part={} template=- class=unknown best={} x={:.4} y={:.4} angle={:.4} angle_paper={:.4} score={:.6} area={:.1} edge={} flipped=0 touching={} visible={:.4}",
                 tag,
                 name,
                 i,
@@ -549,7 +613,9 @@ fn print_detections(tag: &str, name: &str, report: &Report, library: &Library<'_
                 d.angle_paper_deg,
                 d.score,
                 d.area,
-                u8::from(d.touches_edge)
+                u8::from(d.touches_edge),
+                u8::from(d.touching),
+                d.visible_fraction
             ),
         }
     }
@@ -683,7 +749,9 @@ fn soak_request() -> Option<u32> {
     // line (NUL-terminated) and stores its length in the block's second word.
     let mut block = [buf.as_mut_ptr() as usize, buf.len() - 1];
     // SAFETY: the block and the buffer are valid for the call; the host writes at most
-    // `buf.len() - 1` bytes into the buffer and one word into the block.
+    // `buf.len() - 1` bytes into the buffer and one word into the block (hence `&mut`, though
+    // `syscall` takes a shared reference).
+    #[allow(clippy::unnecessary_mut_passed)]
     let status = unsafe { cortex_m_semihosting::syscall(cortex_m_semihosting::nr::GET_CMDLINE, &mut block) };
     if status != 0 {
         return None;
@@ -712,11 +780,23 @@ fn fingerprint(report: &Report) -> u64 {
     for d in report.detections.iter() {
         eat(d.template.map_or(u32::MAX, u32::from));
         eat(d.best_template.map_or(u32::MAX, u32::from));
-        for v in [d.score, d.x, d.y, d.angle_deg, d.angle_paper_deg, d.verify, d.scale, d.area] {
+        for v in [
+            d.score,
+            d.x,
+            d.y,
+            d.angle_deg,
+            d.angle_paper_deg,
+            d.verify,
+            d.scale,
+            d.area,
+        ] {
             eat(v.to_bits());
         }
         eat(u32::from(d.contour));
         eat(u32::from(d.touches_edge));
+        eat(u32::from(d.flipped));
+        eat(u32::from(d.touching));
+        eat(d.visible_fraction.to_bits());
     }
     for s in report.skips.iter() {
         eat(u32::from(s.contour));
@@ -755,7 +835,10 @@ fn soak(
         state ^= state << 25;
         state ^= state >> 27;
         let v = (state.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 33) as usize % SOAK_VARIANTS;
-        let (scene, rest) = (v / (SOAK_VIEWS.len() * SOAK_REFINES.len()), v % (SOAK_VIEWS.len() * SOAK_REFINES.len()));
+        let (scene, rest) = (
+            v / (SOAK_VIEWS.len() * SOAK_REFINES.len()),
+            v % (SOAK_VIEWS.len() * SOAK_REFINES.len()),
+        );
         let (view, refine) = (rest / SOAK_REFINES.len(), rest % SOAK_REFINES.len());
         let (scene_name, pixels) = SOAK_SCENES[scene];
         let (x0, y0, w, h, estimate) = SOAK_VIEWS[view];

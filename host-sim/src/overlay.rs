@@ -1,5 +1,7 @@
 //! Overlay pictures: each part's contour, its class name (or "unknown"), f' and the
-//! verification score, a cross at its position and an arrow along its angle.
+//! verification score, a cross at its position and an arrow along its angle. A part lying
+//! upside down says `flipped` after its class; one the partial search found says `touching` or
+//! `cut` and its visible share.
 //!
 //! Colours: green for a known part, red for an unknown one, yellow for a part touching the
 //! frame's edge. The arrow points along the template's +x axis turned by the detected angle
@@ -86,7 +88,12 @@ pub fn draw_detection(img: &mut RgbImage, d: &HostDetection) {
         let back = (tip.0 + 7.0 * a.cos(), tip.1 - 7.0 * a.sin());
         draw_line_segment_mut(img, tip, back, c);
     }
-    let name = d.class.as_deref().unwrap_or("unknown");
+    let class = d.class.as_deref().unwrap_or("unknown");
+    let name = if d.core.flipped {
+        format!("{class} flipped")
+    } else {
+        class.to_string()
+    };
     // A part the partial search found shares its blob with others: its label goes beside its
     // own centre, and says how much of its edge the image confirms.
     if d.core.position_from_pose || d.core.touching {
@@ -110,7 +117,7 @@ pub fn draw_detection(img: &mut RgbImage, d: &HostDetection) {
     } else if d.core.score.is_finite() {
         format!("{name} f'={:.3} {:.1}deg", d.core.score, d.core.angle_deg)
     } else {
-        name.to_string()
+        name
     };
     let (bx, by) = bbox_top_left(&d.border);
     draw_label(img, bx as i32, by as i32 - 11, &text, c);

@@ -196,16 +196,36 @@ fn shapes() -> Vec<Shape> {
     ]
 }
 
-/// A part placed in a scene: shape index, area-centroid-free pose (origin at `x`, `y`), angle.
+/// A part placed in a scene: shape index, area-centroid-free pose (origin at `x`, `y`), angle,
+/// and whether it lies upside down (mirrored left-right about its own origin before it is
+/// turned: the contract of `../shared/DESIGN.md`, up to the move of the centroid, which the
+/// truth measures on the posed rings).
 struct Placement {
     shape: usize,
     x: f64,
     y: f64,
     angle: f64,
+    flipped: bool,
 }
 
 const fn place(shape: usize, x: f64, y: f64, angle: f64) -> Placement {
-    Placement { shape, x, y, angle }
+    Placement {
+        shape,
+        x,
+        y,
+        angle,
+        flipped: false,
+    }
+}
+
+const fn place_flipped(shape: usize, x: f64, y: f64, angle: f64) -> Placement {
+    Placement {
+        shape,
+        x,
+        y,
+        angle,
+        flipped: true,
+    }
 }
 
 /// Three QVGA scenes of four parts, one per quadrant; frame_2 holds the untaught hexagon.
@@ -241,19 +261,50 @@ fn scenes() -> Vec<(&'static str, Vec<Placement>)> {
     ]
 }
 
+/// The scene the firmware runs with the partial search on (`touching_parts`): a T piece and an
+/// L bracket lying against each other (they overlap by 5 % of the smaller one's area, worked
+/// out by bisection along the line between them: both are drawn the same grey, so they merge
+/// into one blob), a key upside down, and a pennant that touches nothing.
+fn touching_scene() -> (&'static str, Vec<Placement>) {
+    (
+        "frame_touching",
+        vec![
+            place(6, 80.0, 80.0, 20.0),
+            place(3, 109.0, 119.0, 200.0),
+            place_flipped(2, 240.0, 70.0, 60.0),
+            place(4, 240.0, 180.0, 200.0),
+        ],
+    )
+}
+
+/// Indices (into [`touching_scene`]'s parts) of the two parts that touch.
+const TOUCHING_PAIR: [usize; 2] = [0, 1];
+
 /// The rings of `shape` turned counter-clockwise on screen by `angle` degrees and moved to
 /// `(cx, cy)` (image coordinates, y down: `docs/pipeline-spec.md` conventions).
 fn posed(shape: &Shape, angle: f64, cx: f64, cy: f64) -> Vec<Vec<(f64, f64)>> {
+    posed_side(shape, angle, cx, cy, false)
+}
+
+/// [`posed`], mirrored left-right (x → −x) first when `flipped`.
+fn posed_side(shape: &Shape, angle: f64, cx: f64, cy: f64, flipped: bool) -> Vec<Vec<(f64, f64)>> {
     let (s, c) = angle.to_radians().sin_cos();
+    let side = if flipped { -1.0 } else { 1.0 };
     shape
         .rings
         .iter()
         .map(|r| {
             r.iter()
-                .map(|&(x, y)| (cx + x * c + y * s, cy - x * s + y * c))
+                .map(|&(x, y)| (side * x, y))
+                .map(|(x, y)| (cx + x * c + y * s, cy - x * s + y * c))
                 .collect()
         })
         .collect()
+}
+
+/// The rings of a placed part.
+fn placed(shape: &Shape, p: &Placement) -> Vec<Vec<(f64, f64)>> {
+    posed_side(shape, p.angle, p.x, p.y, p.flipped)
 }
 
 /// Even–odd point-in-polygon over every ring.
@@ -327,7 +378,7 @@ impl Rng {
 /// anti-aliased edges, and ±5 grey levels of sensor noise.
 fn render(parts: &[Placement], seed: u64) -> GrayImage {
     let all = shapes();
-    let posed: Vec<Vec<Vec<(f64, f64)>>> = parts.iter().map(|p| posed(&all[p.shape], p.angle, p.x, p.y)).collect();
+    let posed: Vec<Vec<Vec<(f64, f64)>>> = parts.iter().map(|p| placed(&all[p.shape], p)).collect();
     let mut rng = Rng(seed);
     let mut img = GrayImage::new(W as u32, H as u32);
     for y in 0..H {
@@ -368,22 +419,30 @@ fn write_png_set(dir: &Path) -> PathBuf {
             .unwrap();
     }
     let mut truth = serde_json::Map::new();
-    for (k, (name, parts)) in scenes().iter().enumerate() {
+    for (k, (name, parts)) in scenes().iter().chain([touching_scene()].iter()).enumerate() {
         render(parts, 100 + k as u64)
             .save(dir.join(format!("frames/{name}.png")))
             .unwrap();
         let list: Vec<serde_json::Value> = parts
             .iter()
-            .map(|p| {
+            .enumerate()
+            .map(|(i, p)| {
                 let s = &all[p.shape];
-                let (x, y) = area_centroid(&posed(s, p.angle, p.x, p.y));
-                serde_json::json!({
+                let (x, y) = area_centroid(&placed(s, p));
+                let mut part = serde_json::json!({
                     "class": s.template.then_some(s.name),
                     "x": (x * 1e4).round() / 1e4,
                     "y": (y * 1e4).round() / 1e4,
                     "angle_deg": p.angle,
                     "symmetry": s.symmetry,
-                })
+                });
+                if p.flipped {
+                    part["flipped"] = true.into();
+                }
+                if *name == touching_scene().0 && TOUCHING_PAIR.contains(&i) {
+                    part["touching"] = true.into();
+                }
+                part
             })
             .collect();
         truth.insert(format!("{name}.png"), list.into());
@@ -403,7 +462,7 @@ fn raw_files(set: &Path) -> Vec<(String, Vec<u8>)> {
             load(set.join("backgrounds/background_1.png")),
         ),
     ];
-    for (name, _) in scenes() {
+    for (name, _) in scenes().into_iter().chain([touching_scene()]) {
         out.push((format!("{name}.gray"), load(set.join(format!("frames/{name}.png")))));
     }
     out
@@ -589,6 +648,10 @@ struct Det {
     x: f64,
     y: f64,
     angle: f64,
+    /// Reported upside down.
+    flipped: bool,
+    /// Found by the partial search in a blob of several parts.
+    touching: bool,
 }
 
 fn angle_diff(a: f64, b: f64) -> f64 {
@@ -643,11 +706,18 @@ fn firmware_detections(stdout: &str, tag: &str) -> BTreeMap<String, Vec<Det>> {
         let f = fields(line);
         let class = (f["template"] != "-").then(|| f["class"].to_string());
         let num = |k: &str| f[k].parse::<f64>().unwrap_or_else(|_| panic!("{k} in {line}"));
+        let flag = |k: &str| match f.get(k) {
+            Some(&"1") => true,
+            Some(&"0") => false,
+            _ => panic!("{k} in {line}"),
+        };
         fw.entry(f["frame"].to_string()).or_default().push(Det {
             class,
             x: num("x"),
             y: num("y"),
             angle: num("angle"),
+            flipped: flag("flipped"),
+            touching: flag("touching"),
         });
     }
     fw
@@ -668,12 +738,15 @@ fn dets(result: &vorl_host_sim::engine::FrameResult) -> Vec<Det> {
             x: f64::from(d.core.x),
             y: f64::from(d.core.y),
             angle: f64::from(d.core.angle_deg),
+            flipped: d.core.flipped,
+            touching: d.core.touching,
         })
         .collect()
 }
 
-/// Holds the firmware's detections of a frame against the host's: same classes in the same
-/// order, positions within 0.5 px, angles within 0.5°. Returns the largest differences.
+/// Holds the firmware's detections of a frame against the host's: same classes, sides and
+/// touching flags in the same order, positions within 0.5 px, angles within 0.5°. Returns the
+/// largest differences.
 fn agree(what: &str, firmware: &[Det], host: &[Det]) -> (f64, f64) {
     assert_eq!(
         firmware.len(),
@@ -682,7 +755,11 @@ fn agree(what: &str, firmware: &[Det], host: &[Det]) -> (f64, f64) {
     );
     let (mut worst_pos, mut worst_angle) = (0.0f64, 0.0f64);
     for (f, h) in firmware.iter().zip(host) {
-        assert_eq!(f.class, h.class, "{what}: firmware {f:?}, host {h:?}");
+        assert_eq!(
+            (&f.class, f.flipped, f.touching),
+            (&h.class, h.flipped, h.touching),
+            "{what}: firmware {f:?}, host {h:?}"
+        );
         let pos = (f.x - h.x).abs().max((f.y - h.y).abs());
         let ang = angle_diff(f.angle, h.angle);
         assert!(pos < 0.5 && ang < 0.5, "{what}: firmware {f:?}, host {h:?}");
@@ -780,16 +857,7 @@ fn firmware_matches_host() {
     let (mut worst_pos, mut worst_angle, mut compared) = (0.0f64, 0.0f64, 0usize);
     for (name, parts) in scenes() {
         let result = engine.detect(&gray(&format!("{name}.gray"))).unwrap();
-        let host: Vec<Det> = result
-            .detections
-            .iter()
-            .map(|d| Det {
-                class: d.class.clone(),
-                x: f64::from(d.core.x),
-                y: f64::from(d.core.y),
-                angle: f64::from(d.core.angle_deg),
-            })
-            .collect();
+        let host = dets(&result);
         let firmware = fw
             .get(name)
             .unwrap_or_else(|| panic!("the firmware printed nothing for {name}"));
@@ -800,30 +868,59 @@ fn firmware_matches_host() {
             host.len(),
             parts.len()
         );
-        assert_eq!(
-            firmware.len(),
-            host.len(),
-            "{name}: firmware {firmware:?}\nhost {host:?}"
-        );
-        for (f, h) in firmware.iter().zip(&host) {
-            assert_eq!(f.class, h.class, "{name}: firmware {f:?}, host {h:?}");
-            let pos = (f.x - h.x).abs().max((f.y - h.y).abs());
-            let ang = angle_diff(f.angle, h.angle);
-            assert!(pos < 0.5 && ang < 0.5, "{name}: firmware {f:?}, host {h:?}");
-            worst_pos = worst_pos.max(pos);
-            worst_angle = worst_angle.max(ang);
-            compared += 1;
-        }
+        let (p, a) = agree(name, firmware, &host);
+        (worst_pos, worst_angle) = (worst_pos.max(p), worst_angle.max(a));
+        compared += host.len();
     }
     eprintln!(
         "{compared} detections agree: largest difference {worst_pos:.5} px, {worst_angle:.5}° (print precision 1e-4)"
+    );
+
+    // The frame of touching parts, with the partial search on (`det_touching`): the host with the
+    // same parameter finds every part drawn, with its class, the pair that touches reported
+    // `touching` and the key upside down reported `flipped` (no other part either), and the
+    // camera agrees with it.
+    let all = shapes();
+    let (name, parts) = touching_scene();
+    let mut touching_engine = fixture_engine(|p| Params {
+        touching_parts: true,
+        ..p
+    });
+    touching_engine
+        .learn_background(&[gray("background_0.gray"), gray("background_1.gray")])
+        .unwrap();
+    let host = dets(&touching_engine.detect(&gray(&format!("{name}.gray"))).unwrap());
+    let mut drawn: Vec<(Option<&str>, bool, bool)> = parts
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let s = &all[p.shape];
+            (s.template.then_some(s.name), p.flipped, TOUCHING_PAIR.contains(&i))
+        })
+        .collect();
+    let mut found: Vec<(Option<&str>, bool, bool)> = host
+        .iter()
+        .map(|d| (d.class.as_deref(), d.flipped, d.touching))
+        .collect();
+    drawn.sort();
+    found.sort();
+    assert_eq!(found, drawn, "{name}: the host's (class, flipped, touching)");
+    let fw_touching = firmware_detections(&stdout, "det_touching");
+    let firmware = fw_touching.get(name).map(Vec::as_slice).unwrap_or(&[]);
+    let (p, a) = agree(&format!("{name} (touching parts)"), firmware, &host);
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with("instructions_touching "))
+        .expect("instructions_touching line");
+    eprintln!(
+        "{} detections of {name} agree (largest difference {p:.5} px, {a:.5}°); {line}",
+        host.len()
     );
 
     // No empty shot: the platform estimated on the camera from the frames (`det_auto`; from the
     // first, kept for the next while they fit it), against the host with the platform estimated
     // (`vorl detect --background auto`, a set without background.png): the same detections,
     // the same estimate kept or made anew, and the scene's parts classified as drawn.
-    let all = shapes();
     let fw_auto = firmware_detections(&stdout, "det_auto");
     let mut auto_engine = fixture_engine(|p| p);
     auto_engine.set_auto_background();
