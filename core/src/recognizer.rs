@@ -1852,12 +1852,24 @@ mod tests {
     /// first when flipped, then turned counter-clockwise on screen and placed with its centroid
     /// at `(x, y)`; 4 × 4 samples per pixel.
     fn scene(w: usize, h: usize, parts: &[Placed]) -> std::vec::Vec<u8> {
+        let shapes: std::vec::Vec<Drawn> = parts
+            .iter()
+            .map(|&(is_l, x, y, deg, flipped)| (if is_l { l_inside } else { t_inside }, x, y, deg, flipped))
+            .collect();
+        scene_of(w, h, &shapes)
+    }
+
+    /// A part of [`scene_of`]: its shape (`inside`, in offsets from its origin), where its origin
+    /// lies, its angle (°) and whether it lies upside down.
+    type Drawn = (fn([f32; 2]) -> bool, f32, f32, f32, bool);
+
+    /// [`scene`] of any shapes.
+    fn scene_of(w: usize, h: usize, parts: &[Drawn]) -> std::vec::Vec<u8> {
         let mut px = std::vec![200u8; w * h];
         for (y, row) in px.chunks_exact_mut(w).enumerate() {
             for (x, p) in row.iter_mut().enumerate() {
                 let mut cover = 0.0f32;
-                for &(is_l, cx, cy, deg, flipped) in parts {
-                    let inside = if is_l { l_inside } else { t_inside };
+                for &(inside, cx, cy, deg, flipped) in parts {
                     let (s, c) = libm::sincosf(deg.to_radians());
                     for k in 0..16 {
                         let dx = x as f32 - 0.375 + 0.25 * (k % 4) as f32 - cx;
@@ -1946,6 +1958,70 @@ mod tests {
                 touching == (d.visible_fraction < 1.0) && d.visible_fraction >= 0.75,
                 "{d:?}"
             );
+        }
+    }
+
+    /// A connecting rod: a ring (outer radius 10, its hole 5) at `(−20, 0)`, a shaft of
+    /// half-width `half` to a ball of radius `ball` at `(30, 0)`.
+    fn rod(t: [f32; 2], half: f32, ball: f32) -> bool {
+        let ring = (t[0] + 20.0).powi(2) + t[1] * t[1];
+        let end = (t[0] - 30.0).powi(2) + t[1] * t[1];
+        (ring <= 100.0 && ring > 25.0) || end <= ball * ball || ((-12.0..30.0).contains(&t[0]) && t[1].abs() <= half)
+    }
+
+    /// The rod as taught.
+    fn rod_taught(t: [f32; 2]) -> bool {
+        rod(t, 3.5, 7.0)
+    }
+
+    /// Another rod of the type: its shaft 2 px thicker and its ball 1.5 px larger than the
+    /// taught one's, as real rods of one type differ.
+    fn rod_other(t: [f32; 2]) -> bool {
+        rod(t, 4.5, 8.5)
+    }
+
+    /// Two real rods lying against each other, each off its template's outline (a thicker
+    /// shaft, a larger ball), are both found by the partial search: their off-centre ring
+    /// holes, found where the poses put them, pin the poses and allow the outline's departure
+    /// (`split::MIN_VISIBLE_PINNED`, `NEAR_MISS` times the partial limit; without them
+    /// neither rod is taken).
+    #[test]
+    fn touching_parts_pinned_by_their_holes_may_depart_from_the_outline() {
+        let (w, h) = (170usize, 130usize);
+        let (c, s) = (libm::cosf(-50f32.to_radians()), libm::sinf(-50f32.to_radians()));
+        // Rod A along x; rod B's ring against A's shaft from below (1 px over it), its ball
+        // down and to the right.
+        let ring_b = [80.0, 60.0 + 4.5 + 10.0 - 1.0];
+        let b = [ring_b[0] + 20.0 * c, ring_b[1] - 20.0 * s];
+        let parts: [Drawn; 2] = [
+            (rod_other, 70.0, 60.0, 0.0, false),
+            (rod_other, b[0], b[1], -50.0, false),
+        ];
+        let px = scene_of(w, h, &parts);
+        let bg = platform(w, h);
+        let mut rec: std::boxed::Box<Recognizer<4, 96, 4096, 64, 2112>> = std::boxed::Box::default();
+        rec.set_params(Params {
+            touching_parts: true,
+            ..Params::DEFAULT
+        })
+        .unwrap();
+        rec.add_template(taught(rod_taught)).unwrap();
+        rec.add_template(taught(l_inside)).unwrap();
+        let mut labels = std::vec![0u8; w * h];
+        let report = rec
+            .process(&Frame::new_checked(&px[..], w, h).unwrap(), &bg, &mut labels)
+            .unwrap();
+        let named: std::vec::Vec<_> = report.detections.iter().filter(|d| d.template.is_some()).collect();
+        assert_eq!(named.len(), 2, "{:?}", report.detections);
+        for (_, x, y, deg, _) in parts {
+            let d = named
+                .iter()
+                .find(|d| (d.x - x).abs() < 3.0 && (d.y - y).abs() < 3.0)
+                .unwrap_or_else(|| panic!("no rod near ({x}, {y}): {:?}", report.detections));
+            assert_eq!(d.template, Some(0), "{d:?}");
+            assert!(d.touching && d.holes.all_found(), "{d:?}");
+            let err = (d.angle_deg - deg + 540.0).rem_euclid(360.0) - 180.0;
+            assert!(err.abs() < 1.0, "{d:?}");
         }
     }
 

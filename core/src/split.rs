@@ -24,9 +24,15 @@
 //! cut there). A fit is kept when it shows at least [`MIN_VISIBLE_INSIDE`]
 //! of its border inside the frame ([`MIN_VISIBLE`], the documented half, for a part the edge
 //! cuts), scores within [`PARTIAL_LIMIT`] of its limit, lies in its scale range and shows every
-//! hole it has that the pose puts inside the frame. Kept fits are taken best first (the larger
+//! hole it has that the pose puts inside the frame. A fit whose holes pin its pose (every hole
+//! of its template found, one off its centre, and no other hole of the blob inside its outline)
+//! may depart from its template's outline as a real part of its type does, as a whole part
+//! may ([`crate::recognizer::NEAR_MISS`]): [`NEAR_MISS`] times [`PARTIAL_LIMIT`], and
+//! [`MIN_VISIBLE_PINNED`] of its border (two real rods lying against each other, each a few
+//! per cent off its template's outline). Kept fits are taken best first (the larger
 //! visible share, then the lower score) unless their centre falls within half a size of one
-//! taken already (the same part matched twice, from both sides of the blob or by two templates).
+//! taken already (the same part matched twice, from both sides of the blob or by two templates);
+//! a pose whose seed falls on a part taken in the first round is not aligned in the second.
 //!
 //! **Two rounds.** When the parts taken leave [`REST_SHARE`] of the border unexplained (farther
 //! than [`EXPLAINED_PX`] from every taken part's outline), the hypotheses are made once more with
@@ -54,7 +60,7 @@ use crate::arcs::{best_arcs, turning, ArcMatch, ArcParams};
 use crate::frame::Frame;
 use crate::holes::{agreement, HoleAgreement, Holes};
 use crate::math;
-use crate::recognizer::{Detection, Recognizer, Report, SkipReason};
+use crate::recognizer::{Detection, Recognizer, Report, SkipReason, NEAR_MISS};
 use crate::refine::{align_recording, edge_distances, Difference, Outline, Pose, RefineParams};
 use crate::resample::resample;
 use crate::template::Template;
@@ -80,6 +86,9 @@ pub const MIN_VISIBLE: f32 = 0.5;
 /// Least share for a part in a blob inside the frame: a part that touches or lies under
 /// another shows most of its border (a bar-like part fits an arm of a bracket over less).
 pub const MIN_VISIBLE_INSIDE: f32 = 0.75;
+/// Least share for a part in a blob inside the frame whose holes pin its pose (every hole of
+/// its template found, one off its centre, no other hole of the blob inside its outline).
+pub const MIN_VISIBLE_PINNED: f32 = 0.65;
 /// The mean distance over the confirmed points must stay below this share of the limit.
 pub const PARTIAL_LIMIT: f32 = 0.5;
 /// A border point this far (px) from every part found is not explained.
@@ -109,6 +118,48 @@ struct PartFit {
     distance: f32,
     limit: f32,
     holes: HoleAgreement,
+    /// Its holes pin it ([`pinned`], no [`foreign_hole`] in its outline).
+    pinned: bool,
+}
+
+/// Whether a fit's holes pin its pose: every hole of its template found where the pose puts
+/// it, one at least off the template's centre. Such a fit may depart from its template's
+/// outline as a real part of its type does (the whole part's rule,
+/// [`crate::recognizer::NEAR_MISS`]): its mean distance may reach [`NEAR_MISS`] times
+/// [`PARTIAL_LIMIT`] of the limit, and [`MIN_VISIBLE_PINNED`] of its border suffices inside the
+/// frame (with [`foreign_hole`]).
+fn pinned(holes: &HoleAgreement) -> bool {
+    holes.off_centre > 0 && holes.all_found()
+}
+
+/// Whether a hole of the blob that the fit's template does not explain (`matched`, as
+/// [`HoleAgreement::matched`]) has its centre inside the template's outline at `pose`: the
+/// part there is not this template (another one's holes fall in it).
+fn foreign_hole<const M: usize>(t: &Template<M>, pose: &Pose, part_holes: &Holes, matched: u8) -> bool {
+    let outline = t.edge();
+    let n = outline.len();
+    part_holes.as_slice().iter().enumerate().any(|(j, hole)| {
+        let explained = u8::try_from(j)
+            .ok()
+            .and_then(|j| 1u8.checked_shl(u32::from(j)))
+            .is_some_and(|bit| matched & bit != 0);
+        if explained {
+            return false;
+        }
+        // Even–odd crossings of a ray from the hole's centre along +x.
+        let [x, y] = hole.centre;
+        let mut inside = false;
+        for i in 0..n {
+            let (Some(a), Some(b)) = (outline.get(i), outline.get((i + 1) % n)) else {
+                continue;
+            };
+            let ([x0, y0], [x1, y1]) = (pose.apply(*a), pose.apply(*b));
+            if (y0 > y) != (y1 > y) && x < x0 + (y - y0) / (y1 - y0) * (x1 - x0) {
+                inside = !inside;
+            }
+        }
+        inside
+    })
 }
 
 /// Where the rest of a blob lies: the area centroid of the longest run of unexplained border
@@ -499,20 +550,33 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         part_holes: &Holes,
         taken: &mut heapless::Vec<PartFit, MAX_BLOB_PARTS>,
     ) {
-        // Align and verify each pose on the visible edge.
+        // Align and verify each pose on the visible edge, but for a pose whose centre falls on
+        // a part taken already (in the first round): its fit would be that part's again, and
+        // not be taken.
         let mut fits: heapless::Vec<PartFit, MAX_HYPOTHESES> = heapless::Vec::new();
         for h in hyps {
             let Some(t) = self.templates.get(h.template) else {
                 continue;
             };
-            let least_visible = if whole.touches_edge {
-                MIN_VISIBLE
-            } else {
-                MIN_VISIBLE_INSIDE
+            if taken
+                .iter()
+                .any(|f| self.same_place(f, h.template, h.seed.x, h.seed.y, h.seed.scale))
+            {
+                continue;
+            }
+            // Half the border for a part the frame's edge cuts, or one its holes pin.
+            let least_visible = |f: &PartFit| {
+                if whole.touches_edge {
+                    MIN_VISIBLE
+                } else if f.pinned {
+                    MIN_VISIBLE_PINNED
+                } else {
+                    MIN_VISIBLE_INSIDE
+                }
             };
             if let Some(fit) = self
                 .partial_fit(t, h, diff, part_holes)
-                .filter(|f| f.visible >= least_visible)
+                .filter(|f| f.visible >= least_visible(f))
             {
                 let _ = fits.push(PartFit {
                     template: h.template,
@@ -532,15 +596,24 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             }
         }
         for f in &fits {
-            let size = self.templates.get(f.template).map_or(0.0, |t| t.size() * f.pose.scale);
-            let clash = taken.iter().any(|g| {
-                let other = self.templates.get(g.template).map_or(0.0, |t| t.size() * g.pose.scale);
-                math::hypot(f.pose.x - g.pose.x, f.pose.y - g.pose.y) < 0.5 * size.min(other)
-            });
+            let clash = taken
+                .iter()
+                .any(|g| self.same_place(g, f.template, f.pose.x, f.pose.y, f.pose.scale));
             if !clash && taken.push(*f).is_err() {
                 break;
             }
         }
+    }
+
+    /// Whether template `template` placed at `(x, y)` with `scale` is the part `fit` again:
+    /// their centres lie within half the smaller one's size.
+    fn same_place(&self, fit: &PartFit, template: usize, x: f32, y: f32, scale: f32) -> bool {
+        let size = self.templates.get(template).map_or(0.0, |t| t.size() * scale);
+        let other = self
+            .templates
+            .get(fit.template)
+            .map_or(0.0, |t| t.size() * fit.pose.scale);
+        math::hypot(x - fit.pose.x, y - fit.pose.y) < 0.5 * size.min(other)
     }
 
     /// How many of `count` points along blob `index`'s border no part in `taken` explains
@@ -675,13 +748,20 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             })
             .count();
         let holes_there = usize::from(holes.found) >= in_frame;
-        (visible >= MIN_VISIBLE && distance < PARTIAL_LIMIT * limit && holes_there).then_some(PartFit {
+        let pinned = pinned(&holes) && !foreign_hole(t, &pose, part_holes, holes.matched);
+        let within = if pinned {
+            PARTIAL_LIMIT * NEAR_MISS
+        } else {
+            PARTIAL_LIMIT
+        };
+        (visible >= MIN_VISIBLE && distance < within * limit && holes_there).then_some(PartFit {
             template: 0,
             pose,
             visible,
             distance,
             limit,
             holes,
+            pinned,
         })
     }
 }
