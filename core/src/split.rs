@@ -686,9 +686,15 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let reach = if reach.is_finite() { reach.max(1.0) } else { 1.0 };
         // More steps than a whole part's: the seed of a run can lie a few degrees off, and a
         // part with a hidden stretch converges slowly.
+        // It gives up (from the fourth step on) where the mean capped distance says that less
+        // than half the border could be confirmed: a fit at least MIN_VISIBLE confirmed has
+        // its mean below MIN_VISIBLE · confirm + (1 − MIN_VISIBLE) · cap.
+        let cap = RefineParams::DEFAULT.cap * reach;
+        let confirm = CONFIRM_PX * reach;
         let rp = RefineParams {
-            cap: RefineParams::DEFAULT.cap * reach,
+            cap,
             iterations: PARTIAL_ITERATIONS,
+            give_up: MIN_VISIBLE * confirm + (1.0 - MIN_VISIBLE) * cap,
             ..RefineParams::DEFAULT
         };
         // Only the edge points the pose puts inside the frame, away from its edge by more than
@@ -716,14 +722,13 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let (e, n) = (edge.get(..k).unwrap_or(&[]), normals.get(..k).unwrap_or(&[]));
         let a = align_recording(diff, e, n, seed, &rp, &mut distances);
         let pose = a.pose;
-        if !(pose.scale >= lo && pose.scale <= hi) {
+        if a.gave_up || !(pose.scale >= lo && pose.scale <= hi) {
             return None;
         }
         // Confirmed at the final pose, over the points inside the frame there.
         let k = keep(&pose, &mut edge, &mut normals);
         let (e, n) = (edge.get(..k).unwrap_or(&[]), normals.get(..k).unwrap_or(&[]));
         edge_distances(diff, e, n, pose, 0.0, &rp, &mut distances);
-        let confirm = CONFIRM_PX * reach;
         let m = t.edge().len();
         let (mut seen, mut sum) = (0usize, 0.0f32);
         for d in distances.iter().take(k) {
