@@ -114,9 +114,11 @@ pub struct Detection {
     pub holes: HoleAgreement,
     /// Index of the part's border in the recognizer's contour store.
     pub contour: u16,
-    /// Polygon area of the border, px².
+    /// Polygon area of the border, px² (for a part found by the partial search: its blob's,
+    /// whose border it shares; its own is its template's area times [`Self::scale`]²).
     pub area: f32,
-    /// The border touches the frame's edge (the part may be cut).
+    /// The border touches the frame's edge (the part may be cut). For a part found by the
+    /// partial search: its blob touches the edge and its aligned outline leaves the frame.
     pub touches_edge: bool,
     /// The part lies upside down: [`Self::best_template`]'s mirror image
     /// ([`Template::mirrored`]) fits it, and [`Self::angle_deg`] and [`Self::pose`] are that
@@ -1958,6 +1960,40 @@ mod tests {
                 touching == (d.visible_fraction < 1.0) && d.visible_fraction >= 0.75,
                 "{d:?}"
             );
+        }
+    }
+
+    /// A blob the frame's edge cuts holds an L, cut, and a T against it that lies wholly
+    /// inside: both are found; only the L is reported cut (`touches_edge`), and the T is held
+    /// to the share of a part inside the frame, not the half a cut part needs.
+    #[test]
+    fn only_the_cut_part_of_a_blob_is_reported_cut() {
+        let (w, h) = (200usize, 110usize);
+        let parts: [Placed; 2] = [(true, 14.0, 55.0, 0.0, false), (false, 60.0, 55.0, 0.0, false)];
+        let px = scene(w, h, &parts);
+        let bg = platform(w, h);
+        let mut rec: std::boxed::Box<Recognizer<4, 96, 4096, 64, 2112>> = std::boxed::Box::default();
+        rec.set_params(Params {
+            touching_parts: true,
+            ..Params::DEFAULT
+        })
+        .unwrap();
+        rec.add_template(taught(l_inside)).unwrap();
+        rec.add_template(taught(t_inside)).unwrap();
+        let mut labels = std::vec![0u8; w * h];
+        let report = rec
+            .process(&Frame::new_checked(&px[..], w, h).unwrap(), &bg, &mut labels)
+            .unwrap();
+        assert_eq!(report.detections.len(), 2, "{:?}", report.detections);
+        for (is_l, x, y, _, _) in parts {
+            let d = report
+                .detections
+                .iter()
+                .find(|d| (d.x - x).abs() < 0.5 && (d.y - y).abs() < 0.5)
+                .unwrap_or_else(|| panic!("no part at ({x}, {y}): {:?}", report.detections));
+            assert_eq!(d.template, Some(if is_l { 0 } else { 1 }), "{d:?}");
+            assert!(d.touching && d.position_from_pose, "{d:?}");
+            assert_eq!(d.touches_edge, is_l, "{d:?}");
         }
     }
 

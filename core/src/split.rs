@@ -23,7 +23,9 @@
 //! beyond the frame reads the frame's edge pixels, clamped, and would find the silhouette's
 //! cut there). A fit is kept when it shows at least [`MIN_VISIBLE_INSIDE`]
 //! of its border inside the frame ([`MIN_VISIBLE`], the documented half, for a part the edge
-//! cuts), scores within [`PARTIAL_LIMIT`] of its limit, lies in its scale range and shows every
+//! cuts: one with edge points outside the frame or within a profile's reach of its edge at
+//! the aligned pose; another part of the same blob that lies wholly inside is held to the
+//! share inside, and is not reported cut), scores within [`PARTIAL_LIMIT`] of its limit, lies in its scale range and shows every
 //! hole it has that the pose puts inside the frame. A fit whose holes pin its pose (every hole
 //! of its template found, one off its centre, and no other hole of the blob inside its outline)
 //! may depart from its template's outline as a real part of its type does, as a whole part
@@ -120,6 +122,9 @@ struct PartFit {
     holes: HoleAgreement,
     /// Its holes pin it ([`pinned`], no [`foreign_hole`] in its outline).
     pinned: bool,
+    /// The frame's edge cuts it: some of its edge points lie outside the frame or within a
+    /// profile's reach of its edge at the aligned pose (they could not be confirmed).
+    cut: bool,
 }
 
 /// Whether a fit's holes pin its pose: every hole of its template found where the pose puts
@@ -357,7 +362,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             if round == 0 && too_long && hyps.is_empty() {
                 return Err(());
             }
-            self.take_fits(&hyps, whole, diff, part_holes, &mut taken);
+            self.take_fits(&hyps, diff, part_holes, &mut taken);
             if taken.len() == before {
                 break;
             }
@@ -407,6 +412,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 touching: several,
                 visible_fraction: f.visible,
                 position_from_pose: true,
+                touches_edge: f.cut,
                 ..*whole
             };
             let _ = found.push(d);
@@ -545,7 +551,6 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
     fn take_fits<B: AsRef<[u8]>>(
         &self,
         hyps: &[Hypothesis],
-        whole: &Detection,
         diff: &Difference<'_, B>,
         part_holes: &Holes,
         taken: &mut heapless::Vec<PartFit, MAX_BLOB_PARTS>,
@@ -564,9 +569,10 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             {
                 continue;
             }
-            // Half the border for a part the frame's edge cuts, or one its holes pin.
+            // Half the border for a part the frame's edge cuts (not for another part of its
+            // blob that lies wholly inside), 65 % for one its holes pin.
             let least_visible = |f: &PartFit| {
-                if whole.touches_edge {
+                if f.cut {
                     MIN_VISIBLE
                 } else if f.pinned {
                     MIN_VISIBLE_PINNED
@@ -767,6 +773,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             limit,
             holes,
             pinned,
+            cut: k < m,
         })
     }
 }
