@@ -61,6 +61,10 @@ for s in 1 2; do
     echo "### touching, seed $s"
     "$VORL" eval "$OUT/touching-$s"
 done
+# Backlit rods lying against one another (the real photo rods/TESI50), seed 1.
+"$VORL" gen "$OUT/rods-touching-1" --seed 1 --frames 40 --variant rods-touching >/dev/null
+echo "### rods-touching, seed 1"
+"$VORL" eval "$OUT/rods-touching-1"
 "$VORL" gen "$OUT/border-touching" --seed 2 --frames 60 --variant border >/dev/null
 echo "### border, seed 2, --touching-parts true"
 "$VORL" eval "$OUT/border-touching" --touching-parts true

@@ -12,7 +12,11 @@ use crate::gen::{generate, GenOptions, Variant};
     noisy     stronger noise, lighting drift, lower contrast\n  \
     small     parts 35–55 px\n  \
     border    parts cut by the frame's edge, marked partial\n  \
-    stereo    left/right pairs, camera.json, depth in truth\n\
+    stereo    left/right pairs, camera.json, depth in truth\n  \
+    flipped   as default, about half the chiral parts upside down; truth adds flipped, chiral\n  \
+    touching  as default, about 60 % of the parts against or over another (up to 12 % of the\n            \
+              smaller one's area); truth adds touching, visible_fraction; writes vorl.toml\n            \
+              (touching_parts = true)\n\
     Variants (what real cameras do; each also writes variant.json with its parameters):\n  \
     sharp     sharp-cornered parts (rectangular-tooth gear, snail cam, square L bracket, …) under\n            \
               0.7 px blur; crisp templates\n  \
@@ -33,7 +37,9 @@ use crate::gen::{generate, GenOptions, Variant};
               outline, each rod with its own proportions (shaft ±15 %, heads ±8 %, eyes ±10 %)\n            \
               at 0.9–1.3× the template's size; washers and screws as distractors; no\n            \
               background.png unless --with-background; writes vorl.toml (scale_min 0.8,\n            \
-              scale_max 1.4); truth adds level, stretch and the rods' head and eye factors\n\
+              scale_max 1.4); truth adds level, stretch and the rods' head and eye factors\n  \
+    rods-touching  as rods, with the rods against and over one another as in touching; its\n            \
+              vorl.toml adds touching_parts = true\n\
     The same seed and options give byte-identical sets.\n\n\
     Examples:\n  vorl gen out/plant --seed 7 --frames 60\n  vorl gen out/noisy --variant noisy --frames 20\n  \
     vorl gen out/stereo --variant stereo --frames 10\n  vorl gen out/lens --variant lens --frames 20 --no-background")]
@@ -47,8 +53,8 @@ pub struct GenArgs {
     /// Number of frames.
     #[arg(long, default_value_t = 60)]
     pub frames: usize,
-    /// Kind of set: default, noisy, small, border, stereo, sharp, lens, thick, exposure, paper,
-    /// printed, backlit or rods (see below).
+    /// Kind of set: default, noisy, small, border, stereo, flipped, touching, sharp, lens,
+    /// thick, exposure, paper, printed, backlit, rods or rods-touching (see below).
     #[arg(long, default_value = "default")]
     pub variant: Variant,
     /// Frame width, px.

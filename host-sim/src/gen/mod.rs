@@ -100,6 +100,15 @@ pub const TOUCHING_CONFIG: &str = "# Parameters for this set (keys of `vorl conf
 # Parts touch and lie over one another: search the blobs for the parts along them.\n\
 touching_parts = true\n";
 
+/// The `rods-touching` set's `vorl.toml`: [`RODS_CONFIG`]'s scale range and the partial search.
+pub const RODS_TOUCHING_CONFIG: &str = "# Parameters for this set (keys of `vorl config --defaults`).\n\
+    # Rods differ part to part and the camera height changes: parts are drawn at 0.9-1.3x their\n\
+    # template, and a shaft 15 % shorter makes the outline's best fit 0.93x smaller again.\n\
+    scale_min = 0.8\n\
+    scale_max = 1.4\n\
+    # Rods lie against and over one another: search the blobs for the parts along them.\n\
+    touching_parts = true\n";
+
 /// Share of the chiral template parts that the `flipped` variant lays upside down.
 pub const FLIPPED_SHARE: f64 = 0.5;
 
@@ -183,11 +192,15 @@ pub enum Variant {
     /// it or lying over it by up to 12 % of the smaller one's area; truth marks
     /// both `"touching": true`, and the lower one's `visible_fraction`.
     Touching,
+    /// As `rods`, with the parts moved against and over one another as in `touching` (two real
+    /// rods lying against each other, each off its template's outline, as in the real photos'
+    /// `TESI50`); a `vorl.toml` with the scale range and `touching_parts = true`.
+    RodsTouching,
 }
 
 impl Variant {
     /// All variants, in the order of their names.
-    pub const ALL: [Variant; 15] = [
+    pub const ALL: [Variant; 16] = [
         Variant::Default,
         Variant::Noisy,
         Variant::Small,
@@ -203,6 +216,7 @@ impl Variant {
         Variant::Rods,
         Variant::Flipped,
         Variant::Touching,
+        Variant::RodsTouching,
     ];
 
     /// The command-line name.
@@ -223,17 +237,30 @@ impl Variant {
             Variant::Rods => "rods",
             Variant::Flipped => "flipped",
             Variant::Touching => "touching",
+            Variant::RodsTouching => "rods-touching",
         }
     }
 
     /// The parts this variant draws: [`sharp_catalogue`] for `sharp`, [`rods_catalogue`] for
-    /// `rods`, [`catalogue`] otherwise.
+    /// `rods` and `rods-touching`, [`catalogue`] otherwise.
     pub fn catalogue(self) -> Vec<PartSpec> {
         match self {
             Variant::Sharp => sharp_catalogue(),
-            Variant::Rods => rods_catalogue(),
+            Variant::Rods | Variant::RodsTouching => rods_catalogue(),
             _ => catalogue(),
         }
+    }
+
+    /// Whether the variant draws backlit rods that differ part to part (`rods`,
+    /// `rods-touching`).
+    pub fn is_rods(self) -> bool {
+        matches!(self, Variant::Rods | Variant::RodsTouching)
+    }
+
+    /// Whether the variant moves parts against and over one another (`touching`,
+    /// `rods-touching`).
+    pub fn is_touching(self) -> bool {
+        matches!(self, Variant::Touching | Variant::RodsTouching)
     }
 
     /// The name of the catalogue [`Variant::catalogue`] gives: `"sharp"`, `"rods"` or
@@ -241,23 +268,25 @@ impl Variant {
     pub fn catalogue_name(self) -> &'static str {
         match self {
             Variant::Sharp => "sharp",
-            Variant::Rods => "rods",
+            Variant::Rods | Variant::RodsTouching => "rods",
             _ => "standard",
         }
     }
 
     /// Whether the set gets `background.png` and `backgrounds/` unless told otherwise (all but
-    /// `backlit` and `rods`).
+    /// `backlit`, `rods` and `rods-touching`).
     pub fn writes_background(self) -> bool {
-        !matches!(self, Variant::Backlit | Variant::Rods)
+        !(self == Variant::Backlit || self.is_rods())
     }
 
     /// The set's own `vorl.toml`, for the variants whose parts need other parameters than the
-    /// defaults (`rods`: [`RODS_CONFIG`]; `touching`: [`TOUCHING_CONFIG`]).
+    /// defaults (`rods`: [`RODS_CONFIG`]; `touching`: [`TOUCHING_CONFIG`]; `rods-touching`:
+    /// [`RODS_TOUCHING_CONFIG`]).
     pub fn set_config(self) -> Option<&'static str> {
         match self {
             Variant::Rods => Some(RODS_CONFIG),
             Variant::Touching => Some(TOUCHING_CONFIG),
+            Variant::RodsTouching => Some(RODS_TOUCHING_CONFIG),
             _ => None,
         }
     }
@@ -445,6 +474,8 @@ struct SetPlan {
     /// Lighting of the right camera (stereo), before blur.
     light_right: Option<Vec<f64>>,
     effect: Effect,
+    /// Parts are moved against and over one another ([`touching::bring_together`]).
+    touching: bool,
 }
 
 impl SetPlan {
@@ -487,7 +518,9 @@ impl SetPlan {
                     std,
                 }
             }
-            Variant::Backlit | Variant::Rods => Effect::Backlit(Backlight::random(&mut fx, w, h)),
+            Variant::Backlit | Variant::Rods | Variant::RodsTouching => {
+                Effect::Backlit(Backlight::random(&mut fx, w, h))
+            }
             Variant::Exposure => Effect::Exposure,
             Variant::Printed => Effect::Printed,
             Variant::Flipped => Effect::Flipped(v.catalogue().iter().map(|p| p.is_template && p.is_chiral()).collect()),
@@ -533,14 +566,15 @@ impl SetPlan {
                 border: v == Variant::Border,
                 stereo,
                 close,
-                scale: if v == Variant::Rods { ROD_SCALE } else { (0.97, 1.03) },
-                vary: v == Variant::Rods,
+                scale: if v.is_rods() { ROD_SCALE } else { (0.97, 1.03) },
+                vary: v.is_rods(),
             },
             noise_sigma: if v == Variant::Noisy { 5.0 } else { 2.0 },
             drift_max: if v == Variant::Noisy { 8.0 } else { 1.5 },
             light,
             light_right,
             effect,
+            touching: v.is_touching(),
         }
     }
 
@@ -597,7 +631,12 @@ impl SetPlan {
         if let (Some(o), Some(p)) = (v.as_object_mut(), params.as_object()) {
             o.extend(p.clone());
         }
-        if self.variant == Variant::Rods {
+        if self.touching && !matches!(self.effect, Effect::Touching) {
+            v["touching_share"] = json!(touching::TOUCHING_SHARE);
+            v["overlap_max"] = json!(touching::OVERLAP_MAX);
+            v["just_touching"] = json!(touching::JUST_TOUCHING);
+        }
+        if self.variant.is_rods() {
             v["scale"] = json!([ROD_SCALE.0, ROD_SCALE.1]);
             v["stretch"] = json!([ROD_STRETCH.0, ROD_STRETCH.1]);
             v["head_scale"] = json!([ROD_HEAD.0, ROD_HEAD.1]);
@@ -629,7 +668,7 @@ impl SetPlan {
         };
         add_drift(&mut img, w, h, drift, self.drift_max);
         // A part over another hides it: what lies beneath goes back to the platform first.
-        let platform = matches!(self.effect, Effect::Touching).then(|| img.clone());
+        let platform = self.touching.then(|| img.clone());
         for p in parts {
             let pose = if right {
                 p.pose.shifted(-p.depth.map_or(0.0, |d| d.1))
@@ -780,7 +819,7 @@ impl SetPlan {
         let scene = self.scene_of(index);
         let mut rng = Rng::stream(self.seed, purpose::LAYOUT, scene as u64);
         let mut parts = plan(&mut rng, &self.cat, &self.scene);
-        if matches!(self.effect, Effect::Touching) {
+        if self.touching {
             let mut fx = Rng::stream(self.seed, purpose::EFFECT_SCENE, scene as u64);
             touching::bring_together(&mut fx, &self.cat, &mut parts, self.w, self.h);
         }
