@@ -726,7 +726,18 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let k = keep(&seed, &mut edge, &mut normals);
         let mut distances = [0.0f32; M];
         let (e, n) = (edge.get(..k).unwrap_or(&[]), normals.get(..k).unwrap_or(&[]));
-        let a = align_recording(diff, e, n, seed, &rp, &mut distances);
+        // A part whole inside the frame at its seed needs MIN_VISIBLE_PINNED at the least (a
+        // cut one the documented half): the alignment gives up where its mean says less.
+        let least = if k >= t.edge().len() {
+            MIN_VISIBLE_PINNED
+        } else {
+            MIN_VISIBLE
+        };
+        let rp_seed = RefineParams {
+            give_up: least * confirm + (1.0 - least) * cap,
+            ..rp
+        };
+        let a = align_recording(diff, e, n, seed, &rp_seed, &mut distances);
         let pose = a.pose;
         if a.gave_up || !(pose.scale >= lo && pose.scale <= hi) {
             return None;
