@@ -21,20 +21,22 @@
 //! distance over those is its score; only the edge points that the pose puts inside the frame,
 //! farther from its edge than a profile reaches, are aligned and can be confirmed (a profile
 //! beyond the frame reads the frame's edge pixels, clamped, and would find the silhouette's
-//! cut there). A fit is kept when it shows at least [`MIN_VISIBLE_INSIDE`]
-//! of its border inside the frame ([`MIN_VISIBLE`], the documented half, for a part the edge
-//! cuts: one with edge points outside the frame or within a profile's reach of its edge at
-//! the aligned pose; another part of the same blob that lies wholly inside is held to the
-//! share inside, and is not reported cut), scores within [`PARTIAL_LIMIT`] of its limit, lies in its scale range and shows every
-//! hole it has that the pose puts inside the frame. A fit whose holes pin its pose (every hole
-//! of its template found, one off its centre, and no other hole of the blob inside its outline)
-//! may depart from its template's outline as a real part of its type does, as a whole part
-//! may ([`crate::recognizer::NEAR_MISS`]): [`NEAR_MISS`] times [`PARTIAL_LIMIT`], and
-//! [`MIN_VISIBLE_PINNED`] of its border (two real rods lying against each other, each a few
-//! per cent off its template's outline). Kept fits are taken best first (the larger
-//! visible share, then the lower score) unless their centre falls within half a size of one
-//! taken already (the same part matched twice, from both sides of the blob or by two templates);
-//! a pose whose seed falls on a part taken in the first round is not aligned in the second.
+//! cut there). A fit is kept when it shows at least [`MIN_VISIBLE_INSIDE`] of its border
+//! inside the frame ([`MIN_VISIBLE`], the documented half, for a part the edge cuts: one with
+//! edge points outside the frame or within a profile's reach of its edge at the aligned pose;
+//! another part of the same blob that lies wholly inside is held to the share inside, and is
+//! not reported cut), scores within [`PARTIAL_LIMIT`] of its limit, lies in its scale range and
+//! shows every hole it has that the pose puts inside the frame. A fit whose holes pin its pose
+//! (every hole of its template found, one off its centre, and no other hole of the blob inside
+//! its outline) may depart from its template's outline as a real part of its type does, as a
+//! whole part may ([`crate::recognizer::NEAR_MISS`]): [`NEAR_MISS`] times [`PARTIAL_LIMIT`],
+//! and [`MIN_VISIBLE_PINNED`] of its border (two real rods lying against each other, each a few
+//! per cent off its template's outline). An alignment gives up early where its mean distance
+//! says less of the border could be confirmed than the fit would need. Kept fits are taken
+//! best first (the larger visible share, then the lower score) unless their centre falls
+//! within half a size of one taken already (the same part matched twice, from both sides of
+//! the blob or by two templates); a pose whose seed falls on a part taken in the first round
+//! is not aligned in the second.
 //!
 //! **Two rounds.** When the parts taken leave [`REST_SHARE`] of the border unexplained (farther
 //! than [`EXPLAINED_PX`] from every taken part's outline), the hypotheses are made once more with
@@ -692,15 +694,11 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let reach = if reach.is_finite() { reach.max(1.0) } else { 1.0 };
         // More steps than a whole part's: the seed of a run can lie a few degrees off, and a
         // part with a hidden stretch converges slowly.
-        // It gives up (from the fourth step on) where the mean capped distance says that less
-        // than half the border could be confirmed: a fit at least MIN_VISIBLE confirmed has
-        // its mean below MIN_VISIBLE · confirm + (1 − MIN_VISIBLE) · cap.
         let cap = RefineParams::DEFAULT.cap * reach;
         let confirm = CONFIRM_PX * reach;
         let rp = RefineParams {
             cap,
             iterations: PARTIAL_ITERATIONS,
-            give_up: MIN_VISIBLE * confirm + (1.0 - MIN_VISIBLE) * cap,
             ..RefineParams::DEFAULT
         };
         // Only the edge points the pose puts inside the frame, away from its edge by more than
@@ -726,8 +724,11 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let k = keep(&seed, &mut edge, &mut normals);
         let mut distances = [0.0f32; M];
         let (e, n) = (edge.get(..k).unwrap_or(&[]), normals.get(..k).unwrap_or(&[]));
-        // A part whole inside the frame at its seed needs MIN_VISIBLE_PINNED at the least (a
-        // cut one the documented half): the alignment gives up where its mean says less.
+        // The alignment gives up (from its fourth step) where its mean capped distance says
+        // that less could be confirmed than the fit would need: a fit with a share `v`
+        // confirmed has its mean below v · confirm + (1 − v) · cap, and a part whole inside the
+        // frame at its seed needs MIN_VISIBLE_PINNED at the least (a cut one the documented
+        // half).
         let least = if k >= t.edge().len() {
             MIN_VISIBLE_PINNED
         } else {
