@@ -84,20 +84,24 @@ pub struct Detection {
     pub template: Option<u16>,
     /// The best template even when the part is unknown.
     pub best_template: Option<u16>,
-    /// `f'` against the best template (eq. 5.1); infinite without templates.
+    /// `f'` against the best template (eq. 5.1); infinite without templates, and for a part
+    /// found by the partial search (no whole-border match of its own).
     pub score: f32,
     /// Position x (px), by [`Params::position`].
     pub x: f32,
     /// Position y (px), by [`Params::position`].
     pub y: f32,
-    /// The paper's position: the area centroid of the border polygon (holes subtracted).
+    /// The paper's position: the area centroid of the border polygon (holes subtracted). For a
+    /// part found by the partial search ([`Self::position_from_pose`]): its blob's.
     pub polygon_centroid: [f32; 2],
     /// Rotation from the template's reference pose, degrees counter-clockwise on screen,
     /// `[0, 360)`, by [`Params::angle`].
     pub angle_deg: f32,
-    /// The paper's unsigned estimate (eq. 6.4), degrees in `[0, 180]`.
+    /// The paper's unsigned estimate (eq. 6.4), degrees in `[0, 180]` (for a part found by the
+    /// partial search: its blob's whole-border match's).
     pub angle_paper_deg: f32,
-    /// The signed estimate over the DP correspondences (before alignment), degrees.
+    /// The signed estimate over the DP correspondences (before alignment), degrees (for a part
+    /// found by the partial search: its blob's whole-border match's).
     pub angle_dp_deg: f32,
     /// Verification score of the chosen template, px (infinite when not verified).
     pub verify: f32,
@@ -112,7 +116,8 @@ pub struct Detection {
     /// How many of [`Self::best_template`]'s holes the part shows where the aligned pose puts
     /// them ([`crate::holes`]; zero expected when not aligned or the template has none).
     pub holes: HoleAgreement,
-    /// Index of the part's border in the recognizer's contour store.
+    /// Index of the part's border in the recognizer's contour store (for a part found by the
+    /// partial search: its blob's border, which it shares with the blob's other parts).
     pub contour: u16,
     /// Polygon area of the border, px² (for a part found by the partial search: its blob's,
     /// whose border it shares; its own is its template's area times [`Self::scale`]²).
