@@ -85,7 +85,8 @@ pub struct Detection {
     /// The best template even when the part is unknown.
     pub best_template: Option<u16>,
     /// `f'` against the best template (eq. 5.1); infinite without templates, and for a part
-    /// found by the partial search (no whole-border match of its own).
+    /// the partial search names (no whole-border match of its own; the unexplained rest of a
+    /// blob keeps the blob's).
     pub score: f32,
     /// Position x (px), by [`Params::position`].
     pub x: f32,
