@@ -1921,6 +1921,24 @@ mod tests {
         bg
     }
 
+    /// The report of a `w`×`h` frame `px` on [`platform`] with the partial search on
+    /// (`touching_parts`) and `templates` taught, in that order.
+    fn touching_report<const N: usize>(px: &[u8], w: usize, h: usize, templates: [Template<96>; N]) -> Report {
+        let bg = platform(w, h);
+        let mut rec: std::boxed::Box<Recognizer<4, 96, 4096, 64, 2112>> = std::boxed::Box::default();
+        rec.set_params(Params {
+            touching_parts: true,
+            ..Params::DEFAULT
+        })
+        .unwrap();
+        for t in templates {
+            rec.add_template(t).unwrap();
+        }
+        let mut labels = std::vec![0u8; w * h];
+        rec.process(&Frame::new_checked(px, w, h).unwrap(), &bg, &mut labels)
+            .unwrap()
+    }
+
     /// Two parts that touch and overlap (the L's bar under the T's by about a tenth of the L)
     /// form one blob; the whole-border match fails on it, and the partial search finds both,
     /// each with its template, `touching`, a visible share below 1 and the pose of its
@@ -1929,26 +1947,13 @@ mod tests {
     #[test]
     fn touching_parts_are_found_along_their_blob() {
         let (w, h) = (220usize, 110usize);
-        let (l, t) = (taught(l_inside), taught(t_inside));
         let parts: [Placed; 3] = [
             (true, 60.0, 55.0, 0.0, false),
             (false, 95.0, 55.0, 0.0, false),
             (true, 175.0, 55.0, 75.0, false),
         ];
         let px = scene(w, h, &parts);
-        let bg = platform(w, h);
-        let mut rec: std::boxed::Box<Recognizer<4, 96, 4096, 64, 2112>> = std::boxed::Box::default();
-        rec.set_params(Params {
-            touching_parts: true,
-            ..Params::DEFAULT
-        })
-        .unwrap();
-        rec.add_template(l).unwrap();
-        rec.add_template(t).unwrap();
-        let mut labels = std::vec![0u8; w * h];
-        let report = rec
-            .process(&Frame::new_checked(&px[..], w, h).unwrap(), &bg, &mut labels)
-            .unwrap();
+        let report = touching_report(&px, w, h, [taught(l_inside), taught(t_inside)]);
         assert_eq!(report.detections.len(), 3, "{:?}", report.detections);
         for (k, &(is_l, x, y, deg, _)) in parts.iter().enumerate() {
             let d = report
@@ -1977,19 +1982,7 @@ mod tests {
         let (w, h) = (200usize, 110usize);
         let parts: [Placed; 2] = [(true, 14.0, 55.0, 0.0, false), (false, 60.0, 55.0, 0.0, false)];
         let px = scene(w, h, &parts);
-        let bg = platform(w, h);
-        let mut rec: std::boxed::Box<Recognizer<4, 96, 4096, 64, 2112>> = std::boxed::Box::default();
-        rec.set_params(Params {
-            touching_parts: true,
-            ..Params::DEFAULT
-        })
-        .unwrap();
-        rec.add_template(taught(l_inside)).unwrap();
-        rec.add_template(taught(t_inside)).unwrap();
-        let mut labels = std::vec![0u8; w * h];
-        let report = rec
-            .process(&Frame::new_checked(&px[..], w, h).unwrap(), &bg, &mut labels)
-            .unwrap();
+        let report = touching_report(&px, w, h, [taught(l_inside), taught(t_inside)]);
         assert_eq!(report.detections.len(), 2, "{:?}", report.detections);
         for (is_l, x, y, _, _) in parts {
             let d = report
@@ -2040,19 +2033,7 @@ mod tests {
             (rod_other, b[0], b[1], -50.0, false),
         ];
         let px = scene_of(w, h, &parts);
-        let bg = platform(w, h);
-        let mut rec: std::boxed::Box<Recognizer<4, 96, 4096, 64, 2112>> = std::boxed::Box::default();
-        rec.set_params(Params {
-            touching_parts: true,
-            ..Params::DEFAULT
-        })
-        .unwrap();
-        rec.add_template(taught(rod_taught)).unwrap();
-        rec.add_template(taught(l_inside)).unwrap();
-        let mut labels = std::vec![0u8; w * h];
-        let report = rec
-            .process(&Frame::new_checked(&px[..], w, h).unwrap(), &bg, &mut labels)
-            .unwrap();
+        let report = touching_report(&px, w, h, [taught(rod_taught), taught(l_inside)]);
         let named: std::vec::Vec<_> = report.detections.iter().filter(|d| d.template.is_some()).collect();
         assert_eq!(named.len(), 2, "{:?}", report.detections);
         for (_, x, y, deg, _) in parts {

@@ -220,11 +220,8 @@ const fn place(shape: usize, x: f64, y: f64, angle: f64) -> Placement {
 
 const fn place_flipped(shape: usize, x: f64, y: f64, angle: f64) -> Placement {
     Placement {
-        shape,
-        x,
-        y,
-        angle,
         flipped: true,
+        ..place(shape, x, y, angle)
     }
 }
 

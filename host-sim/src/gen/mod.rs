@@ -101,13 +101,11 @@ pub const TOUCHING_CONFIG: &str = "# Parameters for this set (keys of `vorl conf
 touching_parts = true\n";
 
 /// The `rods-touching` set's `vorl.toml`: [`RODS_CONFIG`]'s scale range and the partial search.
-pub const RODS_TOUCHING_CONFIG: &str = "# Parameters for this set (keys of `vorl config --defaults`).\n\
-    # Rods differ part to part and the camera height changes: parts are drawn at 0.9-1.3x their\n\
-    # template, and a shaft 15 % shorter makes the outline's best fit 0.93x smaller again.\n\
-    scale_min = 0.8\n\
-    scale_max = 1.4\n\
-    # Rods lie against and over one another: search the blobs for the parts along them.\n\
-    touching_parts = true\n";
+pub const RODS_TOUCHING_CONFIG: &str = concat!(
+    rods_config!(),
+    "# Rods lie against and over one another: search the blobs for the parts along them.\n\
+    touching_parts = true\n"
+);
 
 /// Share of the chiral template parts that the `flipped` variant lays upside down.
 pub const FLIPPED_SHARE: f64 = 0.5;
@@ -144,13 +142,22 @@ pub const ROD_STRETCH: (f64, f64) = (0.85, 1.15);
 pub const ROD_HEAD: (f64, f64) = (0.92, 1.08);
 /// Radius of each eye of a rod over the nominal one in `rods` sets.
 pub const ROD_EYE: (f64, f64) = (0.9, 1.1);
+
+/// The text of [`RODS_CONFIG`], a literal so that [`RODS_TOUCHING_CONFIG`] can extend it.
+macro_rules! rods_config {
+    () => {
+        "# Parameters for this set (keys of `vorl config --defaults`).\n\
+        # Rods differ part to part and the camera height changes: parts are drawn at 0.9-1.3x their\n\
+        # template, and a shaft 15 % shorter makes the outline's best fit 0.93x smaller again.\n\
+        scale_min = 0.8\n\
+        scale_max = 1.4\n"
+    };
+}
+use rods_config;
+
 /// The `vorl.toml` of a `rods` set: the scale range its parts need (keys of
 /// `vorl config --defaults`).
-pub const RODS_CONFIG: &str = "# Parameters for this set (keys of `vorl config --defaults`).\n\
-    # Rods differ part to part and the camera height changes: parts are drawn at 0.9-1.3x their\n\
-    # template, and a shaft 15 % shorter makes the outline's best fit 0.93x smaller again.\n\
-    scale_min = 0.8\n\
-    scale_max = 1.4\n";
+pub const RODS_CONFIG: &str = rods_config!();
 
 /// The kind of set.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -518,9 +525,7 @@ impl SetPlan {
                     std,
                 }
             }
-            Variant::Backlit | Variant::Rods | Variant::RodsTouching => {
-                Effect::Backlit(Backlight::random(&mut fx, w, h))
-            }
+            _ if v == Variant::Backlit || v.is_rods() => Effect::Backlit(Backlight::random(&mut fx, w, h)),
             Variant::Exposure => Effect::Exposure,
             Variant::Printed => Effect::Printed,
             Variant::Flipped => Effect::Flipped(v.catalogue().iter().map(|p| p.is_template && p.is_chiral()).collect()),
