@@ -119,7 +119,7 @@ def borders():
 
 
 def library_bytes(n, m, k, omega, templates):
-    """A template library, format version 1 (core/src/library.rs)."""
+    """A template library, format version 1 (core/src/library/mod.rs)."""
     payload = u16(n) + u16(m) + u16(k) + u16(len(templates)) + f32(omega)
     for name, points, desc, edge, normals in templates:
         nb = name.encode()

@@ -6,11 +6,12 @@
 //!
 //! `cargo bench -p vorl-core --bench dp`
 
+#[path = "../src/test_support.rs"]
 mod common;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use std::hint::black_box;
-use vorl_core::matching::{best_cost, match_with_assignment, table_cells};
+use vorl_core::shape::matching::{best_cost, match_with_assignment, table_cells};
 
 /// (n, m) pairs: m = 1.5·n as the core issue asks, plus the paper's 76 × 133.
 const SIZES: [(usize, usize); 5] = [(32, 48), (64, 96), (76, 133), (128, 192), (256, 384)];
@@ -19,7 +20,7 @@ fn dp(c: &mut Criterion) {
     let mut g = c.benchmark_group("cyclic_dp");
     g.sample_size(20);
     for (n, m) in SIZES {
-        let (part, tpl) = common::descriptors(n, m);
+        let (part, tpl) = common::descriptors(n, m, 37.0, 0);
         let mut table = vec![0.0f32; table_cells(n, m)];
         let mut assignment = vec![0u16; n];
         g.bench_with_input(BenchmarkId::new("core", format!("{n}x{m}")), &(n, m), |b, _| {
@@ -54,7 +55,7 @@ fn search_vs_plain(c: &mut Criterion) {
     g.sample_size(20);
     for (n, m) in SIZES {
         let inputs = [
-            ("descriptors", common::descriptors(n, m)),
+            ("descriptors", common::descriptors(n, m, 37.0, 0)),
             ("noise", (noise(n, 1), noise(m, 2))),
         ];
         for (kind, (part, tpl)) in inputs {

@@ -5,9 +5,9 @@
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use std::hint::black_box;
-use vorl_core::background::Background;
-use vorl_core::enhance::Alpha;
-use vorl_core::mask::{foreground_mask, Cleanup, Threshold};
+use vorl_core::pixels::background::Background;
+use vorl_core::pixels::enhance::Alpha;
+use vorl_core::pixels::mask::{foreground_mask, Cleanup, Threshold};
 use vorl_core::Frame;
 
 /// Hash noise in `0..=7`.

@@ -3,11 +3,12 @@
 //!
 //! `cargo bench -p vorl-core --bench pipeline`
 
+#[path = "../src/test_support.rs"]
 mod common;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
-use vorl_core::background::Background;
+use vorl_core::pixels::background::Background;
 use vorl_core::{Frame, Params, Recognizer};
 
 const W: usize = 640;

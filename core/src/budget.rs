@@ -37,9 +37,9 @@
 
 use core::mem::{align_of, size_of};
 
-use crate::contour::Contour;
-use crate::matching::table_cells;
+use crate::borders::contour::Contour;
 use crate::params::Params;
+use crate::shape::matching::table_cells;
 
 /// The sizes and alignments that differ from one target to another.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -189,8 +189,8 @@ pub const fn template_bytes(layout: Layout, m: usize) -> usize {
     )
 }
 
-/// `size_of::<Holes>()`: [`crate::holes::MAX_HOLES`] holes of 12 bytes and a `u32` count.
-pub const HOLES_BYTES: usize = 12 * crate::holes::MAX_HOLES + 4;
+/// `size_of::<Holes>()`: [`crate::pose::holes::MAX_HOLES`] holes of 12 bytes and a `u32` count.
+pub const HOLES_BYTES: usize = 12 * crate::pose::holes::MAX_HOLES + 4;
 
 /// `size_of::<ContourStore<P, C>>()`: `4·P` points, the vector of `C` records and a counter.
 pub const fn contour_store_bytes(layout: Layout, p: usize, c: usize) -> usize {
@@ -229,11 +229,12 @@ pub const fn part_buffer_bytes(layout: Layout, m: usize) -> usize {
         .saturating_add(split_buffer_bytes(m))
 }
 
-/// The partial search's buffers ([`crate::split`]): the blob's border at a template's step and
-/// its turning angles, 12 bytes for each of [`crate::split::BLOB_POINTS`]; a template's
+/// The partial search's buffers ([`crate::recognizer::split`]): the blob's border at a template's step and
+/// its turning angles, 12 bytes for each of [`crate::recognizer::split::BLOB_POINTS`]; a template's
 /// turning angles and the open DP's rows, `4·M·(ARC_ROWS + 2)`.
 pub const fn split_buffer_bytes(m: usize) -> usize {
-    (12 * crate::split::BLOB_POINTS).saturating_add(m.saturating_mul(4 * (crate::arcs::ARC_ROWS + 2)))
+    (12 * crate::recognizer::split::BLOB_POINTS)
+        .saturating_add(m.saturating_mul(4 * (crate::shape::arcs::ARC_ROWS + 2)))
 }
 
 /// The budget of a configuration on a target.
@@ -280,9 +281,9 @@ pub const fn budget(layout: Layout, caps: Capacities) -> Budget {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::contour::ContourStore;
+    use crate::borders::contour::ContourStore;
+    use crate::library::template::Template;
     use crate::recognizer::Recognizer;
-    use crate::template::Template;
 
     macro_rules! check_recognizer {
         ($t:expr, $m:expr, $p:expr, $c:expr, $d:expr) => {

@@ -5,26 +5,43 @@
 //! following *Vision-Based Object Fuzzy Recognition in Plain Industrial Environment by Contour
 //! Matching* (the paper in `shared/paper`).
 //!
-//! ## Data flow, one module per stage
+//! ## Data flow: one folder per stage
+//!
+//! The stages, in the order a frame goes through them (each folder's first paragraph says what
+//! it does and why; rustdoc lists the folders alphabetically, this is their order):
+//!
+//! 1. [`pixels`] — frame → foreground mask: enhancement, the platform (empty shots or estimated),
+//!    exposure, threshold and clean-up.
+//! 2. [`borders`] — mask → ordered outlines with their holes, resampled by arc length.
+//! 3. [`shape`] — outline → descriptor → the cyclic DP match against each template.
+//! 4. [`pose`] — match → rotation, alignment and verification, holes, position.
+//! 5. [`recognizer`] — the stages together, one part at a time: candidates, verdict, and the
+//!    partial search of touching parts ([`recognizer::split`]).
+//! 6. [`location`] — after recognition: stereo height and the camera-to-robot fit.
+//!
+//! Beside the flow: [`library`] (templates and their flash format), [`params`], [`budget`]
+//! (the memory a configuration needs), [`error`] and [`math`] (the one door to `libm`).
 //!
 //! ```text
-//! frame (u8 gray)                                   frame::Frame
-//!  → edge-enhanced intensity I' = α·I + (1−α)·|∇I|  enhance      (eq. 3.1)
-//!  → difference to the mean background of I'        background   (3.2)
-//!    (or to the platform estimated from the frame)  platform
-//!  → mask |I' − B| > τ (fixed or Otsu), 3×3 clean-up mask
-//!  → ordered borders, Suzuki–Abe                    contour      (3.3)
-//!  → n (part) / m (template) points by arc length   resample     (4.5)
-//!  → descriptor c_i = ω·a_i + (1−ω)·d_i              descriptor   (4.1–4.3)
-//!  → cyclic order-preserving DP, f' = f_min / n     matching     (4.4–4.9, 5.1)
-//!  → known iff f' < ε; rotation; area centroid      pose         (5.2, 6.1–6.4)
-//!  → candidates aligned and verified: the outline,  refine
-//!    and the template's holes where the pose puts   holes
-//!    them; partial-volume centroid                  partial_volume
-//!  → (touching_parts) a blob no template explains:  split
-//!    the parts along its border, open DP on         arcs
+//! frame (u8 gray)                                   pixels::frame::Frame
+//!  → edge-enhanced intensity I' = α·I + (1−α)·|∇I|  pixels::enhance      (eq. 3.1)
+//!  → difference to the mean background of I'        pixels::background   (3.2)
+//!    (or to the platform estimated from the frame,  pixels::platform
+//!    its exposure fitted)                           pixels::exposure
+//!  → mask |I' − B| > τ (fixed or Otsu), 3×3 clean-up pixels::mask
+//!  → ordered borders, Suzuki–Abe                    borders::contour     (3.3)
+//!  → n (part) / m (template) points by arc length   borders::resample    (4.5)
+//!  → descriptor c_i = ω·a_i + (1−ω)·d_i              shape::descriptor    (4.1–4.3)
+//!  → cyclic order-preserving DP, f' = f_min / n     shape::matching      (4.4–4.9, 5.1)
+//!  → known iff f' < ε; rotation; area centroid      pose                 (5.2, 6.1–6.4)
+//!  → candidates aligned and verified: the outline,  pose::refine
+//!    and the template's holes where the pose puts   pose::holes
+//!    them; partial-volume centroid                  pose::partial_volume
+//!  → (touching_parts) a blob no template explains:  recognizer::split
+//!    the parts along its border, open DP on         shape::arcs
 //!    turning angles, aligned on the visible edge
 //!  → detections                                     recognizer
+//!  → (two cameras) height; robot coordinates        location::stereo, location::calibrate
 //! ```
 //!
 //! ## Rules
@@ -34,7 +51,7 @@
 //!   needs is known before it runs (`vorl budget`).
 //! - No panics on any input: bad input is an [`Error`]; a border that cannot be used is a
 //!   [`recognizer::Skip`] in the [`recognizer::Report`], with its reason.
-//! - `f32` throughout; only `math` names `libm`.
+//! - `f32` throughout; only [`math`] names `libm`.
 //!
 //! The std reference implementation in `vorl-host-sim` is written independently from the same
 //! paper and `docs/pipeline-spec.md`; the tests hold the two against each other.
@@ -47,37 +64,29 @@
 // rejects it); clippy's preferred `x <= 0.0` would let NaN through.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-pub mod arcs;
-pub mod background;
-pub mod budget;
-pub mod calibrate;
-pub mod contour;
-pub mod descriptor;
-pub mod enhance;
-pub mod error;
-pub mod exposure;
-pub mod frame;
-pub mod holes;
+pub mod borders;
 pub mod library;
-pub mod mask;
-pub mod matching;
-pub mod math;
-pub mod params;
-pub mod partial_volume;
-pub mod platform;
+pub mod location;
+pub mod pixels;
 pub mod pose;
 pub mod recognizer;
-pub mod refine;
-pub mod resample;
-pub mod split;
-pub mod stereo;
-pub mod template;
+pub mod shape;
+
+pub mod budget;
+pub mod error;
+pub mod math;
+pub mod params;
 #[cfg(test)]
 mod test_rng;
+// The test-support module names the crate as the benchmarks do.
+#[cfg(test)]
+extern crate self as vorl_core;
+#[cfg(test)]
+mod test_support;
 
-pub use background::Background;
 pub use error::{Error, Result};
-pub use frame::{Frame, FrameBuffer};
+pub use library::template::{Template, Tolerance};
 pub use params::{AngleEstimator, Params, Position, Refine};
+pub use pixels::background::Background;
+pub use pixels::frame::{Frame, FrameBuffer};
 pub use recognizer::{Detection, Recognizer, Report};
-pub use template::{Template, Tolerance};

@@ -1,11 +1,14 @@
 //! Every tunable parameter of the pipeline, with its default and range.
 
-use crate::contour::BorderFilter;
-use crate::descriptor::DescriptorParams;
-use crate::enhance::Alpha;
+use crate::borders::contour::BorderFilter;
+use crate::borders::resample::check_counts;
 use crate::error::{Error, Result};
-use crate::mask::{Cleanup, Threshold};
-use crate::resample::check_counts;
+use crate::pixels::enhance::Alpha;
+use crate::pixels::mask::{Cleanup, Threshold};
+use crate::shape::descriptor::DescriptorParams;
+
+/// Most DP candidates a part is verified against ([`Params::candidates`]).
+pub const MAX_CANDIDATES: usize = 8;
 
 /// Which rotation estimator fills [`crate::Detection::angle_deg`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -22,7 +25,7 @@ pub enum AngleEstimator {
 pub enum Refine {
     /// The paper's path: best DP template, `f' < ε`, pose from the correspondences.
     Off,
-    /// The paper's decision, with the pose aligned on the frame ([`crate::refine::align`]).
+    /// The paper's decision, with the pose aligned on the frame ([`crate::pose::refine::align`]).
     Pose,
     /// A few DP candidates each aligned and verified; the lowest verification score wins,
     /// unknown above [`Params::verify_threshold`] (default).
@@ -34,7 +37,7 @@ pub enum Refine {
 pub enum Position {
     /// The paper's: area centroid of the border polygon through pixel centres.
     Polygon,
-    /// Partial-volume area centroid of the part's pixels ([`crate::partial_volume::partial_volume_centroid`]).
+    /// Partial-volume area centroid of the part's pixels ([`crate::pose::partial_volume::partial_volume_centroid`]).
     PartialVolume,
     /// The template's silhouette centroid carried into the frame by the aligned pose.
     Pose,
@@ -79,7 +82,7 @@ pub struct Params {
     /// Candidates aligned and verified per part (1..=8), with `refine = Verify`.
     pub candidates: usize,
     /// With `refine = Verify`, the templates are searched in ascending order of their
-    /// sorted-value bound ([`crate::matching::sorted_lower_bound`]), and a template is a
+    /// sorted-value bound ([`crate::shape::matching::sorted_lower_bound`]), and a template is a
     /// candidate only if its DP cost is below this multiple of the lowest cost of the templates
     /// before it (`≥ 1`; `+∞`: the first `candidates` templates of that order). The default 1
     /// takes a candidate only when it beats every earlier one's cost: the first is the template
@@ -118,7 +121,7 @@ pub struct Params {
     /// never flips parts: chiral templates then cost no more than the others.
     pub flipped_parts: bool,
     /// Whether a blob whose border is not one template's is searched for the parts along it
-    /// ([`crate::split`]: touching and overlapping parts, and parts the frame's edge cuts that
+    /// ([`crate::recognizer::split`]: touching and overlapping parts, and parts the frame's edge cuts that
     /// show at least half their border), reported [`crate::Detection::touching`] with their
     /// visible share. Off by default for now: on a blob of an unknown part the search costs
     /// several times the whole-border match (`docs/performance.md`).
@@ -183,7 +186,7 @@ impl Params {
             });
         }
         check_counts(self.n, self.m)?;
-        if self.candidates == 0 || self.candidates > crate::recognizer::MAX_CANDIDATES {
+        if self.candidates == 0 || self.candidates > MAX_CANDIDATES {
             return Err(Error::Parameter {
                 name: "candidates",
                 value: self.candidates as f32,
@@ -267,7 +270,7 @@ impl Params {
     /// Descriptor parameters for a contour of `points` points.
     pub fn descriptor(&self, points: usize) -> DescriptorParams {
         DescriptorParams {
-            k: crate::descriptor::scaled_k(self.k, self.n, points),
+            k: crate::shape::descriptor::scaled_k(self.k, self.n, points),
             omega: self.omega,
         }
     }

@@ -2,8 +2,8 @@
 //! per bug, through the public API as the targets call it. Each names the target and what it
 //! found; `docs/reliability.md` lists them with the fix.
 
-use vorl_core::matching::{search_cells, table_cells};
-use vorl_core::refine::outward_normal;
+use vorl_core::pose::refine::outward_normal;
+use vorl_core::shape::matching::{search_cells, table_cells};
 use vorl_core::{Error, Params};
 
 /// recognizer: `Params::validate` tested `2·k ≥ n` with `2·k` overflowing for
@@ -99,7 +99,7 @@ fn angle_paper_is_finite_or_none() {
 /// huge depth: a point at the camera, or at infinity. Both are errors now, as an overflow was.
 #[test]
 fn stereo_depth_and_disparity_never_zero() {
-    use vorl_core::stereo::StereoRig;
+    use vorl_core::location::stereo::StereoRig;
     let rig = StereoRig::new(1e-45, 1e-3, 0.0, 0.0).unwrap();
     assert!(matches!(rig.depth(3.0), Err(Error::Disparity { .. })));
     assert!(rig.point(1.0, 1.0, 3.0).is_err());
@@ -118,7 +118,7 @@ fn stereo_depth_and_disparity_never_zero() {
 /// wrap). It tests `m − n ≥ n` now.
 #[test]
 fn check_counts_takes_any_counts() {
-    use vorl_core::resample::check_counts;
+    use vorl_core::borders::resample::check_counts;
     assert!(check_counts(64, 96).is_ok());
     assert!(check_counts(64, 127).is_ok());
     assert!(check_counts(64, 128).is_err());
@@ -137,8 +137,8 @@ fn check_counts_takes_any_counts() {
 /// never taken for a fit.
 #[test]
 fn align_with_a_nan_cap_gives_no_nan_distance() {
-    use vorl_core::enhance::Alpha;
-    use vorl_core::refine::{align, edge_distances, Difference, Pose, RefineParams};
+    use vorl_core::pixels::enhance::Alpha;
+    use vorl_core::pose::refine::{align, edge_distances, Difference, Pose, RefineParams};
     use vorl_core::Frame;
     // A flat frame: no profile finds an edge.
     let px = vec![100u8; 48 * 40];

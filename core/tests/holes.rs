@@ -2,10 +2,10 @@
 //! their holes are told apart by them, the half turn of a 2-fold outline is decided by its one
 //! eye, and the pose the holes give is the one they were drawn at.
 
-use vorl_core::background::Background;
-use vorl_core::contour::{trace_borders, BorderFilter, ContourStore};
-use vorl_core::holes::{agreement, pose_from_holes, Hole, Holes};
-use vorl_core::refine::Pose;
+use vorl_core::borders::contour::{trace_borders, BorderFilter, ContourStore};
+use vorl_core::pixels::background::Background;
+use vorl_core::pose::holes::{agreement, pose_from_holes, Hole, Holes};
+use vorl_core::pose::refine::Pose;
 use vorl_core::{Frame, Params, Recognizer};
 
 const W: usize = 220;

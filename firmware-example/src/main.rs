@@ -53,24 +53,25 @@
 
 #![no_std]
 #![no_main]
+#![forbid(unsafe_code)]
 
 use core::mem::size_of;
-use core::ptr::addr_of_mut;
-use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+use core::sync::atomic::{AtomicU32, Ordering};
 
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m::peripheral::SYST;
 use cortex_m_rt::{entry, exception};
 use cortex_m_semihosting::debug::{self, EXIT_FAILURE, EXIT_SUCCESS};
 use cortex_m_semihosting::hprintln;
+use static_cell::ConstStaticCell;
 use panic_semihosting as _;
-use vorl_core::background::{Background, PlatformKeeping, PlatformUse, DEFAULT_KEEP_FRAMES};
+use vorl_core::pixels::background::{Background, PlatformKeeping, PlatformUse, DEFAULT_KEEP_FRAMES};
 use vorl_core::budget::{budget, Budget, Capacities, Layout};
-use vorl_core::contour::Contour;
+use vorl_core::borders::contour::Contour;
 use vorl_core::library::Library;
-use vorl_core::matching::table_cells;
+use vorl_core::shape::matching::table_cells;
 use vorl_core::params::Refine;
-use vorl_core::platform::{PlatformGrid, PlatformStats};
+use vorl_core::pixels::platform::{PlatformGrid, PlatformStats};
 use vorl_core::recognizer::Stage;
 use vorl_core::{Error, Frame, Params, Recognizer, Report, Template};
 
@@ -94,7 +95,7 @@ const C: usize = 64;
 const D: usize = table_cells(N, M);
 
 /// Cells of the platform grid, `G`: a QVGA frame is 20×15 cells of 16 px
-/// (`vorl_core::platform::cell_size`), the same grid as the host's, so both estimate the same
+/// (`vorl_core::pixels::platform::cell_size`), the same grid as the host's, so both estimate the same
 /// platform.
 const G: usize = 300;
 
@@ -132,7 +133,7 @@ const _: () = assert!(
 const _: () = assert!(BUDGET.total == 2 * PLANE + size_of::<Rec>());
 const _: () = assert!(
     PlatformGrid::<G>::BYTES == size_of::<PlatformGrid<G>>(),
-    "vorl_core::platform::PlatformGrid::BYTES is not its size: update core/src/platform.rs"
+    "vorl_core::pixels::platform::PlatformGrid::BYTES is not its size: update core/src/pixels/platform.rs"
 );
 
 /// Bytes aligned to 8: frames and planes start on a word boundary, as a camera's DMA buffers
@@ -141,14 +142,16 @@ const _: () = assert!(
 #[repr(C, align(8))]
 struct Aligned<const N: usize>([u8; N]);
 
-/// The recognizer (`.data`: its parameters are not zero).
-static mut RECOGNIZER: Rec = Rec::new();
+/// The recognizer (`.data`: its parameters are not zero). The buffers are [`ConstStaticCell`]s:
+/// built in place at compile time (a 70 KB recognizer or a 75 KB plane never passes through the
+/// stack), handed out once by [`take_buffers`], without `unsafe`.
+static RECOGNIZER: ConstStaticCell<Rec> = ConstStaticCell::new(Rec::new());
 /// The background model's plane (`.bss`).
-static mut BACKGROUND: Aligned<PLANE> = Aligned([0; PLANE]);
+static BACKGROUND: ConstStaticCell<Aligned<PLANE>> = ConstStaticCell::new(Aligned([0; PLANE]));
 /// The label plane: mask and border labels; the high byte of the sum while learning (`.bss`).
-static mut LABELS: Aligned<PLANE> = Aligned([0; PLANE]);
+static LABELS: ConstStaticCell<Aligned<PLANE>> = ConstStaticCell::new(Aligned([0; PLANE]));
 /// The platform estimate's cells, for frames without an empty shot (`.bss`, `9·G` bytes).
-static mut PLATFORM: PlatformGrid<G> = PlatformGrid::new();
+static PLATFORM: ConstStaticCell<PlatformGrid<G>> = ConstStaticCell::new(PlatformGrid::new());
 
 /// The template library, written on the host by `vorl templates export`.
 static LIBRARY: &[u8] = include_bytes!("../fixtures/templates.vtl");
@@ -211,21 +214,13 @@ fn start_systick(syst: &mut SYST, source: SystClkSource) {
     }
 }
 
-/// Exactly `2·iterations` instructions: a register-only countdown (`subs`, `bne`).
+/// Exactly `2·iterations` instructions (and the few of the loop's alignment): the register-only
+/// countdown of `cortex_m::asm::delay` (`subs`, `bne`, `cycles + 1` times).
 fn spin(iterations: u32) {
-    // SAFETY: the loop touches one register and no memory.
-    unsafe {
-        core::arch::asm!(
-            "2:",
-            "subs {n}, {n}, #1",
-            "bne 2b",
-            n = inout(reg) iterations.max(1) => _,
-            options(nomem, nostack),
-        );
-    }
+    cortex_m::asm::delay(iterations.max(1) - 1);
 }
 
-/// The four statics, once (`None` on a second call).
+/// The four static buffers, once (`None` on a second call).
 #[allow(clippy::type_complexity)]
 fn take_buffers() -> Option<(
     &'static mut Rec,
@@ -233,49 +228,20 @@ fn take_buffers() -> Option<(
     &'static mut [u8; PLANE],
     &'static mut PlatformGrid<G>,
 )> {
-    static TAKEN: AtomicBool = AtomicBool::new(false);
-    if TAKEN.swap(true, Ordering::SeqCst) {
-        return None;
-    }
-    // SAFETY: the flag lets this block run once, so these are the only references ever made to
-    // the four statics, and nothing else (no interrupt handler) touches them.
-    unsafe {
-        Some((
-            &mut *addr_of_mut!(RECOGNIZER),
-            &mut (*addr_of_mut!(BACKGROUND)).0,
-            &mut (*addr_of_mut!(LABELS)).0,
-            &mut *addr_of_mut!(PLATFORM),
-        ))
-    }
+    Some((
+        RECOGNIZER.try_take()?,
+        &mut BACKGROUND.try_take()?.0,
+        &mut LABELS.try_take()?.0,
+        PLATFORM.try_take()?,
+    ))
 }
 
 /// Bytes of the stack used so far: the stack was painted with `0xCCCCCCCC` at reset
-/// (cortex-m-rt `paint-stack`); the lowest word no longer painted marks the peak (a frame that
-/// reserves stack it never writes, or writes the paint value, can hide a few words).
+/// (cortex-m-rt `paint-stack`); the lowest word no longer painted marks the peak
+/// (`cortex_m_stack::stack_painted` finds it; a frame that reserves stack it never writes, or
+/// writes the paint value, can hide a few words).
 fn stack_peak() -> usize {
-    extern "C" {
-        static _stack_end: u32;
-        static _stack_start: u32;
-    }
-    // SAFETY: only the addresses of the linker's symbols are taken, then the painted RAM between
-    // them (inside the RAM region, word-aligned) is read.
-    #[allow(unused_unsafe)]
-    let (low, high) = unsafe {
-        (
-            core::ptr::addr_of!(_stack_end) as usize,
-            core::ptr::addr_of!(_stack_start) as usize,
-        )
-    };
-    let mut at = low;
-    while at < high {
-        // SAFETY: `at` is a word-aligned address in RAM below the top of the stack.
-        let word = unsafe { core::ptr::read_volatile(at as *const u32) };
-        if word != 0xCCCC_CCCC {
-            break;
-        }
-        at += 4;
-    }
-    high - at
+    (cortex_m_stack::stack_size() - cortex_m_stack::stack_painted()) as usize
 }
 
 #[entry]
@@ -641,7 +607,7 @@ struct Counts {
 #[inline(never)]
 fn load_library(rec: &mut Rec) -> Result<Library<'static>, Error> {
     let library = Library::parse(LIBRARY)?;
-    library.load_into(rec)?;
+    rec.load_library(&library)?;
     Ok(library)
 }
 
@@ -744,22 +710,10 @@ const SOAK_PROGRESS: u32 = 1000;
 /// `soak N` on the semihosting command line (QEMU's `-append`): the number of frames.
 #[inline(never)]
 fn soak_request() -> Option<u32> {
-    let mut buf = [0u8; 128];
-    // SYS_GET_CMDLINE: the block is (buffer address, its length); the host writes the command
-    // line (NUL-terminated) and stores its length in the block's second word.
-    let mut block = [buf.as_mut_ptr() as usize, buf.len() - 1];
-    // SAFETY: the block and the buffer are valid for the call; the host writes at most
-    // `buf.len() - 1` bytes into the buffer and one word into the block (hence `&mut`, though
-    // `syscall` takes a shared reference).
-    #[allow(clippy::unnecessary_mut_passed)]
-    let status = unsafe { cortex_m_semihosting::syscall(cortex_m_semihosting::nr::GET_CMDLINE, &mut block) };
-    if status != 0 {
-        return None;
-    }
-    // SAFETY: `block` is a local array; the read keeps the compiler from assuming the host
-    // left it unchanged.
-    let len = unsafe { core::ptr::read_volatile(&block[1]) }.min(buf.len());
-    let text = core::str::from_utf8(&buf[..len]).ok()?;
+    let mut buf = [core::mem::MaybeUninit::<u8>::uninit(); 128];
+    // SYS_GET_CMDLINE: the host writes the command line into the buffer.
+    let text = semihosting::sys::arm_compat::sys_get_cmdline_uninit(&mut buf).ok()?;
+    let text = core::str::from_utf8(text).ok()?;
     let mut words = text.split_whitespace().skip_while(|w| *w != "soak").skip(1);
     words.next()?.parse::<u32>().ok().map(|n| n.min(SOAK_MAX))
 }

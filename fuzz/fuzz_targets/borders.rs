@@ -13,10 +13,10 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use vorl_core::background::Background;
-use vorl_core::contour::{clear_labels, trace_borders, trace_borders_in, BorderFilter, ContourStore};
-use vorl_core::enhance::Alpha;
-use vorl_core::mask::{foreground_mask_spans, Cleanup, RowSpans, Threshold};
+use vorl_core::pixels::background::Background;
+use vorl_core::borders::contour::{clear_labels, trace_borders, trace_borders_in, BorderFilter, ContourStore};
+use vorl_core::pixels::enhance::Alpha;
+use vorl_core::pixels::mask::{foreground_mask_spans, Cleanup, RowSpans, Threshold};
 use vorl_core::Frame;
 use vorl_fuzz::Input;
 

@@ -13,7 +13,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use vorl_core::calibrate::{Homography, RigidTransform};
+use vorl_core::location::calibrate::{Homography, RigidTransform};
 use vorl_fuzz::Input;
 
 fuzz_target!(|data: &[u8]| {

@@ -15,12 +15,12 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use vorl_core::contour::Point;
-use vorl_core::descriptor::{centroid, describe, scaled_k, DescriptorParams};
-use vorl_core::enhance::Alpha;
+use vorl_core::borders::contour::Point;
+use vorl_core::shape::descriptor::{centroid, describe, scaled_k, DescriptorParams};
+use vorl_core::pixels::enhance::Alpha;
 use vorl_core::pose::{angle_paper, angle_signed, angle_signed_refined, area_centroid};
-use vorl_core::refine::{align, outward_normal, sample_by_pixels, Difference, Outline, Pose, ProfileRay, RefineParams};
-use vorl_core::resample::{check_counts, resample};
+use vorl_core::pose::refine::{align, outward_normal, sample_by_pixels, Difference, Outline, Pose, ProfileRay, RefineParams};
+use vorl_core::borders::resample::{check_counts, resample};
 use vorl_core::{Frame, Params, Template};
 use vorl_fuzz::{params, Input};
 

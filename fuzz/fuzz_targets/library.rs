@@ -1,5 +1,5 @@
 //! The template library parser on any bytes: `Library::parse`, then every query of a parsed
-//! library, `load_into` two recognizer configurations, and `write_library` back.
+//! library, `Recognizer::load_library` into two recognizer configurations, and `write_library` back.
 //!
 //! Input: one mode byte, then the library's bytes. The mode's bits repair what random bytes
 //! almost never get right, so that the checks after them are reached too: bit 0 sets the magic
@@ -52,10 +52,10 @@ fuzz_target!(|data: &[u8]| {
         let _ = lib.template::<16>(i);
     }
     let mut small = Box::new(Recognizer::<2, 16, 256, 8, 256>::new());
-    let _ = lib.load_into(&mut small);
+    let _ = small.load_library(&lib);
     let mut big = Box::new(Recognizer::<8, 128, 1024, 16, 8192>::new());
     let params = lib.params(Params::DEFAULT);
-    let loaded = lib.load_into(&mut big);
+    let loaded = big.load_library(&lib);
     if lib.len() <= 8 && lib.m() <= 128 && params.validate().is_ok() && lib.n() * (lib.m() - lib.n() + 1) <= 8192 {
         assert_eq!(loaded, Ok(lib.len()), "a library that fits loads");
     }

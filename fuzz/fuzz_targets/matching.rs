@@ -15,7 +15,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use vorl_core::matching::{
+use vorl_core::shape::matching::{
     best_cost, best_match, match_at_start, match_with_assignment, search_cells, sorted_lower_bound,
     sorted_window_bound, table_cells,
 };

@@ -12,10 +12,10 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use vorl_core::enhance::Alpha;
-use vorl_core::contour::Point;
-use vorl_core::partial_volume::{partial_volume_centroid, print_deficit, Rect};
-use vorl_core::refine::Difference;
+use vorl_core::pixels::enhance::Alpha;
+use vorl_core::borders::contour::Point;
+use vorl_core::pose::partial_volume::{partial_volume_centroid, print_deficit, Rect};
+use vorl_core::pose::refine::Difference;
 use vorl_core::Frame;
 use vorl_fuzz::Input;
 

@@ -12,7 +12,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use vorl_core::background::Background;
+use vorl_core::pixels::background::Background;
 use vorl_core::{Frame, Recognizer};
 use vorl_fuzz::{params, Input};
 
@@ -78,7 +78,7 @@ fuzz_target!(|data: &[u8]| {
     let frame = Frame::with_stride(&strided[..], w, h, stride).expect("stride·h bytes");
     // The frame's exposure against the background: gain positive and finite when fitted, and
     // undoing it keeps the length.
-    if let Ok(e) = vorl_core::exposure::fit_exposure(&frame, alpha, bg.plane()) {
+    if let Ok(e) = vorl_core::pixels::exposure::fit_exposure(&frame, alpha, bg.plane()) {
         assert!(e.gain > 0.0 && e.gain.is_finite() && e.offset.is_finite(), "{e:?}");
         assert!(e.inliers <= e.samples, "{e:?}");
         let mut copy = frame_px.to_vec();
@@ -87,7 +87,7 @@ fuzz_target!(|data: &[u8]| {
     }
     // No empty shot: the platform estimated from the frame itself (a grid of any small size).
     if mode & 64 == 64 {
-        let mut grid = vorl_core::platform::PlatformGrid::<24>::new();
+        let mut grid = vorl_core::pixels::platform::PlatformGrid::<24>::new();
         if let Ok(stats) = bg.estimate_from_frame(&frame, alpha, &mut grid) {
             assert!(stats.cells_x * stats.cells_y <= 24 && stats.cell >= 1);
             assert!(bg.is_ready());
@@ -95,11 +95,11 @@ fuzz_target!(|data: &[u8]| {
         // Kept for the next frame while it fits: the same frame twice is kept the second
         // time unless too few samples agree (then estimated again), and the figures are those
         // of the estimate in use.
-        let mut keeping = vorl_core::background::PlatformKeeping::new(1 + u32::from((mode >> 2) & 3));
+        let mut keeping = vorl_core::pixels::background::PlatformKeeping::new(1 + u32::from((mode >> 2) & 3));
         if let Ok(first) = bg.estimate_or_keep(&frame, alpha, &mut grid, &mut keeping) {
-            assert!(matches!(first, vorl_core::background::PlatformUse::Estimated(_)));
+            assert!(matches!(first, vorl_core::pixels::background::PlatformUse::Estimated(_)));
             if let Ok(second) = bg.estimate_or_keep(&frame, alpha, &mut grid, &mut keeping) {
-                let key = |s: vorl_core::platform::PlatformStats| (s.cell, s.cells_x, s.cells_y, s.kept);
+                let key = |s: vorl_core::pixels::platform::PlatformStats| (s.cell, s.cells_x, s.cells_y, s.kept);
                 assert_eq!(key(second.stats()), key(first.stats()), "{first:?} {second:?}");
             }
         }

@@ -14,9 +14,9 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use vorl_core::enhance::Alpha;
-use vorl_core::refine::Difference;
-use vorl_core::stereo::{
+use vorl_core::pixels::enhance::Alpha;
+use vorl_core::pose::refine::Difference;
+use vorl_core::location::stereo::{
     pair_parts, refine_disparity, DisparityParams, PairOutcome, PairParams, StereoPart, StereoRig, Unpaired,
 };
 use vorl_core::Frame;

@@ -9,7 +9,7 @@
 //! past every capacity.
 
 use arbitrary::Unstructured;
-use vorl_core::mask::{Cleanup, Threshold};
+use vorl_core::pixels::mask::{Cleanup, Threshold};
 use vorl_core::params::{AngleEstimator, Params, Position, Refine};
 
 /// Floats that break arithmetic.

@@ -8,13 +8,13 @@
 
 use image::GrayImage;
 use serde::Serialize;
-use vorl_core::background::Background;
-use vorl_core::contour::{trace_borders, BorderKind, ContourStore};
-use vorl_core::descriptor::describe;
-use vorl_core::mask::{foreground_mask, Cleanup, Threshold};
-use vorl_core::matching::{match_with_assignment, search_cells, table_cells};
+use vorl_core::borders::contour::{trace_borders, BorderKind, ContourStore};
+use vorl_core::borders::resample::resample;
+use vorl_core::pixels::background::Background;
+use vorl_core::pixels::mask::{foreground_mask, Cleanup, Threshold};
 use vorl_core::pose::{angle_paper, angle_signed, area_centroid};
-use vorl_core::resample::resample;
+use vorl_core::shape::descriptor::describe;
+use vorl_core::shape::matching::{match_with_assignment, search_cells, table_cells};
 use vorl_core::{Frame, Params, Template};
 
 use crate::engine::{HOST_CONTOURS, HOST_M, HOST_POINTS};

@@ -1,7 +1,7 @@
 //! Pipeline parameters on the host: flags, a TOML file, and `vorl config --defaults`.
 
 use serde::{Deserialize, Serialize};
-use vorl_core::mask::{Cleanup, Threshold};
+use vorl_core::pixels::mask::{Cleanup, Threshold};
 use vorl_core::{AngleEstimator, Params, Position, Refine};
 
 /// The parameters as they appear in a TOML config file. Every field is optional in the file;
@@ -75,7 +75,7 @@ pub struct Config {
 }
 
 /// Default of [`Config::platform_every`].
-pub const DEFAULT_PLATFORM_EVERY: u32 = vorl_core::background::DEFAULT_KEEP_FRAMES;
+pub const DEFAULT_PLATFORM_EVERY: u32 = vorl_core::pixels::background::DEFAULT_KEEP_FRAMES;
 
 /// `exposure` as written in a config file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]

@@ -4,10 +4,10 @@
 use std::path::Path;
 
 use image::GrayImage;
-use vorl_core::background::{Background, PlatformKeeping, PlatformUse, KEEP_ROUNDS};
-use vorl_core::contour::{trace_borders, BorderFilter, BorderKind, ContourStore, Point};
-use vorl_core::exposure::{fit_exposure, fit_exposure_rounds, Exposure};
-use vorl_core::platform::{PlatformGrid, PlatformStats};
+use vorl_core::borders::contour::{trace_borders, BorderFilter, BorderKind, ContourStore, Point};
+use vorl_core::pixels::background::{Background, PlatformKeeping, PlatformUse, KEEP_ROUNDS};
+use vorl_core::pixels::exposure::{fit_exposure, fit_exposure_rounds, Exposure};
+use vorl_core::pixels::platform::{PlatformGrid, PlatformStats};
 use vorl_core::recognizer::{Report, Skip, SkipReason};
 use vorl_core::{Frame, Params, Recognizer, Template};
 
@@ -290,7 +290,7 @@ impl Engine {
     }
 
     /// Whether each frame's gain and offset are fitted against the empty shot and undone before
-    /// the frame is processed ([`vorl_core::exposure`]; on by default). Without an empty shot
+    /// the frame is processed ([`vorl_core::pixels::exposure`]; on by default). Without an empty shot
     /// the platform estimate follows the exposure itself.
     pub fn set_exposure_fit(&mut self, on: bool) {
         self.exposure_fit = on;
@@ -436,7 +436,7 @@ impl Engine {
     }
 
     /// No empty shot: the platform is estimated from the frames themselves
-    /// ([`vorl_core::platform`]), in the core, before the frame is processed; an estimate
+    /// ([`vorl_core::pixels::platform`]), in the core, before the frame is processed; an estimate
     /// serves the next frames while they fit it ([`Self::set_platform_every`]).
     pub fn set_auto_background(&mut self) {
         self.auto = true;

@@ -405,6 +405,37 @@ fn pair(truth: &[PartJson], pred: &[PartJson]) -> Vec<(usize, usize)> {
     out
 }
 
+/// The scores plus timing, as printed by `--json`.
+#[derive(Debug, Serialize)]
+pub struct EvalReport {
+    /// The set.
+    pub set: String,
+    /// Frames that could not be processed.
+    pub failed_frames: usize,
+    /// Mean core time per frame, ms.
+    pub ms_per_frame: f64,
+    /// The scores.
+    #[serde(flatten)]
+    pub scores: Scores,
+    /// Detection recall.
+    pub recall: f64,
+    /// Detection precision.
+    pub precision: f64,
+    /// Classification accuracy.
+    pub classification: f64,
+    /// Unknown-rejection rate.
+    pub unknown_rejection: f64,
+    /// Without an empty shot: frames whose platform was estimated from the frame itself, and
+    /// frames that kept an earlier frame's estimate (both 0 with an empty shot, and for stereo
+    /// sets, which are not counted).
+    pub platform_estimated: usize,
+    /// See [`Self::platform_estimated`].
+    pub platform_kept: usize,
+    /// Problems with the set that are not one frame's (a stereo set's `camera.json`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub setup_errors: Vec<String>,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

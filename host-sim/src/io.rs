@@ -228,3 +228,16 @@ pub fn file_stem(path: &Path) -> String {
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| "?".into())
 }
+
+/// A progress bar over `len` items for long runs, drawn on stderr only when it is a terminal
+/// (indicatif hides it otherwise), e.g. `progress(40, "eval", "frames")`.
+pub fn progress(len: usize, label: &str, unit: &str) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(len as u64);
+    let template = format!("{label} [{{bar:30}}] {{pos}}/{{len}} {unit}, {{eta}} left");
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(&template)
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    bar
+}

@@ -9,10 +9,10 @@
 use image::GrayImage;
 use rayon::prelude::*;
 use serde::Serialize;
-use vorl_core::contour::{trace_borders, BorderFilter, ContourStore};
-use vorl_core::descriptor::describe;
-use vorl_core::matching::best_cost;
-use vorl_core::resample::resample;
+use vorl_core::borders::contour::{trace_borders, BorderFilter, ContourStore};
+use vorl_core::borders::resample::resample;
+use vorl_core::shape::descriptor::describe;
+use vorl_core::shape::matching::best_cost;
 use vorl_core::{Params, Template};
 
 use crate::engine::{NamedSilhouette, HOST_CONTOURS, HOST_M, HOST_POINTS};
@@ -73,7 +73,7 @@ pub struct Similarity {
     /// Pairs `(i, j, min(f'[i][j], f'[j][i]))` with `i < j` below `ε`.
     pub too_alike: Vec<(usize, usize, f32)>,
     /// Each silhouette's [`vorl_core::Template::mirror_gap`]: from
-    /// [`vorl_core::template::CHIRAL_GAP`] on it is chiral, and a part lying upside down is its
+    /// [`vorl_core::library::template::CHIRAL_GAP`] on it is chiral, and a part lying upside down is its
     /// mirror image (which detect matches too, reporting it `flipped`).
     pub mirror_gap: Vec<f32>,
 }
@@ -96,7 +96,7 @@ pub fn similarity(
                 .map_err(|e| format!("{}: {e}", s.path.display()))
         })
         .collect::<Result<_, _>>()?;
-    let width = vorl_core::matching::search_cells(params.n, params.m).max(params.m - params.n + 1);
+    let width = vorl_core::shape::matching::search_cells(params.n, params.m).max(params.m - params.n + 1);
     let matrix: Vec<Vec<f32>> = described
         .par_iter()
         .map(|a| {

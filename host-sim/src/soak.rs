@@ -17,8 +17,8 @@
 use std::time::Instant;
 
 use rayon::prelude::*;
-use vorl_core::background::Background;
-use vorl_core::platform::PlatformGrid;
+use vorl_core::pixels::background::Background;
+use vorl_core::pixels::platform::PlatformGrid;
 use vorl_core::recognizer::Report;
 use vorl_core::{Frame, Params};
 

@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 
 use image::{GrayImage, Luma};
 use serde_json::Value;
-use vorl_core::background::Background;
+use vorl_core::pixels::background::Background;
 use vorl_core::{Frame, Params, Recognizer};
 
 mod common;

@@ -26,24 +26,24 @@
 use core::hint::black_box;
 use core::ptr::{addr_of, addr_of_mut, read_volatile};
 
-use vorl_core::background::Background;
-use vorl_core::calibrate::{Homography, RigidTransform};
-use vorl_core::contour::{self, BorderFilter, ContourStore, Point};
-use vorl_core::descriptor::{self, DescriptorParams};
-use vorl_core::enhance::{self, Alpha};
-use vorl_core::frame::{Frame, FrameBuffer};
-use vorl_core::holes;
+use vorl_core::pixels::background::Background;
+use vorl_core::location::calibrate::{Homography, RigidTransform};
+use vorl_core::borders::contour::{self, BorderFilter, ContourStore, Point};
+use vorl_core::shape::descriptor::{self, DescriptorParams};
+use vorl_core::pixels::enhance::{self, Alpha};
+use vorl_core::pixels::frame::{Frame, FrameBuffer};
+use vorl_core::pose::holes;
 use vorl_core::library::{self, Library};
-use vorl_core::mask::{self, Cleanup, RowSpans, Threshold};
-use vorl_core::matching;
+use vorl_core::pixels::mask::{self, Cleanup, RowSpans, Threshold};
+use vorl_core::shape::matching;
 use vorl_core::params::{AngleEstimator, Params, Position, Refine};
-use vorl_core::partial_volume::{partial_volume_centroid, partial_volume_moments, print_deficit, Rect};
+use vorl_core::pose::partial_volume::{partial_volume_centroid, partial_volume_moments, print_deficit, Rect};
 use vorl_core::pose;
 use vorl_core::recognizer::{Recognizer, Stage};
-use vorl_core::refine::{self, Difference, Outline, Pose, ProfileRay, RefineParams};
-use vorl_core::resample;
-use vorl_core::stereo::{self, DisparityParams, PairOutcome, PairParams, StereoPart, StereoRig};
-use vorl_core::template::Template;
+use vorl_core::pose::refine::{self, Difference, Outline, Pose, ProfileRay, RefineParams};
+use vorl_core::borders::resample;
+use vorl_core::location::stereo::{self, DisparityParams, PairOutcome, PairParams, StereoPart, StereoRig};
+use vorl_core::library::template::Template;
 
 #[cfg(not(feature = "diagnose"))]
 extern "Rust" {
@@ -286,10 +286,10 @@ fn recognizer<const T: usize, const M: usize, const P: usize, const C: usize, co
             let _ = black_box(bg.update(&fr, alpha(), labels, u8_()));
             if flag() {
                 // No empty shot: the platform estimated from the frame.
-                let mut grid = vorl_core::platform::PlatformGrid::<64>::new();
+                let mut grid = vorl_core::pixels::platform::PlatformGrid::<64>::new();
                 let _ = black_box(bg.estimate_from_frame(&fr, alpha(), &mut grid));
                 // And kept for the next frames while they fit it.
-                let mut keeping = vorl_core::background::PlatformKeeping::new(u() as u32);
+                let mut keeping = vorl_core::pixels::background::PlatformKeeping::new(u() as u32);
                 if let Ok(used) = black_box(bg.estimate_or_keep(&fr, alpha(), &mut grid, &mut keeping)) {
                     black_box(used.stats());
                 }
@@ -330,7 +330,7 @@ fn library_entry<const T: usize, const M: usize, const P: usize, const C: usize,
         black_box(lib.params(params()));
         black_box(lib.name(u()));
         let _ = black_box(lib.template::<M>(u()));
-        let _ = black_box(lib.load_into(rec));
+        let _ = black_box(rec.load_library(&lib));
     }
     let out = buffer!(u8, 8192, 0);
     let name = core::str::from_utf8(buffer!(u8, 64, 0)).unwrap_or("");
@@ -355,19 +355,19 @@ fn pixels() {
         enhance::enhance_span(&fr, u(), u(), alpha(), out);
         black_box(enhance::enhance(&fr, alpha(), out));
         let plane = buffer!(u8, 4096, 0);
-        let mut grid = vorl_core::platform::PlatformGrid::<32>::new();
-        let _ = black_box(vorl_core::platform::estimate_platform(&fr, alpha(), plane, &mut grid));
-        let _ = black_box(vorl_core::platform::cell_size(u(), u(), u()));
-        let _ = black_box(vorl_core::exposure::fit_exposure_rounds(&fr, alpha(), plane, u()));
-        if let Ok(e) = black_box(vorl_core::exposure::fit_exposure(&fr, alpha(), plane)) {
+        let mut grid = vorl_core::pixels::platform::PlatformGrid::<32>::new();
+        let _ = black_box(vorl_core::pixels::platform::estimate_platform(&fr, alpha(), plane, &mut grid));
+        let _ = black_box(vorl_core::pixels::platform::cell_size(u(), u(), u()));
+        let _ = black_box(vorl_core::pixels::exposure::fit_exposure_rounds(&fr, alpha(), plane, u()));
+        if let Ok(e) = black_box(vorl_core::pixels::exposure::fit_exposure(&fr, alpha(), plane)) {
             let undone = buffer!(u8, 4096, 0);
             e.undo(undone);
             black_box(e.undo_table());
         }
         black_box(vorl_core::math::nth_smallest(buffer!(f32, 64, 0.0), u()));
         black_box(vorl_core::math::select_nth(buffer!(f32, 64, 0.0), u()));
-        black_box(vorl_core::platform::sample_step(u()));
-        black_box(vorl_core::refine::wall_facing(p2(), p2()));
+        black_box(vorl_core::pixels::platform::sample_step(u()));
+        black_box(vorl_core::pose::refine::wall_facing(p2(), p2()));
         let bg_plane = buffer!(u8, 4096, 0);
         if let Ok(mut bg) = Background::new(bg_plane, u(), u()) {
             let _ = black_box(bg.set_from_frame(&fr, alpha()));

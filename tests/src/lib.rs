@@ -1,7 +1,7 @@
 //! Shared helpers for the integration tests: ASCII-art masks, polygon shapes rasterised at any
 //! pose, and scenes on a platform.
 
-use vorl_core::contour::{trace_borders, BorderFilter, BorderKind, ContourStore};
+use vorl_core::borders::contour::{trace_borders, BorderFilter, BorderKind, ContourStore};
 
 /// A 0/1 plane from ASCII art (`#` foreground, anything else background).
 pub fn ascii_mask(rows: &[&str]) -> (Vec<u8>, usize, usize) {

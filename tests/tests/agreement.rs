@@ -4,7 +4,7 @@
 
 use image::GrayImage;
 use proptest::prelude::*;
-use vorl_core::mask::Threshold;
+use vorl_core::pixels::mask::Threshold;
 use vorl_core::Params;
 use vorl_host_sim::compare::{compare_frame, Comparison, Tolerances};
 use vorl_tests::rasterise;

@@ -77,7 +77,7 @@ fn two_parts_in_raster_order() {
 
 #[test]
 fn touches_edge_flag() {
-    use vorl_core::contour::{trace_borders, BorderFilter, ContourStore};
+    use vorl_core::borders::contour::{trace_borders, BorderFilter, ContourStore};
     let (mut p, w, h) = vorl_tests::ascii_mask(&["......", ".##..#", ".##..#", "......"]);
     let mut store = ContourStore::<64, 8>::new();
     trace_borders(
@@ -97,7 +97,7 @@ fn touches_edge_flag() {
 
 #[test]
 fn size_filter_drops_small_borders() {
-    use vorl_core::contour::{trace_borders, BorderFilter, ContourStore};
+    use vorl_core::borders::contour::{trace_borders, BorderFilter, ContourStore};
     let (mut p, w, h) = vorl_tests::ascii_mask(&[".......", ".###.#.", ".###...", ".###...", "......."]);
     let mut store = ContourStore::<64, 8>::new();
     let stats = trace_borders(
@@ -118,7 +118,7 @@ fn size_filter_drops_small_borders() {
 
 #[test]
 fn long_border_is_subsampled_not_cut() {
-    use vorl_core::contour::{trace_borders, BorderFilter, ContourStore};
+    use vorl_core::borders::contour::{trace_borders, BorderFilter, ContourStore};
     // A 30×30 block has a border of 116 points; a store of 40 points keeps every 3rd.
     let rows: Vec<String> = (0..32)
         .map(|y| {

@@ -1081,7 +1081,7 @@ fn linker_static_ram_matches_budget() {
     let rows = budget::rows(&args).unwrap();
     // The firmware also estimates the platform (frames without an empty shot): its grid is the
     // "+ platform grid" line of `vorl budget` (9·G bytes, G the cells of 16 px a QVGA frame has).
-    let s = vorl_core::platform::cell_size(320, 240, usize::MAX).unwrap();
+    let s = vorl_core::pixels::platform::cell_size(320, 240, usize::MAX).unwrap();
     let grid = 9 * 320usize.div_ceil(s) * 240usize.div_ceil(s);
     let total = rows[0].budget.total + grid;
     let static_ram = data + bss + uninit;

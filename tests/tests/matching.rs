@@ -7,7 +7,7 @@
 //! recognizer's sizes.
 
 use proptest::prelude::*;
-use vorl_core::matching::{
+use vorl_core::shape::matching::{
     best_cost, match_at_start, match_with_assignment, search_cells, sorted_lower_bound, table_cells,
 };
 use vorl_host_sim::reference::brute_force_cyclic;

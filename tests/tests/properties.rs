@@ -1,10 +1,10 @@
 //! Property tests of the core: invariances of the matching and pose, and no panics on any input.
 
 use proptest::prelude::*;
-use vorl_core::background::Background;
-use vorl_core::descriptor::{describe, DescriptorParams};
-use vorl_core::matching::{best_cost, match_with_assignment, table_cells};
+use vorl_core::pixels::background::Background;
 use vorl_core::pose::angle_signed;
+use vorl_core::shape::descriptor::{describe, DescriptorParams};
+use vorl_core::shape::matching::{best_cost, match_with_assignment, table_cells};
 use vorl_core::{Frame, Params, Recognizer};
 use vorl_tests::{angle_diff, rasterise, shapes};
 
@@ -115,7 +115,7 @@ proptest! {
         let turned: Vec<[f32; 2]> = poly.iter().map(|p| [p[0] * c + p[1] * s, -p[0] * s + p[1] * c]).collect();
         let part = polygon_points(&turned, n);
         let p = DescriptorParams { k: 3, omega: 0.5 };
-        let tp = DescriptorParams { k: vorl_core::descriptor::scaled_k(3, n, m), omega: 0.5 };
+        let tp = DescriptorParams { k: vorl_core::shape::descriptor::scaled_k(3, n, m), omega: 0.5 };
         let mut pd = vec![0.0f32; n];
         let pc = describe(&part, p, &mut pd).unwrap();
         let run = |tpl: &[[f32; 2]]| {
@@ -142,7 +142,7 @@ proptest! {
         let mut x = seed | 1;
         let tpl: Vec<f32> = (0..m).map(|_| { x ^= x << 13; x ^= x >> 7; x ^= x << 17; (x % 2000) as f32 / 1000.0 }).collect();
         // With a search-sized buffer (the divide-and-conquer search and its interval bounds).
-        let mut row = vec![0.0f32; vorl_core::matching::search_cells(n, m).max(m - n + 1)];
+        let mut row = vec![0.0f32; vorl_core::shape::matching::search_cells(n, m).max(m - n + 1)];
         let free = best_cost(&part, &tpl, f32::INFINITY, &mut row).unwrap().unwrap();
         let bounded = best_cost(&part, &tpl, bound, &mut row).unwrap();
         if free.cost < bound {
@@ -233,7 +233,7 @@ proptest! {
         p.alpha = alpha;
         p.min_points = 1;
         p.min_area = 0.0;
-        if otsu { p.threshold = vorl_core::mask::Threshold::Otsu; }
+        if otsu { p.threshold = vorl_core::pixels::mask::Threshold::Otsu; }
         rec.set_params(p).unwrap();
         // Teach from random bytes too (may fail with an error, must not panic).
         let mut labels = vec![0u8; w * h + 7];
@@ -259,7 +259,7 @@ proptest! {
     /// Random 0/1 planes: border following never panics and every stored point is foreground.
     #[test]
     fn border_points_lie_on_foreground(w in 1usize..30, h in 1usize..30, bits in prop::collection::vec(any::<bool>(), 900)) {
-        use vorl_core::contour::{trace_borders, BorderFilter, ContourStore};
+        use vorl_core::borders::contour::{trace_borders, BorderFilter, ContourStore};
         let mut plane: Vec<u8> = bits.iter().take(w * h).map(|&b| b as u8).collect();
         plane.resize(w * h, 0);
         let orig = plane.clone();

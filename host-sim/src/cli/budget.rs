@@ -7,8 +7,8 @@
 
 use std::process::ExitCode;
 
+use vorl_core::borders::resample::check_counts;
 use vorl_core::budget::{budget, Budget, Capacities, Layout};
-use vorl_core::resample::check_counts;
 
 /// Part point counts of the table printed when `--points` is not given.
 pub const SWEEP_POINTS: [usize; 6] = [32, 64, 96, 128, 192, 256];
@@ -300,7 +300,7 @@ fn print_detail(r: &Row, layout: Layout) {
     // Without an empty shot the platform is estimated per frame into the background plane,
     // with a grid of cells beside it (not in the total: only installations without an empty
     // shot need it).
-    let cells = vorl_core::platform::cell_size(c.width, c.height, usize::MAX)
+    let cells = vorl_core::pixels::platform::cell_size(c.width, c.height, usize::MAX)
         .map(|s| c.width.div_ceil(s) * c.height.div_ceil(s))
         .unwrap_or(0);
     let grid = 9 * cells;

@@ -18,7 +18,7 @@ use std::process::ExitCode;
 
 use serde::{Deserialize, Serialize};
 use serde_json::json;
-use vorl_core::calibrate::{Homography, RigidTransform};
+use vorl_core::location::calibrate::{Homography, RigidTransform};
 
 use crate::truth::PartJson;
 

@@ -52,7 +52,7 @@ pub fn run(args: CheckArgs) -> Result<ExitCode, String> {
         pixels: if params.alpha < 1.0 { 8 } else { 0 },
         ..Tolerances::default()
     };
-    let bar = crate::cli::progress(set.frames.len(), "check", "frames");
+    let bar = crate::io::progress(set.frames.len(), "check", "frames");
     let mut out = Comparison::default();
     let mut failed = 0usize;
     for path in &set.frames {

@@ -3,12 +3,11 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use serde::Serialize;
-
-use crate::cli::detect::{prepare, run_frame, to_json};
+use crate::cli::detect::prepare;
 use crate::cli::params::ParamArgs;
-use crate::eval::{score, Scores};
+use crate::eval::{score, EvalReport};
 use crate::io::file_name;
+use crate::run::{run_frame, to_json};
 use crate::set::FixtureSet;
 use crate::truth::FramesJson;
 
@@ -33,44 +32,13 @@ pub struct EvalArgs {
     pub params: ParamArgs,
 }
 
-/// The scores plus timing, as printed by `--json`.
-#[derive(Debug, Serialize)]
-pub struct EvalReport {
-    /// The set.
-    pub set: String,
-    /// Frames that could not be processed.
-    pub failed_frames: usize,
-    /// Mean core time per frame, ms.
-    pub ms_per_frame: f64,
-    /// The scores.
-    #[serde(flatten)]
-    pub scores: Scores,
-    /// Detection recall.
-    pub recall: f64,
-    /// Detection precision.
-    pub precision: f64,
-    /// Classification accuracy.
-    pub classification: f64,
-    /// Unknown-rejection rate.
-    pub unknown_rejection: f64,
-    /// Without an empty shot: frames whose platform was estimated from the frame itself, and
-    /// frames that kept an earlier frame's estimate (both 0 with an empty shot, and for stereo
-    /// sets, which are not counted).
-    pub platform_estimated: usize,
-    /// See [`Self::platform_estimated`].
-    pub platform_kept: usize,
-    /// Problems with the set that are not one frame's (a stereo set's `camera.json`).
-    #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub setup_errors: Vec<String>,
-}
-
 /// Runs detect over a set and scores it; per-frame errors are reported and counted.
 ///
 /// # Errors
 /// The set, its truth, background or templates cannot be read.
 pub fn evaluate(args: &EvalArgs) -> Result<EvalReport, String> {
-    if crate::stereo::is_stereo_set(&args.set) {
-        return crate::stereo::evaluate(args);
+    if crate::cli::stereo::is_stereo_set(&args.set) {
+        return crate::cli::stereo::evaluate(&args.set, &args.params, args.overlay.as_deref());
     }
     let set = FixtureSet::open(&args.set).map_err(|e| e.to_string())?;
     let truth_path = set.truth.clone().ok_or_else(|| {
@@ -84,7 +52,7 @@ pub fn evaluate(args: &EvalArgs) -> Result<EvalReport, String> {
     if let Some(dir) = &args.overlay {
         std::fs::create_dir_all(dir).map_err(|e| format!("{}: cannot create folder: {e}", dir.display()))?;
     }
-    let bar = crate::cli::progress(inputs.frames.len(), "eval", "frames");
+    let bar = crate::io::progress(inputs.frames.len(), "eval", "frames");
     let mut pred = FramesJson::default();
     let (mut failed, mut seconds, mut done) = (0usize, 0.0f64, 0usize);
     let (mut estimated, mut kept) = (0usize, 0usize);

@@ -10,6 +10,7 @@ pub mod gen;
 pub mod params;
 pub mod similarity;
 pub mod soak;
+pub mod stereo;
 pub mod teach;
 pub mod templates;
 
@@ -60,19 +61,6 @@ pub enum Command {
     Calibrate(calibrate::CalibrateArgs),
     /// A long run of generated frames through one recognizer: memory, errors, fresh-recognizer agreement.
     Soak(soak::SoakArgs),
-}
-
-/// A progress bar over `len` items for long runs, drawn on stderr only when it is a terminal
-/// (indicatif hides it otherwise), e.g. `progress(40, "eval", "frames")`.
-pub fn progress(len: usize, label: &str, unit: &str) -> indicatif::ProgressBar {
-    let bar = indicatif::ProgressBar::new(len as u64);
-    let template = format!("{label} [{{bar:30}}] {{pos}}/{{len}} {unit}, {{eta}} left");
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(&template)
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
-            .progress_chars("=> "),
-    );
-    bar
 }
 
 /// Runs the parsed command; the exit code.

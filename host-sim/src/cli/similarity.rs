@@ -61,7 +61,7 @@ pub fn run(args: SimilarityArgs) -> Result<ExitCode, String> {
             s.name = format!("{}/{}", s.name, crate::io::file_name(&s.path));
         }
     }
-    let bar = crate::cli::progress(sils.len(), "similarity", "rows");
+    let bar = crate::io::progress(sils.len(), "similarity", "rows");
     let sim = similarity(&sils, &params, &|| bar.inc(1))?;
     bar.finish_and_clear();
     let text = match args.format {
@@ -97,7 +97,7 @@ pub fn run(args: SimilarityArgs) -> Result<ExitCode, String> {
         .names
         .iter()
         .zip(&sim.mirror_gap)
-        .filter(|(_, g)| **g >= vorl_core::template::CHIRAL_GAP)
+        .filter(|(_, g)| **g >= vorl_core::library::template::CHIRAL_GAP)
         .map(|(n, g)| format!("{n} ({g:.3})"))
         .collect();
     if !chiral.is_empty() {

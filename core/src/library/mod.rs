@@ -4,15 +4,15 @@
 //! (`vorl templates export DIR --out FILE`), written as a library file, and the file is put into
 //! the camera's flash (`include_bytes!`) or loaded from storage. [`Library::parse`] checks the
 //! whole block before anything is used, so a flipped bit, a cut-off download or a file of another
-//! version is an [`Error`], never a wrong template; [`Library::load_into`] then fills a
-//! [`Recognizer`] without any allocation. [`write_library`] writes the format into a caller's
+//! version is an [`Error`], never a wrong template; [`Recognizer::load_library`](crate::Recognizer::load_library) then fills a
+//! [`Recognizer`](crate::Recognizer) without any allocation. [`write_library`] writes the format into a caller's
 //! buffer of [`encoded_len`] bytes.
 //!
 //! # Format, version 2
 //!
 //! Little-endian throughout; every real value is an IEEE-754 `f32`. A 16-byte header, then the
 //! payload: the parameters the templates were made with, then one fixed-size record per template.
-//! Version 2 adds each template's holes ([`crate::holes`]) at the end of its record; libraries
+//! Version 2 adds each template's holes ([`crate::pose::holes`]) at the end of its record; libraries
 //! of version 1 (the same records without the holes) are still read, their templates without
 //! holes.
 //!
@@ -69,10 +69,10 @@
 //! use vorl_core::{Params, Template};
 //! // A template made from a 12×8 rectangle's border.
 //! let mut border = Vec::new();
-//! for y in 0..8u16 { border.push(vorl_core::contour::Point { x: 0, y }); }
-//! for x in 0..12u16 { border.push(vorl_core::contour::Point { x, y: 8 }); }
-//! for y in (1..=8u16).rev() { border.push(vorl_core::contour::Point { x: 12, y }); }
-//! for x in (1..=12u16).rev() { border.push(vorl_core::contour::Point { x, y: 0 }); }
+//! for y in 0..8u16 { border.push(vorl_core::borders::contour::Point { x: 0, y }); }
+//! for x in 0..12u16 { border.push(vorl_core::borders::contour::Point { x, y: 8 }); }
+//! for y in (1..=8u16).rev() { border.push(vorl_core::borders::contour::Point { x: 12, y }); }
+//! for x in (1..=12u16).rev() { border.push(vorl_core::borders::contour::Point { x, y: 0 }); }
 //! let params = Params::DEFAULT;
 //! let t = Template::<96>::from_border(&border, core::iter::empty(), &params).unwrap();
 //! let mut bytes = vec![0u8; encoded_len(1, params.m)];
@@ -85,12 +85,13 @@
 //! assert!(matches!(Library::parse(&bytes), Err(vorl_core::Error::Checksum { .. })));
 //! ```
 
+use crate::borders::resample::check_counts;
 use crate::error::{Error, Result};
-use crate::holes::{Hole, Holes, MAX_HOLES};
+use crate::library::template::{Template, Tolerance};
 use crate::params::Params;
-use crate::recognizer::Recognizer;
-use crate::resample::check_counts;
-use crate::template::{Template, Tolerance};
+use crate::pose::holes::{Hole, Holes, MAX_HOLES};
+
+pub mod template;
 
 /// The four bytes a library starts with.
 pub const MAGIC: [u8; 4] = *b"VRLT";
@@ -401,32 +402,6 @@ impl<'a> Library<'a> {
         }
         Ok(t)
     }
-
-    /// Replaces `recognizer`'s templates by the library's: its `n`, `m`, `k`, `ω` are set from the
-    /// library (the other parameters are kept), then every template is added in order, so
-    /// template index `i` is the library's record `i`. Returns the number of templates.
-    ///
-    /// # Errors
-    /// [`Recognizer::set_params`]'s errors (e.g. `m > M` or a DP table larger than `D`),
-    /// [`Error::Capacity`] when the library holds more than `T` templates.
-    pub fn load_into<const T: usize, const M: usize, const P: usize, const C: usize, const D: usize>(
-        &self,
-        recognizer: &mut Recognizer<T, M, P, C, D>,
-    ) -> Result<usize> {
-        if self.count > T {
-            return Err(Error::Capacity {
-                what: "templates T",
-                capacity: T,
-                requested: self.count,
-            });
-        }
-        recognizer.set_params(self.params(*recognizer.params()))?;
-        recognizer.clear_templates();
-        for i in 0..self.count {
-            recognizer.add_template(self.template::<M>(i)?)?;
-        }
-        Ok(self.count)
-    }
 }
 
 fn record_name(record: &[u8]) -> Option<&str> {
@@ -624,11 +599,12 @@ impl Writer<'_> {
 #[cfg(test)]
 mod tests {
     extern crate std;
+    use crate::Recognizer;
     use std::vec;
     use std::vec::Vec;
 
     use super::*;
-    use crate::contour::Point;
+    use crate::borders::contour::Point;
 
     /// Border of an axis-aligned `w`×`h` rectangle traced like Suzuki–Abe would (closed ring).
     fn rectangle(w: u16, h: u16) -> Vec<Point> {
@@ -700,7 +676,7 @@ mod tests {
     }
 
     #[test]
-    fn load_into_a_recognizer() {
+    fn load_library_into_a_recognizer() {
         let (bytes, ts) = library();
         let lib = Library::parse(&bytes).unwrap();
         let mut rec = Recognizer::<4, 96, 256, 4, 2112>::new();
@@ -710,7 +686,7 @@ mod tests {
         p.k = 3;
         p.epsilon = 0.05;
         rec.set_params(p).unwrap();
-        assert_eq!(lib.load_into(&mut rec).unwrap(), 2);
+        assert_eq!(rec.load_library(&lib).unwrap(), 2);
         assert_eq!(rec.templates(), &ts[..]);
         assert_eq!(
             (rec.params().n, rec.params().m, rec.params().k, rec.params().epsilon),
@@ -718,14 +694,14 @@ mod tests {
         );
         let mut small = Recognizer::<1, 96, 256, 4, 2112>::new();
         assert!(matches!(
-            lib.load_into(&mut small),
+            small.load_library(&lib),
             Err(Error::Capacity {
                 what: "templates T",
                 ..
             })
         ));
         let mut short = Recognizer::<4, 64, 256, 4, 2112>::new();
-        assert!(matches!(lib.load_into(&mut short), Err(Error::Capacity { .. })));
+        assert!(matches!(short.load_library(&lib), Err(Error::Capacity { .. })));
     }
 
     #[test]

@@ -6,14 +6,14 @@
 //!
 //! Time `O(L + count)`, no memory beyond the output.
 
-use crate::contour::Point;
+use crate::borders::contour::Point;
 use crate::error::{Error, Result};
 use crate::math;
 
 /// Resamples the closed polygon `border` to `out.len()` points.
 ///
 /// ```
-/// use vorl_core::{contour::Point, resample::resample};
+/// use vorl_core::{borders::contour::Point, borders::resample::resample};
 /// let square = [Point { x: 0, y: 0 }, Point { x: 0, y: 2 }, Point { x: 2, y: 2 }, Point { x: 2, y: 0 }];
 /// let mut out = [[0.0f32; 2]; 8];
 /// resample(&square, &mut out).unwrap();

@@ -1,9 +1,13 @@
-//! Shared inputs of the benchmarks: descriptors of a real outline, not random numbers (the DP's
-//! pruning depends on the data).
+//! Outlines and samplers that the benchmarks (`core/benches/`, through `#[path]`) and the unit
+//! tests both draw, written once: a real part's outline rather than random numbers, because the
+//! DP's pruning depends on the data.
 
 #![allow(dead_code)]
 
-use vorl_core::descriptor::{describe, scaled_k, DescriptorParams};
+extern crate std;
+use std::vec;
+use std::vec::Vec;
+use vorl_core::shape::descriptor::{describe, scaled_k, DescriptorParams};
 
 /// The outline of a wrench-like part (px), turned by `deg` counter-clockwise on screen.
 pub fn outline(deg: f32) -> Vec<[f32; 2]> {
@@ -51,10 +55,12 @@ pub fn sample(poly: &[[f32; 2]], count: usize, offset: f32) -> Vec<[f32; 2]> {
         .collect()
 }
 
-/// Part (`n` points, turned 37°) and template (`m` points) descriptors, k = n/16, ω = 0.5.
-pub fn descriptors(n: usize, m: usize) -> (Vec<f32>, Vec<f32>) {
+/// Part (`n` points of the outline turned `deg`, rotated by `shift` points) and template (`m`
+/// points) descriptors, k = n/16, ω = 0.5. The benchmarks use `deg = 37`, `shift = 0`.
+pub fn descriptors(n: usize, m: usize, deg: f32, shift: usize) -> (Vec<f32>, Vec<f32>) {
     let k = (n / 16).max(1);
-    let part_pts = sample(&outline(37.0), n, 0.3);
+    let mut part_pts = sample(&outline(deg), n, 0.3);
+    part_pts.rotate_left(shift % n.max(1));
     let tpl_pts = sample(&outline(0.0), m, 0.0);
     let mut part = vec![0.0; n];
     let mut tpl = vec![0.0; m];

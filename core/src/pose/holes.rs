@@ -27,16 +27,16 @@
 //!   a large one's).
 //!   Part holes that no template hole explains (print, texture, a light patch) are not
 //!   evidence against the template; the recognizer counts them as the part for its position
-//!   ([`crate::partial_volume::print_deficit`]).
+//!   ([`crate::pose::partial_volume::print_deficit`]).
 //!
 //! Time: O(B) per hole border; [`agreement`] and [`pose_from_holes`] are O(H²) for
 //! `H ≤` [`MAX_HOLES`]. Memory: [`Holes`] is `12·MAX_HOLES + 4` = 100 bytes (in each template,
 //! and once on the stack for the part being matched).
 //!
 //! ```
-//! use vorl_core::contour::Point;
-//! use vorl_core::holes::{agreement, Hole, Holes};
-//! use vorl_core::refine::Pose;
+//! use vorl_core::borders::contour::Point;
+//! use vorl_core::pose::holes::{agreement, Hole, Holes};
+//! use vorl_core::pose::refine::Pose;
 //! // The border of a 2×2 hole at columns 1–2, rows 1–2 of a 4×4 block (8-connected, as traced).
 //! let p = |x, y| Point { x, y };
 //! let border = [p(1, 0), p(0, 1), p(0, 2), p(1, 3), p(2, 3), p(3, 2), p(3, 1), p(2, 0)];
@@ -53,9 +53,9 @@
 //! assert_eq!((a.expected, a.found), (1, 1));
 //! ```
 
-use crate::contour::Point;
+use crate::borders::contour::Point;
 use crate::pose::polygon_moments;
-use crate::refine::Pose;
+use crate::pose::refine::Pose;
 
 /// Most holes a [`Holes`] keeps (the largest).
 pub const MAX_HOLES: usize = 8;

@@ -41,32 +41,26 @@
 //!   step on (one noisy part; 0.25–0.68 px on the other four sets), while 83–92 % of the wrong
 //!   ones on parts inside the frame give up there; a square seeded 45° off gives up too,
 //!   though it would converge.
-//! - **Cost** (callgrind, x86_64, `vorl detect` over the bench set's 30 frames, 142
-//!   alignments): about 0.15 M instructions an alignment, 0.47 M before this pass — the
-//!   profile reading (fixed-point positions, cells from the buffers) took it to 0.39 M, the
-//!   0.01 px convergence and giving up to 0.19 M, the direct path and the scan inlined into
-//!   the Gauss–Newton step to 0.155 M, giving up on a step that cannot be taken to 0.151 M. A
-//!   profile costs about 730 instructions (1000 before), and an alignment reads 180 of them on
-//!   average (403 before): a right template about 245 (two coarse steps of 24, two fine steps
-//!   of 96, sometimes a third), one that gives up 96 (or 24). Time `O(m·search/step)` per
+//! - **Cost**: a profile reads a few cells along the normal, nearest crossing first (what an
+//!   alignment costs on the bench set: `docs/performance.md`). Time `O(m·search/step)` per
 //!   step, no memory beyond a few numbers.
 //! - **Verification**: the mean of the capped normal distances (profiles that find no edge count
 //!   the cap), plus how far the part's own border lies from the aligned template outline, plus a
 //!   penalty for a scale far from 1 — both ways, so a template that covers only part of the
 //!   outline cannot look good. The lowest score among the DP's best candidates wins; above a
 //!   threshold the part is unknown. The part → template distances search the outline
-//!   ([`Outline`]) by runs of 8 segments with a bounding circle each: about 620 instructions a
-//!   query on the bench set (1345 testing every segment), 5.7 M for its 9088 queries (12.2 M).
+//!   ([`Outline`]) by runs of 8 segments with a bounding circle each (a run whose circle lies
+//!   farther than the best so far is skipped whole).
 //!
-//! The part's position is measured separately, by [`crate::partial_volume`].
+//! The part's position is measured separately, by [`crate::pose::partial_volume`].
 //!
 //! Guards: a profile with less contrast than `min_contrast` between its ends has no edge; a pose
 //! update that is not finite, or a scale outside `[0.5, 2]`, stops the alignment at the last good
 //! pose.
 
-use crate::enhance::Alpha;
-use crate::frame::Frame;
 use crate::math;
+use crate::pixels::enhance::Alpha;
+use crate::pixels::frame::Frame;
 
 /// A similarity pose: template point `t` (relative to the template's area centroid) lands at
 /// `centre + scale·R(angle)·t` in the frame.
@@ -983,8 +977,8 @@ pub fn align<B: AsRef<[u8]>>(
 /// [`edge_distances`] if needed.
 ///
 /// ```
-/// use vorl_core::enhance::Alpha;
-/// use vorl_core::refine::{align_recording, Alignment, Difference, Pose, RefineParams};
+/// use vorl_core::pixels::enhance::Alpha;
+/// use vorl_core::pose::refine::{align_recording, Alignment, Difference, Pose, RefineParams};
 /// use vorl_core::Frame;
 /// // A bright 20×20 square on a dark 48×48 frame.
 /// let (w, h) = (48usize, 48usize);
@@ -1189,6 +1183,10 @@ pub fn edge_distances_walled<B: AsRef<[u8]>>(
     }
     (sum, found)
 }
+
+/// The fraction of each side's points that the verification score averages (the nearest):
+/// the recognizer's verification and a template's own spread ([`crate::Template`]) both use it.
+pub const VERIFY_KEPT: f32 = 0.8;
 
 /// [`RefineParams::cap`] as used: a cap that is not a number or negative caps nothing.
 fn sane_cap(cap: f32) -> f32 {
@@ -1532,7 +1530,7 @@ fn solve_n<const N: usize>(mut a: [[f32; N]; N], mut b: [f32; N]) -> Option<[f32
 /// segment tests for a 96-point outline and a query near it.
 ///
 /// ```
-/// use vorl_core::refine::Outline;
+/// use vorl_core::pose::refine::Outline;
 /// let square = [[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]];
 /// let outline = Outline::new(&square);
 /// assert!((outline.capped_distance([5.0, 1.0], 5.0) - 1.0).abs() < 1e-6);

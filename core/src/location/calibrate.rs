@@ -9,7 +9,7 @@
 //!   pixels to the robot's platform coordinates `(x, y)`, fitted from at least 4 pixel ↔ robot
 //!   point pairs by the normalised direct linear transform (Hartley & Zisserman, *Multiple View
 //!   Geometry*, algorithm 4.2). It maps a part's position and its angle.
-//! - **A stereo rig** ([`crate::stereo`]): [`RigidTransform`], rotation and translation from the
+//! - **A stereo rig** ([`crate::location::stereo`]): [`RigidTransform`], rotation and translation from the
 //!   left camera's 3-D frame to the robot's, fitted from at least 3 point pairs by the Kabsch
 //!   least-squares method with the reflection fix.
 //!
@@ -267,7 +267,7 @@ fn dlt_unchecked<T: RealField + Copy>(pairs: &[([f32; 2], [f32; 2])]) -> Result<
 /// [`Homography::mirrored`] says which case holds.
 ///
 /// ```
-/// use vorl_core::calibrate::Homography;
+/// use vorl_core::location::calibrate::Homography;
 /// // Camera straight above: 0.5 mm per pixel, image y down = robot y decreasing,
 /// // pixel (0, 0) at robot (100, 300).
 /// let robot = |p: [f32; 2]| [100.0 + 0.5 * p[0], 300.0 - 0.5 * p[1]];
@@ -541,13 +541,13 @@ fn kabsch<T: RealField + Copy>(pairs: &[([f32; 3], [f32; 3])]) -> Result<([[f64;
 /// A rigid transform (rotation and translation, no scale, no reflection) from the left stereo
 /// camera's 3-D frame to the robot's frame.
 ///
-/// The camera frame is the one of [`crate::stereo::StereoRig::point`]: millimetres, x right,
+/// The camera frame is the one of [`crate::location::stereo::StereoRig::point`]: millimetres, x right,
 /// y down, z forward along the optical axis, origin at the left camera's centre. The robot
 /// frame is whatever frame the robot points were given in (normally right-handed, z up). Maps
 /// `p ↦ R·p + t`.
 ///
 /// ```
-/// use vorl_core::calibrate::RigidTransform;
+/// use vorl_core::location::calibrate::RigidTransform;
 /// // Camera 800 mm above the platform looking straight down: camera x = robot x,
 /// // camera y = −robot y, camera z = −robot z; the camera centre at robot (250, 150, 800).
 /// let robot = |p: [f32; 3]| [250.0 + p[0], 150.0 - p[1], 800.0 - p[2]];

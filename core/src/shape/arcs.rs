@@ -10,7 +10,7 @@
 //! `Σ (r − min(|κ_i − κ'_j|, cap))` less the penalties, and the best runs end where the border
 //! leaves the template (at the point where two parts meet, or the frame's edge).
 //!
-//! The paper's descriptor (`crate::descriptor`) measures each point against the centroid of
+//! The paper's descriptor (`crate::shape::descriptor`) measures each point against the centroid of
 //! the whole border, which a blob of several parts does not share with its template; a run
 //! needs a local measure instead: the **turning angle** `κ_i`, the signed angle between
 //! `q_i − q_{i−k}` and `q_{i+k} − q_i` (radians, positive for a left turn), at points spaced by
@@ -81,7 +81,7 @@ pub struct ArcMatch {
 /// outer borders of parts and templates run the same way round, so the signs agree).
 ///
 /// ```
-/// use vorl_core::arcs::turning;
+/// use vorl_core::shape::arcs::turning;
 /// // A square traced with 4 points a side: the corners turn by a quarter turn, the sides not.
 /// let mut pts = Vec::new();
 /// for side in 0..4 {
@@ -176,7 +176,7 @@ fn offer<const K: usize>(n: usize, run: ArcMatch, out: &mut heapless::Vec<ArcMat
 /// its run began, and a cell takes the best of its own diagonal and its two neighbours'.
 ///
 /// ```
-/// use vorl_core::arcs::{best_arcs, ArcMatch, ArcParams};
+/// use vorl_core::shape::arcs::{best_arcs, ArcMatch, ArcParams};
 /// // The template's turning angles appear on the border from point 5 on, 12 of its 16 points.
 /// let template: Vec<f32> = (0..16).map(|j| ((j * 7) % 5) as f32 * 0.3).collect();
 /// let mut part = vec![2.5f32; 40];

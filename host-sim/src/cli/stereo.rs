@@ -6,8 +6,8 @@
 //! `frames/left_<name>.png` / `frames/right_<name>.png` is run through two engines with the same
 //! templates and parameters: the left one learns `background_left.png` (or `background.png`)
 //! and `backgrounds/*.png`, the right one `background_right.png` and `backgrounds_right/*.png`.
-//! The parts are paired by [`vorl_core::stereo::pair_parts`] (class, row, positive disparity);
-//! the centroid disparity seeds [`vorl_core::stereo::refine_disparity`], which aligns the left
+//! The parts are paired by [`vorl_core::location::stereo::pair_parts`] (class, row, positive disparity);
+//! the centroid disparity seeds [`vorl_core::location::stereo::refine_disparity`], which aligns the left
 //! part's border onto the right image along the row; the refined disparity gives the depth and
 //! the 3-D point by [`StereoRig`].
 //!
@@ -28,20 +28,19 @@ use std::process::ExitCode;
 use image::GrayImage;
 use serde::Deserialize;
 use serde_json::json;
-use vorl_core::refine::Difference;
-use vorl_core::stereo::{
+use vorl_core::location::stereo::{
     pair_parts, refine_disparity, DisparityFit, DisparityParams, DisparityStatus, PairOutcome, PairParams, StereoPart,
     StereoRig, Unpaired,
 };
+use vorl_core::pose::refine::Difference;
 use vorl_core::Frame;
 
 use crate::cli::calibrate::Calibration;
-use crate::cli::detect::{run_frame, to_json, DetectArgs};
-use crate::cli::eval::{EvalArgs, EvalReport};
 use crate::cli::params::ParamArgs;
 use crate::engine::{frame_notes, load_silhouettes, Engine, FrameResult};
-use crate::eval::score;
+use crate::eval::{score, EvalReport};
 use crate::io::{file_name, list_files};
+use crate::run::{run_frame, to_json};
 use crate::set::load_background_frames;
 use crate::truth::{FramesJson, PartJson};
 
@@ -497,11 +496,17 @@ impl StereoInputs {
 /// # Errors
 /// Set-up problems, as [`StereoInputs::open`]; frame problems and a bad `camera.json` are
 /// reported on stderr and make the exit code 1.
-pub fn run_detect(args: &DetectArgs, root: &Path, calibration: Option<&Calibration>) -> Result<ExitCode, String> {
-    if let Some(dir) = &args.overlay {
+pub fn run_detect(
+    root: &Path,
+    params: &ParamArgs,
+    overlay: Option<&Path>,
+    json: bool,
+    calibration: Option<&Calibration>,
+) -> Result<ExitCode, String> {
+    if let Some(dir) = overlay {
         std::fs::create_dir_all(dir).map_err(|e| format!("{}: cannot create folder: {e}", dir.display()))?;
     }
-    let mut inputs = StereoInputs::open(root, &args.params)?;
+    let mut inputs = StereoInputs::open(root, params)?;
     if let Err(e) = &inputs.camera {
         eprintln!("error: {e} (parts get no depth)");
     }
@@ -522,7 +527,7 @@ pub fn run_detect(args: &DetectArgs, root: &Path, calibration: Option<&Calibrati
                 eprintln!("note: {view}_{name}: {n}");
             }
         }
-        if let Some(dir) = &args.overlay {
+        if let Some(dir) = overlay {
             for (view, r, img) in [
                 ("left", &frame.left, &frame.left_image),
                 ("right", &frame.right, &frame.right_image),
@@ -534,11 +539,11 @@ pub fn run_detect(args: &DetectArgs, root: &Path, calibration: Option<&Calibrati
                 }
             }
         }
-        if !args.json {
+        if !json {
             print_human(name, frame);
         }
     })?;
-    if args.json {
+    if json {
         println!(
             "{}",
             serde_json::to_string_pretty(&run.frames).map_err(|e| e.to_string())?
@@ -598,8 +603,8 @@ fn print_human(name: &str, frame: &StereoFrame) {
 ///
 /// # Errors
 /// The set, its truth, backgrounds or templates cannot be read.
-pub fn evaluate(args: &EvalArgs) -> Result<EvalReport, String> {
-    let truth_path = args.set.join("truth.json");
+pub fn evaluate(set: &Path, params: &ParamArgs, overlay: Option<&Path>) -> Result<EvalReport, String> {
+    let truth_path = set.join("truth.json");
     if !truth_path.is_file() {
         return Err(format!(
             "{}: no such file (eval needs the set's truth)",
@@ -607,21 +612,21 @@ pub fn evaluate(args: &EvalArgs) -> Result<EvalReport, String> {
         ));
     }
     let truth = FramesJson::load(&truth_path)?;
-    let mut inputs = StereoInputs::open(&args.set, &args.params)?;
+    let mut inputs = StereoInputs::open(set, params)?;
     if let Err(e) = &inputs.camera {
         eprintln!("error: {e} (parts get no depth)");
     }
-    if let Some(dir) = &args.overlay {
+    if let Some(dir) = overlay {
         std::fs::create_dir_all(dir).map_err(|e| format!("{}: cannot create folder: {e}", dir.display()))?;
     }
-    let bar = crate::cli::progress(inputs.pairs.len(), "eval", "stereo pairs");
+    let bar = crate::io::progress(inputs.pairs.len(), "eval", "stereo pairs");
     let run = inputs.run_all(None, |name, result| {
         match result {
             Ok(frame) => {
                 for n in &frame.notes {
                     bar.suspend(|| eprintln!("note: {n}"));
                 }
-                if let Some(dir) = &args.overlay {
+                if let Some(dir) = overlay {
                     for (view, r, img) in [
                         ("left", &frame.left, &frame.left_image),
                         ("right", &frame.right, &frame.right_image),
@@ -653,7 +658,7 @@ pub fn evaluate(args: &EvalArgs) -> Result<EvalReport, String> {
     }
     let scores = score(&scored_truth, &run.frames);
     Ok(EvalReport {
-        set: args.set.display().to_string(),
+        set: set.display().to_string(),
         failed_frames: run.failed,
         ms_per_frame: if run.done > 0 {
             run.seconds * 1e3 / run.done as f64

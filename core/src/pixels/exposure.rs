@@ -26,9 +26,9 @@
 //! Time: one pass over the samples per round (4 in all). Memory: two histograms on the stack
 //! (3 KB).
 
-use crate::enhance::{enhance_span, Alpha};
 use crate::error::{Error, Result};
-use crate::frame::Frame;
+use crate::pixels::enhance::{enhance_span, Alpha};
+use crate::pixels::frame::Frame;
 
 /// The fit samples every `s`-th pixel of every `s`-th row, `s` the smallest of at least
 /// `MIN_STEP` that takes at most [`MAX_SAMPLES`] samples.
@@ -104,7 +104,7 @@ impl Exposure {
     /// ([`Self::undo_table`]).
     ///
     /// ```
-    /// use vorl_core::exposure::Exposure;
+    /// use vorl_core::pixels::exposure::Exposure;
     /// let e = Exposure { gain: 0.5, offset: 10.0, inliers: 100, samples: 100, levels: [0.0, 255.0], spread: 1.0 };
     /// let mut px = [10u8, 60, 110, 200];
     /// e.undo(&mut px);
@@ -125,7 +125,7 @@ impl Exposure {
 /// row-major, the frame's size). See the module doc.
 ///
 /// ```
-/// use vorl_core::{enhance::Alpha, exposure::fit_exposure, Frame};
+/// use vorl_core::{pixels::enhance::Alpha, pixels::exposure::fit_exposure, Frame};
 /// // A platform falling off from 200 to 120, a dark part, and the same scene at 0.7·v + 6.
 /// let (w, h) = (64usize, 48usize);
 /// let mut bg = vec![0u8; w * h];
@@ -150,7 +150,7 @@ pub fn fit_exposure<B: AsRef<[u8]>>(frame: &Frame<B>, alpha: Alpha, background: 
 
 /// [`fit_exposure`] with `rounds` rounds of least squares after the offset (`1..=`[`ROUNDS`];
 /// other values are clamped into it): the
-/// quick check of [`crate::background::Background::estimate_or_keep`] takes one, which tells an
+/// quick check of [`crate::pixels::background::Background::estimate_or_keep`] takes one, which tells an
 /// unchanged exposure from a changed one and gives the residuals' spread at half the cost.
 ///
 /// # Errors

@@ -15,7 +15,7 @@
 //! - the **camera frame** is the left camera's: origin at its centre, x right, y down (as the
 //!   image), z forward, millimetres: `X = (x − cx)·Z/f`, `Y = (y − cy)·Z/f`.
 //!
-//! A [`crate::calibrate::RigidTransform`] takes the camera-frame point on to the robot's frame.
+//! A [`crate::location::calibrate::RigidTransform`] takes the camera-frame point on to the robot's frame.
 //!
 //! Pairing ([`pair_parts`]): the parts found in the left and right images are paired by class,
 //! row and disparity; the paper's centroid disparity is what comes out.
@@ -37,16 +37,16 @@
 //! point and pass (about 50 bilinear samples each with the defaults); no storage but a few
 //! numbers on the stack.
 
-use crate::contour::Point;
+use crate::borders::contour::Point;
 use crate::error::{Error, Result};
 use crate::math;
+use crate::pose::refine::Difference;
 use crate::recognizer::Detection;
-use crate::refine::Difference;
 
 /// A rectified pinhole stereo pair (see the module documentation for the conventions).
 ///
 /// ```
-/// use vorl_core::stereo::StereoRig;
+/// use vorl_core::location::stereo::StereoRig;
 /// // f = 800 px, baseline 60 mm, principal point (320, 240).
 /// let rig = StereoRig::new(800.0, 60.0, 320.0, 240.0)?;
 /// // A part at x = 400 in the left image and x = 352 in the right: d = 48 px.
@@ -349,7 +349,7 @@ fn finite(p: &StereoPart) -> bool {
 /// a non-finite position are never paired.
 ///
 /// ```
-/// use vorl_core::stereo::{pair_parts, PairOutcome, PairParams, StereoPart, Unpaired};
+/// use vorl_core::location::stereo::{pair_parts, PairOutcome, PairParams, StereoPart, Unpaired};
 /// let part = |class, x, y| StereoPart { class, x, y, angle_deg: 0.0 };
 /// let left = [part(Some(0), 300.0, 100.0), part(Some(1), 200.0, 240.0), part(Some(2), 50.0, 50.0)];
 /// let right = [part(Some(1), 180.0, 240.5), part(Some(0), 260.0, 100.2)];
@@ -440,7 +440,7 @@ pub fn pair_parts(
 }
 
 /// A point of a part's outline as [`refine_disparity`] takes it: a border pixel from the
-/// contour store ([`Point`], as [`crate::contour::ContourStore::points`] gives them) or any
+/// contour store ([`Point`], as [`crate::borders::contour::ContourStore::points`] gives them) or any
 /// `[x, y]` in pixels.
 pub trait OutlinePoint: Copy {
     /// The point, pixels (x right, y down, pixel centres at integers).
@@ -465,14 +465,14 @@ impl OutlinePoint for Point {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DisparityParams {
     /// Half-length of each edge profile along the normal, px (as
-    /// [`crate::refine::RefineParams::search`]). The seed must be within about this much of the
+    /// [`crate::pose::refine::RefineParams::search`]). The seed must be within about this much of the
     /// true disparity.
     pub search_px: f32,
-    /// Sampling step along a profile, px (as [`crate::refine::RefineParams::step`]);
+    /// Sampling step along a profile, px (as [`crate::pose::refine::RefineParams::step`]);
     /// `search_px / step_px` must be between 2 and 1024.
     pub step_px: f32,
     /// Least difference between a profile's ends for it to hold an edge, grey levels (as
-    /// [`crate::refine::RefineParams::min_contrast`]).
+    /// [`crate::pose::refine::RefineParams::min_contrast`]).
     pub min_contrast: f32,
     /// Half-width of the partial-volume window around the half-contrast crossing, px (see
     /// "Locating an edge" at [`refine_disparity`]); at most `search_px`.
@@ -786,9 +786,9 @@ fn left_edge<B: AsRef<[u8]>, P: OutlinePoint>(
 /// [`DisparityFit::status`] says why.
 ///
 /// ```
-/// use vorl_core::enhance::Alpha;
-/// use vorl_core::refine::Difference;
-/// use vorl_core::stereo::{refine_disparity, DisparityParams};
+/// use vorl_core::pixels::enhance::Alpha;
+/// use vorl_core::pose::refine::Difference;
+/// use vorl_core::location::stereo::{refine_disparity, DisparityParams};
 /// use vorl_core::Frame;
 /// // A bright disc (radius 12, blurred edge) at x = 30.3 in the left image, 10.37 px further
 /// // left in the right image, on a flat background of 50.
@@ -1213,7 +1213,7 @@ mod tests {
             verify_limit: 0.6,
             scale: 1.0,
             pose: None,
-            holes: crate::holes::HoleAgreement::default(),
+            holes: crate::pose::holes::HoleAgreement::default(),
             contour: 0,
             area: 100.0,
             touches_edge: false,
@@ -1242,9 +1242,9 @@ mod disparity_tests {
     use std::vec::Vec;
 
     use super::*;
-    use crate::contour::{trace_borders, BorderFilter, BorderKind, ContourStore};
-    use crate::enhance::Alpha;
-    use crate::frame::Frame;
+    use crate::borders::contour::{trace_borders, BorderFilter, BorderKind, ContourStore};
+    use crate::pixels::enhance::Alpha;
+    use crate::pixels::frame::Frame;
 
     const W: usize = 128;
     const H: usize = 96;

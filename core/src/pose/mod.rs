@@ -16,8 +16,12 @@
 //! by rounding); pairs at a centroid (`|v||v'| < 1e-12`) are left out; a zero-area outline has no
 //! centroid (`None`).
 
-use crate::contour::Point;
+use crate::borders::contour::Point;
 use crate::math;
+
+pub mod holes;
+pub mod partial_volume;
+pub mod refine;
 
 /// The matched pairs as offsets from their centroids: `(v_i, v'_i)` for every part point whose
 /// template index is in range.
@@ -133,8 +137,8 @@ pub const REFINE_PASSES: usize = 4;
 /// let (s, c) = 10f32.to_radians().sin_cos();
 /// let p: Vec<[f32; 2]> = l_outline(5.0, 2.5, 50).iter().map(|v| [v[0] * c + v[1] * s, -v[0] * s + v[1] * c]).collect();
 /// let pairs: Vec<u16> = (0..50).collect();
-/// let ct = vorl_core::descriptor::centroid(&t);
-/// let cp = vorl_core::descriptor::centroid(&p);
+/// let ct = vorl_core::shape::descriptor::centroid(&t);
+/// let cp = vorl_core::shape::descriptor::centroid(&p);
 /// let coarse = angle_signed(&p, cp, &t, ct, &pairs).unwrap();
 /// let fine = angle_signed_refined(&p, cp, &t, ct, &pairs).unwrap();
 /// assert!((coarse - 10.0).abs() > 2.0, "{coarse}"); // 13.1° here
@@ -239,7 +243,7 @@ pub(crate) fn polygon_moments(points: &[Point]) -> (i64, i64, i64) {
 /// Area centroid of the outer polygon minus its hole polygons; `None` for zero net area.
 ///
 /// ```
-/// use vorl_core::{contour::Point, pose::area_centroid};
+/// use vorl_core::{borders::contour::Point, pose::area_centroid};
 /// let p = |x, y| Point { x, y };
 /// let square = [p(0, 0), p(0, 4), p(4, 4), p(4, 0)];
 /// let c = area_centroid(&square, core::iter::empty::<&[Point]>()).unwrap();

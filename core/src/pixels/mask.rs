@@ -5,7 +5,7 @@
 //! 0 background, 1 foreground), which border following then labels in place. The threshold τ is
 //! fixed or chosen by Otsu's method on the histogram of the difference (`docs/pipeline-spec.md`
 //! §3). [`foreground_mask_spans`] also says where each row holds foreground ([`RowSpans`]), so
-//! that the later whole-plane passes (the border scan, [`crate::contour::clear_labels`]) keep to
+//! that the later whole-plane passes (the border scan, [`crate::borders::contour::clear_labels`]) keep to
 //! those columns.
 //!
 //! The mask is built bit-packed inside the plane itself, in words of 64 pixels (`u64`) on
@@ -47,22 +47,16 @@
 //!
 //! Time: `O(width·height)`. With α = 1 and a fixed τ, each pixel's bytes are read once (step 1)
 //! and written once (step 3), and each operation of the clean-up adds two passes over the
-//! packed planes, an eighth of the bytes each; Otsu adds one read of frame and background. On
-//! x86_64 (callgrind, `vorl detect` on the bench set, all of the stage's code counted) that is
-//! 0.59 M instructions per 640×480 frame, about 1.9 per pixel: step 1 0.26 M, the opening
-//! 0.18 M (vertical passes 0.04 M, horizontal 0.14 M), step 3 with the spans 0.15 M; with
-//! 32-bit words and passes row by row it was 0.84 M (0.34 M, 0.33 M, 0.18 M), 1.67 M before the
-//! SIMD pack and the zero words. On a Cortex-M4 (QEMU, QVGA frames of four parts) about 7.8
-//! per pixel for τ fixed with the opening, 0.60 M per frame (0.61 M before): step 1 0.42 M,
-//! the opening 0.10 M, step 3 0.08 M. Memory: none beyond the plane and the spans, and the
+//! packed planes, an eighth of the bytes each; Otsu adds one read of frame and background. (Measured
+//! figures: `docs/performance.md`.) Memory: none beyond the plane and the spans, and the
 //! 1 KiB histogram on the stack ([`foreground_mask`] also keeps its [`RowSpans`] there, 0.5 KiB).
 
 use core::ops::{BitAnd, BitOr, Not, Range, Shl, Shr};
 
-use crate::background::Background;
-use crate::enhance::{enhance_row, Alpha};
 use crate::error::{Error, Result};
-use crate::frame::Frame;
+use crate::pixels::background::Background;
+use crate::pixels::enhance::{enhance_row, Alpha};
+use crate::pixels::frame::Frame;
 
 /// How the foreground threshold τ is chosen.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -112,12 +106,12 @@ const SPAN_END: u8 = u8::MAX;
 /// group's foreground, widened to multiples of 32 px (to the row's end from 8160 px on, where
 /// the bounds saturate), and empty when the group holds none. Border following labels only
 /// foreground pixels, so the spans stay true for the labelled plane:
-/// [`crate::contour::trace_borders_in`] scans only inside them and
-/// [`crate::contour::clear_labels`] turns labels back into the 0/1 mask only there.
+/// [`crate::borders::contour::trace_borders_in`] scans only inside them and
+/// [`crate::borders::contour::clear_labels`] turns labels back into the 0/1 mask only there.
 /// `2·SPAN_GROUPS` bytes and three words.
 ///
 /// ```
-/// use vorl_core::mask::RowSpans;
+/// use vorl_core::pixels::mask::RowSpans;
 /// let all = RowSpans::full(100, 3);
 /// assert_eq!(all.row(2), 0..100);
 /// assert!(all.row(3).is_empty());
@@ -212,7 +206,7 @@ impl RowSpans {
 /// Writes the foreground mask of `frame` against `background` into `labels` (0/1 per pixel).
 ///
 /// ```
-/// use vorl_core::{background::Background, enhance::Alpha, mask::{foreground_mask, Cleanup, Threshold}, Frame};
+/// use vorl_core::{pixels::background::Background, pixels::enhance::Alpha, pixels::mask::{foreground_mask, Cleanup, Threshold}, Frame};
 /// // A 3×3 bright block on a 7×7 platform.
 /// let bg_px = [50u8; 49];
 /// let mut frame_px = [50u8; 49];
@@ -247,7 +241,7 @@ pub fn foreground_mask<B: AsRef<[u8]>, S: AsRef<[u8]> + AsMut<[u8]>>(
 /// [`RowSpans`]; unchanged on an error).
 ///
 /// ```
-/// use vorl_core::{background::Background, enhance::Alpha, mask::{foreground_mask_spans, Cleanup, RowSpans, Threshold}, Frame};
+/// use vorl_core::{pixels::background::Background, pixels::enhance::Alpha, pixels::mask::{foreground_mask_spans, Cleanup, RowSpans, Threshold}, Frame};
 /// // A 4×3 bright block at x = 40..44 on a 100×6 platform.
 /// let bg_px = [50u8; 600];
 /// let mut frame_px = [50u8; 600];
@@ -1080,7 +1074,7 @@ fn expand_tail<W: Word>(out: &mut [u8], bits: W) {
 /// let mut hist = [0u32; 256];
 /// hist[10] = 100;
 /// hist[200] = 50;
-/// let t = vorl_core::mask::otsu_level(&hist);
+/// let t = vorl_core::pixels::mask::otsu_level(&hist);
 /// assert!((10..200).contains(&t));
 /// ```
 pub fn otsu_level(hist: &[u32; 256]) -> u8 {
@@ -1317,7 +1311,7 @@ mod tests {
     /// The mask's spans serve border following: the scan within them gives what the whole
     /// plane's scan gives, and clearing the labels within them leaves the mask again.
     fn assert_spans_serve_borders(mask: &[u8], w: usize, h: usize, spans: &RowSpans) {
-        use crate::contour::{clear_labels, trace_borders, trace_borders_in, BorderFilter, ContourStore};
+        use crate::borders::contour::{clear_labels, trace_borders, trace_borders_in, BorderFilter, ContourStore};
         let filter = BorderFilter {
             min_points: 1,
             min_area: 0.0,

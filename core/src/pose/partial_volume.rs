@@ -52,15 +52,8 @@
 //! pixel), which the tests keep as the reference: the same bits where `D` is an integer
 //! (`α = 1`), and within 1e-4 px otherwise (the local sums are added in another order).
 //!
-//! Time: on the bench set (parts of 100–170 px in boxes of 112–182, 640×480; `vorl detect`,
-//! callgrind) a part takes 0.27 M x86 instructions: the weights 0.18 M (their band pixels about
-//! 0.075 M, about 30 instructions each; the ring pixels entering and leaving the column sums
-//! 0.035 M), the shape pass 0.055 M (its ring histogram 0.02 M), the fill 0.034 M (reading the
-//! mask's bytes half of it). Before, with 32-bit words, a span fill over the plane's bytes, flag
-//! bits gathered and scattered and two morphology passes, a part took 0.73 M (1.12 M with `D`
-//! through `at` and a hole test per pixel; 1.31 M before the runs of weight 1). With `α < 1` the
-//! calls to `at` dominate (2.6 M a part, as before). On the Cortex-M4 (QEMU, the firmware's QVGA
-//! frames of 4 parts) a part takes 0.15–0.18 M instructions fewer than before. Memory: on the
+//! Time: `O(box area / word)` word operations for the fill and the shape pass, and a few dozen
+//! instructions per band and ring pixel for the weights (measured: `docs/performance.md`). Memory: on the
 //! Cortex-M4 about 3.3 KB of stack for the firmware's parts (boxes of at most 96 px), at most
 //! 4.4 KB for boxes of more than 128 px: the weights' column sums and row caches (up to 2.4 KB)
 //! stay allocated while the shape pass's histogram and window (up to 2 KB) are; the fill needs a
@@ -68,7 +61,7 @@
 //! than 256 px (or narrower than 4) take the per-pixel path (bits 2–7 of the plane as scratch),
 //! same result, about 10× slower.
 
-use crate::refine::Difference;
+use crate::pose::refine::Difference;
 use core::ops::{Add, Range, Sub};
 
 /// Below this fraction of the part's contrast an interior pixel is taken for platform (a filled
@@ -196,10 +189,10 @@ pub const MAX_PRINT_WINDOW: usize = 64;
 /// plus an inside test against the border (and the earlier ones) for a pixel outside its band.
 ///
 /// ```
-/// use vorl_core::contour::Point;
-/// use vorl_core::partial_volume::print_deficit;
-/// use vorl_core::refine::Difference;
-/// use vorl_core::{enhance::Alpha, Frame};
+/// use vorl_core::borders::contour::Point;
+/// use vorl_core::pose::partial_volume::print_deficit;
+/// use vorl_core::pose::refine::Difference;
+/// use vorl_core::{pixels::enhance::Alpha, Frame};
 /// // A bright 20×20 part (level 200 on a platform of 100) with a 2×2 patch of platform in it.
 /// let (w, h) = (40, 40);
 /// let mut img = vec![100u8; w * h];
@@ -231,8 +224,8 @@ pub fn print_deficit<'p, B, P, K>(
 ) -> [f32; 3]
 where
     B: AsRef<[u8]>,
-    P: Iterator<Item = &'p [crate::contour::Point]> + Clone,
-    K: Iterator<Item = &'p [crate::contour::Point]> + Clone,
+    P: Iterator<Item = &'p [crate::borders::contour::Point]> + Clone,
+    K: Iterator<Item = &'p [crate::borders::contour::Point]> + Clone,
 {
     const WORDS: usize = MAX_PRINT_WINDOW * MAX_PRINT_WINDOW / 64;
     let (w, h) = (diff.width(), diff.height());
@@ -256,7 +249,7 @@ where
         }
         if wx1 + 1 - wx0 > MAX_PRINT_WINDOW || wy1 + 1 - wy0 > MAX_PRINT_WINDOW {
             // Too large to weigh pixel by pixel: its hole's pixels at its centre.
-            if let Some(hole) = crate::holes::Hole::from_border(border) {
+            if let Some(hole) = crate::pose::holes::Hole::from_border(border) {
                 let a = hole.area;
                 sums = [sums[0] + a, sums[1] + a * hole.centre[0], sums[2] + a * hole.centre[1]];
             }
@@ -268,7 +261,7 @@ where
         let mut off = [0u64; WORDS];
         let mut band = [0u64; WORDS];
         let mut taken = [0u64; WORDS];
-        let mark = |bits: &mut [u64; WORDS], p: &crate::contour::Point, reach: usize| {
+        let mark = |bits: &mut [u64; WORDS], p: &crate::borders::contour::Point, reach: usize| {
             let (px, py) = (p.x as usize, p.y as usize);
             if px + reach < wx0 || py + reach < wy0 || px > wx1 + reach || py > wy1 + reach {
                 return;
@@ -338,7 +331,7 @@ where
 }
 
 /// The box `(x0, y0, x1, y1)` (inclusive) of a border's points; `None` for no point.
-fn border_box(border: &[crate::contour::Point]) -> Option<(usize, usize, usize, usize)> {
+fn border_box(border: &[crate::borders::contour::Point]) -> Option<(usize, usize, usize, usize)> {
     let first = border.first()?;
     let (mut x0, mut y0, mut x1, mut y1) = (first.x, first.y, first.x, first.y);
     for p in border {
@@ -349,7 +342,7 @@ fn border_box(border: &[crate::contour::Point]) -> Option<(usize, usize, usize, 
 
 /// Whether `(x, y)` lies inside the closed polygon through a border's points (even-odd, a ray
 /// from `(x + ¼, y + ¼)` along +x, which passes through no point of the integer grid).
-fn inside(border: &[crate::contour::Point], x: usize, y: usize) -> bool {
+fn inside(border: &[crate::borders::contour::Point], x: usize, y: usize) -> bool {
     let (tx, ty) = (x as f32 + 0.25, y as f32 + 0.25);
     let mut crossings = false;
     let mut prev = match border.last() {
@@ -2282,7 +2275,7 @@ fn any_neighbour(mask: &[u8], w: usize, r: Rect, x: usize, y: usize, bit: u8) ->
 /// and a 9×9 window per band pixel.
 mod per_pixel {
     use super::{Rect, COMPONENT, HOLE_RATIO};
-    use crate::refine::Difference;
+    use crate::pose::refine::Difference;
 
     const GROWN: u8 = 1 << 2;
     const SHRUNK: u8 = 1 << 3;
@@ -2475,8 +2468,8 @@ mod tests {
     extern crate std;
 
     use super::*;
-    use crate::enhance::Alpha;
-    use crate::frame::Frame;
+    use crate::pixels::enhance::Alpha;
+    use crate::pixels::frame::Frame;
     use std::boxed::Box;
     use std::vec;
     use std::vec::Vec;
@@ -2837,7 +2830,7 @@ mod tests {
     /// template hole passed as keep-off is left alone.
     #[test]
     fn print_deficit_gives_the_print_back_to_the_part() {
-        use crate::contour::{trace_borders, BorderFilter, BorderKind, ContourStore};
+        use crate::borders::contour::{trace_borders, BorderFilter, BorderKind, ContourStore};
         let (w, h) = (80usize, 80usize);
         let (cx, cy, r) = (40.3f32, 39.6f32, 30.0f32);
         let (px, py, pr) = (52.0f32, 40.0f32, 5.0f32);
@@ -2901,7 +2894,7 @@ mod tests {
             print,
             core::iter::once(store.points(outer)),
         ));
-        let area = crate::holes::Hole::from_border(store.points(hole)).unwrap();
+        let area = crate::pose::holes::Hole::from_border(store.points(hole)).unwrap();
         let counted = combine([area.area, area.area * area.centre[0], area.area * area.centre[1]]);
         assert!(err(got) < 0.03, "{got:?} against {want:?}: {}", err(got));
         assert!(
@@ -3784,7 +3777,7 @@ mod tests {
 
     mod reference {
         use super::super::{any_neighbour, per_pixel, Rect, COMPONENT};
-        use crate::refine::Difference;
+        use crate::pose::refine::Difference;
 
         /// The implementation before the bit-row rewrite as the oracle: the partial-volume area
         /// centroid of the part whose border passes through `seed` (a foreground pixel), within

@@ -1,6 +1,6 @@
 //! Border following: Suzuki & Abe (1985), 8-connectivity (paper section 3.3).
 //!
-//! Input: the label plane written by [`crate::mask::foreground_mask`] (0 background, 1
+//! Input: the label plane written by [`crate::pixels::mask::foreground_mask`] (0 background, 1
 //! foreground), labelled in place as the algorithm goes: a traced border's pixels get its number
 //! `NBD`, or `−NBD` where the pixel's right neighbour is background that the trace examined.
 //! The plane is `u8`, so a label is `NBD` (2..=127) or `0x80 | NBD`; after 126 borders in one
@@ -18,7 +18,7 @@
 //! gives on the mask padded with a one-pixel zero frame (`docs/pipeline-spec.md` §4).
 //!
 //! [`trace_borders_in`] takes the mask's [`RowSpans`]
-//! ([`crate::mask::foreground_mask_spans`]): rows without foreground are not read at all, the
+//! ([`crate::pixels::mask::foreground_mask_spans`]): rows without foreground are not read at all, the
 //! others only inside their span. Labels are written only on foreground pixels, so the spans
 //! also bound them: [`clear_labels`] turns the labelled plane back into the 0/1 mask inside
 //! them only.
@@ -29,19 +29,13 @@
 //! background. A trace step reads neighbours at fixed offsets in the plane away from the
 //! image's edge, and starts its search past the neighbours the step before found background
 //! (after a step along a row or column the first two, after a diagonal one the first, when the
-//! search before passed them). On the bench set (callgrind, `vorl detect`, the 30 frames' calls
-//! with all their code) that is 0.31 M x86_64 instructions per 640×480 frame, of which the
-//! traces (`follow`) are 0.16 M; before the spans and the leaner scan and step it was 0.58 M
-//! (the traces 0.24 M; 0.71 M with the templates' traces counted in), 2.56 M with a byte-wise
-//! scan and bounds-checked neighbours. On a Cortex-M4 0.20–0.22 M per QVGA frame of four parts
-//! (QEMU; 0.28–0.31 M before the spans, 0.63–0.65 M before that). [`clear_labels`] on the bench
-//! set: 0.04 M x86_64 instructions per frame (the whole-plane pass it replaces 0.09 M); on the
-//! Cortex-M4 0.05 M (0.38 M, five instructions per byte).
+//! search before passed them). Measured
+//! figures: `docs/performance.md`.
 //! Memory: `4·P` bytes of points and a small record per border in the store; 128 border records
 //! on the stack while tracing.
 
 use crate::error::{Error, Result};
-use crate::mask::RowSpans;
+use crate::pixels::mask::RowSpans;
 
 /// A border pixel (pixel-centre coordinates).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -237,7 +231,7 @@ fn label_abs(v: u8) -> u8 {
 /// that pass `filter` in `store` (which is cleared first).
 ///
 /// ```
-/// use vorl_core::contour::{trace_borders, BorderFilter, BorderKind, ContourStore, Point};
+/// use vorl_core::borders::contour::{trace_borders, BorderFilter, BorderKind, ContourStore, Point};
 /// // A 2×2 square in a 4×4 image.
 /// let mut plane = [0u8; 16];
 /// for (x, y) in [(1, 1), (2, 1), (1, 2), (2, 2)] { plane[y * 4 + x] = 1; }
@@ -264,13 +258,13 @@ pub fn trace_borders<const P: usize, const C: usize>(
 }
 
 /// [`trace_borders`] scanning each row only inside its span of `spans`
-/// ([`crate::mask::foreground_mask_spans`] writes them with the mask): the plane must be 0
+/// ([`crate::pixels::mask::foreground_mask_spans`] writes them with the mask): the plane must be 0
 /// outside them. The result is [`trace_borders`]'s; only rows and columns that hold nothing
 /// are not read. Spans of another plane size count as unknown (every row scanned whole).
 ///
 /// ```
-/// use vorl_core::contour::{trace_borders, trace_borders_in, BorderFilter, ContourStore};
-/// use vorl_core::mask::RowSpans;
+/// use vorl_core::borders::contour::{trace_borders, trace_borders_in, BorderFilter, ContourStore};
+/// use vorl_core::pixels::mask::RowSpans;
 /// let mut plane = [0u8; 16];
 /// for (x, y) in [(1, 1), (2, 1), (1, 2), (2, 2)] { plane[y * 4 + x] = 1; }
 /// let mut again = plane;
@@ -413,8 +407,8 @@ pub fn trace_borders_in<const P: usize, const C: usize>(
 /// `labels` does not fully hold is cleared as far as it goes.
 ///
 /// ```
-/// use vorl_core::contour::{clear_labels, trace_borders_in, BorderFilter, ContourStore};
-/// use vorl_core::mask::RowSpans;
+/// use vorl_core::borders::contour::{clear_labels, trace_borders_in, BorderFilter, ContourStore};
+/// use vorl_core::pixels::mask::RowSpans;
 /// let mut plane = [0u8; 16];
 /// for (x, y) in [(1, 1), (2, 1), (1, 2), (2, 2)] { plane[y * 4 + x] = 1; }
 /// let mask = plane;
@@ -439,7 +433,7 @@ pub fn clear_labels(labels: &mut [u8], width: usize, height: usize, spans: &RowS
 /// time in a `u32` elsewhere (`(x & 0x7F) + 0x7F | x` reaches bit 7 exactly when `x ≠ 0`).
 #[inline]
 fn binarize(r: &mut [u8]) {
-    binarize_form::<{ crate::mask::BYTE_SIMD }>(r);
+    binarize_form::<{ crate::pixels::mask::BYTE_SIMD }>(r);
 }
 
 /// [`binarize`] as a byte loop (`SIMD`) or four bytes at a time (the Cortex-M4's form).

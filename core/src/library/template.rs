@@ -10,15 +10,15 @@
 //! tolerance included
 //! (see `vorl budget`).
 
-use crate::contour::{trace_borders, BorderFilter, ContourStore, Point};
-use crate::descriptor::describe;
+use crate::borders::contour::{trace_borders, BorderFilter, ContourStore, Point};
+use crate::borders::resample::resample;
 use crate::error::{Error, Result};
-use crate::frame::Frame;
-use crate::holes::{Holes, MIN_HOLE_FRACTION};
 use crate::math;
 use crate::params::Params;
+use crate::pixels::frame::Frame;
 use crate::pose::area_centroid;
-use crate::resample::resample;
+use crate::pose::holes::{Holes, MIN_HOLE_FRACTION};
+use crate::shape::descriptor::describe;
 
 /// [`Template::mirror_gap`] from which a template is chiral (its mirror image fits no turn of
 /// it): 2 % of its size. Resampling and the pixel grid leave up to about 1 % of an exact
@@ -47,7 +47,7 @@ pub struct Template<const M: usize> {
     m: usize,
     points: [[f32; 2]; M],
     descriptor: [f32; M],
-    /// The descriptor values in ascending order (for [`crate::matching::sorted_lower_bound`]).
+    /// The descriptor values in ascending order (for [`crate::shape::matching::sorted_lower_bound`]).
     sorted: [f32; M],
     centroid: [f32; 2],
     area_centroid: [f32; 2],
@@ -66,7 +66,7 @@ pub struct Template<const M: usize> {
     /// edge itself, over [`Self::size`] (0 for a part with a mirror axis): see
     /// [`Self::mirror_gap`].
     mirror_gap: f32,
-    /// The same over the nearest [`crate::recognizer::VERIFY_KEPT`] of the points: see
+    /// The same over the nearest [`crate::pose::refine::VERIFY_KEPT`] of the points: see
     /// [`Self::mirror_score`].
     mirror_score: f32,
     /// The silhouette's holes, centres as offsets from `area_centroid`.
@@ -177,7 +177,7 @@ impl<const M: usize> Template<M> {
         for k in 0..m {
             let points = self.points.get(..m).unwrap_or(&[]);
             let Some(p) = points.get(k).copied() else { continue };
-            let n = crate::refine::outward_normal(points, k, counter_clockwise_on_screen).unwrap_or([0.0, 0.0]);
+            let n = crate::pose::refine::outward_normal(points, k, counter_clockwise_on_screen).unwrap_or([0.0, 0.0]);
             let u = crossing(p, n).unwrap_or(0.5);
             if let (Some(e), Some(nn)) = (self.edge.get_mut(k), self.normals.get_mut(k)) {
                 *e = [p[0] + u * n[0] - ac[0], p[1] + u * n[1] - ac[1]];
@@ -196,7 +196,7 @@ impl<const M: usize> Template<M> {
             self.half_turn = f32::INFINITY;
             return;
         }
-        let outline = crate::refine::Outline::new(edge);
+        let outline = crate::pose::refine::Outline::new(edge);
         let cap = size;
         let sum: f32 = edge.iter().map(|e| outline.capped_distance([-e[0], -e[1]], cap)).sum();
         self.half_turn = sum / edge.len() as f32 / size;
@@ -211,7 +211,7 @@ impl<const M: usize> Template<M> {
             self.mirror_score = 0.0;
             return;
         }
-        let outline = crate::refine::Outline::new(edge);
+        let outline = crate::pose::refine::Outline::new(edge);
         // Mean capped distance of the mirrored edge turned by `theta`.
         let gap = |theta: f32| -> f32 {
             let (s, c) = math::sin_cos(theta);
@@ -296,14 +296,14 @@ impl<const M: usize> Template<M> {
             *d = outline.capped_distance([f[0] * c + f[1] * s, -f[0] * s + f[1] * c], size);
         }
         let kept = distances.get_mut(..count).unwrap_or(&mut []);
-        crate::matching::sort_total(kept);
-        let keep = ((count as f32 * crate::recognizer::VERIFY_KEPT) as usize).clamp(1, count.max(1));
+        crate::shape::matching::sort_total(kept);
+        let keep = ((count as f32 * crate::pose::refine::VERIFY_KEPT) as usize).clamp(1, count.max(1));
         let score = kept.iter().take(keep).sum::<f32>() / keep as f32 / size;
         self.mirror_score = if score.is_finite() { score } else { 0.0 };
     }
 
     /// [`Self::mirror_gap`] of the outline alone over its nearest
-    /// [`crate::recognizer::VERIFY_KEPT`] points, as the verification scores an alignment: about
+    /// [`crate::pose::refine::VERIFY_KEPT`] points, as the verification scores an alignment: about
     /// the score (over [`Self::size`]) a part lying upside down would get against this
     /// template. A part that fits the template much closer than this is not upside down.
     pub fn mirror_score(&self) -> f32 {
@@ -319,7 +319,7 @@ impl<const M: usize> Template<M> {
     /// ([`Self::is_chiral`]).
     ///
     /// ```
-    /// use vorl_core::{contour::ContourStore, Frame, Params, Template};
+    /// use vorl_core::{borders::contour::ContourStore, Frame, Params, Template};
     /// let (w, h) = (64, 64);
     /// // `inside(x, y)` drawn as a silhouette and taught.
     /// let teach = |inside: &dyn Fn(usize, usize) -> bool| {
@@ -402,7 +402,7 @@ impl<const M: usize> Template<M> {
     }
 
     /// The template's holes (the largest, each at least [`MIN_HOLE_FRACTION`] of its area),
-    /// centres as offsets from [`Self::area_centroid`] ([`crate::holes`]).
+    /// centres as offsets from [`Self::area_centroid`] ([`crate::pose::holes`]).
     pub fn holes(&self) -> &Holes {
         &self.holes
     }
@@ -444,7 +444,7 @@ impl<const M: usize> Template<M> {
     /// `labels` (`width·height` bytes) and `store` are scratch.
     ///
     /// ```
-    /// use vorl_core::{contour::ContourStore, Frame, Params, Template};
+    /// use vorl_core::{borders::contour::ContourStore, Frame, Params, Template};
     /// let (w, h) = (40, 40);
     /// let mut px = vec![0u8; w * h];
     /// for y in 10..30 { for x in 8..32 { px[y * w + x] = 255; } }
@@ -657,7 +657,7 @@ impl<const M: usize> Template<M> {
         let m = self.m.min(M);
         if let (Some(dst), Some(src)) = (self.sorted.get_mut(..m), self.descriptor.get(..m)) {
             dst.copy_from_slice(src);
-            crate::matching::sort_total(dst);
+            crate::shape::matching::sort_total(dst);
         }
     }
 

@@ -15,7 +15,7 @@
 //!
 //! (`crate::budget` has the exact formulas for any target.) Each kept outer border is a part:
 //! resampled to `n` points and described; every template is bounded by
-//! [`crate::matching::sorted_lower_bound`], and the templates are searched by the cyclic DP in
+//! [`crate::shape::matching::sorted_lower_bound`], and the templates are searched by the cyclic DP in
 //! ascending order of that bound.
 //!
 //! - With the default `refine = Verify`, each search is bounded by `candidate_ratio` (1 by
@@ -27,8 +27,8 @@
 //!   costs one search and one alignment; the further candidates are the steps towards the DP's
 //!   best, and guard the parts whose bound order the descriptor gets wrong. Before this order
 //!   the DP's three best templates were verified (an exact search of every template the bound
-//!   could not rule out): the same classes on every generated set, at 2.6 searches and 1.4
-//!   alignments per part on the bench set instead of 1.6 and 1.2 (callgrind, `vorl detect`).
+//!   could not rule out): the same classes on every generated set, at more searches and
+//!   alignments per part (`docs/performance.md`).
 //! - On the paper's path (`refine = Off`, and `Pose`) the searches are bounded by the best cost
 //!   so far until the bound rules the rest out (exact: the DP's best template, as searching
 //!   all); it is the class when `f' < ε`.
@@ -40,7 +40,7 @@
 //!   reading needs clear evidence ([`FLIP_EVIDENCE`], on the mean distance over every point);
 //!   an accepted fit that is not confident, or whose outline is off over a stretch
 //!   ([`STRETCH_OFF`]), has its other side aligned too. A part touching the frame's edge is
-//!   never matched upside down. On the bench set this costs 0.7 % more instructions; every
+//!   never matched upside down (its cost: `docs/performance.md`); every
 //!   accuracy set and the real photographs keep their classes and poses (`docs/accuracy.md`).
 //!
 //! The rotation comes from the aligned pose (or the best template's correspondence), the
@@ -49,31 +49,33 @@
 //! pose, the top face's. A border that cannot be described is reported as a [`Skip`] with the
 //! reason.
 
-use crate::arcs::ARC_ROWS;
-use crate::background::Background;
-use crate::contour::{clear_labels, trace_borders_in, BorderKind, ContourStore, TraceStats};
-use crate::descriptor::describe;
+use crate::borders::contour::{clear_labels, trace_borders_in, BorderKind, ContourStore, TraceStats};
+use crate::borders::resample::resample;
 use crate::error::{Error, Result};
-use crate::frame::Frame;
-use crate::holes::{agreement, pose_from_holes, Hole, HoleAgreement, Holes, MIN_HOLE_FRACTION};
-use crate::mask::{foreground_mask_spans, MaskStats, RowSpans};
-use crate::matching::{best_match, sorted_lower_bound, sorted_window_bound, table_cells, Match};
+use crate::library::template::Template;
+use crate::library::Library;
 use crate::math;
 use crate::params::{AngleEstimator, Params, Position, Refine};
-use crate::partial_volume::{partial_volume_moments, print_deficit, Rect};
-use crate::pose::{angle_paper, angle_signed_refined, area_centroid};
-use crate::refine::{
+use crate::pixels::background::Background;
+use crate::pixels::frame::Frame;
+use crate::pixels::mask::{foreground_mask_spans, MaskStats, RowSpans};
+use crate::pose::holes::{agreement, pose_from_holes, Hole, HoleAgreement, Holes, MIN_HOLE_FRACTION};
+use crate::pose::partial_volume::{partial_volume_moments, print_deficit, Rect};
+use crate::pose::refine::{
     align_recording, edge_distances_walled, outward_normal, wall_facing, Alignment, Difference, Outline, Pose,
     RefineParams,
 };
-use crate::resample::resample;
-use crate::split::BLOB_POINTS;
-use crate::template::Template;
+use crate::pose::{angle_paper, angle_signed_refined, area_centroid};
+use crate::recognizer::split::BLOB_POINTS;
+use crate::shape::arcs::ARC_ROWS;
+use crate::shape::descriptor::describe;
+use crate::shape::matching::{best_match, sorted_lower_bound, sorted_window_bound, table_cells, Match};
+
+pub mod split;
 
 /// Most detections reported for one frame.
 pub const MAX_DETECTIONS: usize = 32;
-/// Most DP candidates a part is verified against ([`Params::candidates`]).
-pub const MAX_CANDIDATES: usize = 8;
+pub use crate::params::MAX_CANDIDATES;
 /// Most skips reported for one frame (more are counted in [`Report::skips_lost`]).
 pub const MAX_SKIPS: usize = 16;
 
@@ -115,7 +117,7 @@ pub struct Detection {
     /// outline lies in the frame ([`Pose::apply`] on [`Template::edge`]).
     pub pose: Option<Pose>,
     /// How many of [`Self::best_template`]'s holes the part shows where the aligned pose puts
-    /// them ([`crate::holes`]; zero expected when not aligned or the template has none).
+    /// them ([`crate::pose::holes`]; zero expected when not aligned or the template has none).
     pub holes: HoleAgreement,
     /// Index of the part's border in the recognizer's contour store (for a part found by the
     /// partial search: its blob's border, which it shares with the blob's other parts).
@@ -136,13 +138,13 @@ pub struct Detection {
     /// (whether or not it came in), saturating at 255. The work the part took: 1 for a part
     /// settled by its first candidate, more for a near miss or an unknown part near some
     /// template ([`UNVERIFIED_FAMILY`]). For a part found by the partial search
-    /// ([`crate::split`]): the templates whose arcs were searched.
+    /// ([`crate::recognizer::split`]): the templates whose arcs were searched.
     pub searches: u8,
     /// Found in a blob that held other parts too (touching or overlapping another part, or
-    /// beside a rest no template explains): by the partial search ([`crate::split`]).
+    /// beside a rest no template explains): by the partial search ([`crate::recognizer::split`]).
     pub touching: bool,
     /// The share of the template's edge points that the image confirms (1 for a part matched
-    /// whole; 0 for the unexplained rest of a blob). See [`crate::split`].
+    /// whole; 0 for the unexplained rest of a blob). See [`crate::recognizer::split`].
     pub visible_fraction: f32,
     /// The position is the aligned template's ([`Pose::apply`] on its position offset), not
     /// the silhouette's centroid: a part found by the partial search, whose silhouette is not
@@ -200,7 +202,7 @@ pub struct Report {
     /// The border stage's figures (dropped, subsampled and skipped borders are counted here).
     pub trace: TraceStats,
     /// Blobs whose whole-border match failed and that were too long for the partial search
-    /// ([`crate::split::BLOB_POINTS`]): reported whole, as unknown parts.
+    /// ([`crate::recognizer::split::BLOB_POINTS`]): reported whole, as unknown parts.
     pub unsplit: usize,
 }
 
@@ -222,7 +224,7 @@ impl Report {
 /// The recognizer: parameters, template library and working buffers of fixed capacity.
 ///
 /// ```
-/// use vorl_core::{background::Background, Frame, Params, Recognizer};
+/// use vorl_core::{pixels::background::Background, Frame, Params, Recognizer};
 /// // A 60×40 platform (grey 100) with a dark 16×10 bar, taught as template 0.
 /// let (w, h) = (60, 40);
 /// let bg_px = vec![100u8; w * h];
@@ -255,13 +257,13 @@ pub struct Recognizer<const T: usize, const M: usize, const P: usize, const C: u
     /// matched against it.
     mirror: Template<M>,
     mirror_of: Option<u16>,
-    /// The partial search's blob border at a template's step ([`crate::split`]).
+    /// The partial search's blob border at a template's step ([`crate::recognizer::split`]).
     pub(crate) arc_points: [[f32; 2]; BLOB_POINTS],
     /// Its turning angles (and, after the search, marks of the explained points).
     pub(crate) arc_turning: [f32; BLOB_POINTS],
     /// A template's turning angles.
     pub(crate) arc_template: [f32; M],
-    /// The partial DP's rows ([`crate::arcs::ARC_ROWS`] of `M` cells and one for the pads).
+    /// The partial DP's rows ([`crate::shape::arcs::ARC_ROWS`] of `M` cells and one for the pads).
     pub(crate) arc_rows: [[f32; M]; ARC_ROWS + 1],
 }
 
@@ -345,6 +347,31 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         Ok(index)
     }
 
+    /// Replaces the templates by `library`'s: its `n`, `m`, `k`, `ω` are set from the library
+    /// (the other parameters are kept), then every template is added in order, so template
+    /// index `i` is the library's record `i`. Returns the number of templates.
+    ///
+    /// # Errors
+    /// [`Self::set_params`]'s errors (e.g. `m > M` or a DP table larger than `D`),
+    /// [`Error::Capacity`] when the library holds more than `T` templates; a record that does
+    /// not read as a template ([`Library::template`]).
+    pub fn load_library(&mut self, library: &Library<'_>) -> Result<usize> {
+        let count = library.len();
+        if count > T {
+            return Err(Error::Capacity {
+                what: "templates T",
+                capacity: T,
+                requested: count,
+            });
+        }
+        self.set_params(library.params(self.params))?;
+        self.clear_templates();
+        for i in 0..count {
+            self.add_template(library.template::<M>(i)?)?;
+        }
+        Ok(count)
+    }
+
     /// Teaches the part in a silhouette image (part > 127) as a new template; `labels` is
     /// scratch of the silhouette's size.
     ///
@@ -359,7 +386,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
     ///
     /// # Errors
     /// [`Error::Capacity`] for an index past the last template; [`Template::set_tolerance`]'s.
-    pub fn set_tolerance(&mut self, index: usize, tolerance: crate::template::Tolerance) -> Result<()> {
+    pub fn set_tolerance(&mut self, index: usize, tolerance: crate::library::template::Tolerance) -> Result<()> {
         let count = self.templates.len();
         self.mirror_of = None;
         self.templates
@@ -1067,7 +1094,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             return scan;
         };
         sorted.copy_from_slice(part);
-        crate::matching::sort_total(sorted);
+        crate::shape::matching::sort_total(sorted);
         for ((t, w), state) in self
             .templates
             .iter()
@@ -1677,8 +1704,7 @@ pub const WALL_FACTOR: f32 = 4.0;
 /// A fitted wall above this (px) makes the part's position its pose's (its top face's).
 pub const WALL_SIGNIFICANT: f32 = 0.5;
 
-/// The fraction of each side's points that the verification score averages (the nearest).
-pub const VERIFY_KEPT: f32 = 0.8;
+pub use crate::pose::refine::VERIFY_KEPT;
 
 /// [`Template::half_turn`] below which the outline counts as nearly 2-fold: the DP's
 /// correspondence may then be half a turn off, and both are aligned.
@@ -1709,8 +1735,8 @@ pub const FALLBACK_RATIO: f32 = 3.0;
 /// decision would call the part unknown twice over). On every set measured such parts were
 /// distractors, which the scan would otherwise search against two or three more templates and
 /// align on each, none verifying. Measured over every generated set and the real photos
-/// (`docs/accuracy.md`): no classification or rejection changes, the bench set's
-/// `Engine::detect` goes from 174.1 to 158.8 M instructions (−9 %).
+/// (`docs/accuracy.md`): no classification or rejection changes, and about a tenth of the bench
+/// set's instructions saved (`docs/performance.md`).
 pub const UNVERIFIED_FAMILY: f32 = 2.0;
 
 /// A candidate whose score is below this fraction of its limit (with its holes found, and no
@@ -1733,7 +1759,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::matching::{best_cost, match_at_start};
+    use crate::shape::matching::{best_cost, match_at_start};
     extern crate std;
 
     /// After `process` the label plane holds the 0/1 mask, the same as [`foreground_mask`]'s,
@@ -1741,7 +1767,7 @@ mod tests {
     /// borders) and whatever the plane held before.
     #[test]
     fn process_leaves_the_foreground_mask_in_the_label_plane() {
-        use crate::mask::foreground_mask;
+        use crate::pixels::mask::foreground_mask;
         let mut rng = crate::test_rng::XorShiftStar(0x1abe1);
         for case in 0..40 {
             let (w, h) = ([97usize, 160, 64, 33][case % 4], [61usize, 40, 70, 90][case % 4]);
@@ -2050,7 +2076,7 @@ mod tests {
 
     /// The partial search's defined results on hard blobs, never a panic or an endless search:
     /// - a heap (60 Ls and Ts in a chain, one blob whose border is longer than
-    ///   [`crate::split::BLOB_POINTS`] points at the templates' step) is not searched: it stays
+    ///   [`crate::recognizer::split::BLOB_POINTS`] points at the templates' step) is not searched: it stays
     ///   one unknown part and [`Report::unsplit`] counts it;
     /// - two Ls lying almost wholly over one another (neither shows half its border) are one
     ///   part, named or not, never two;

@@ -8,8 +8,8 @@
 //! Time: one Sobel (8 loads, one `sqrt`) per pixel; with `α = 1` the gradient is skipped and
 //! `I' = I`. Memory: none beyond the caller's output row.
 
-use crate::frame::Frame;
 use crate::math;
+use crate::pixels::frame::Frame;
 
 /// `1 / (4·√2)`: Sobel magnitude into the intensity range.
 const GRADIENT_SCALE: f32 = 0.176_776_69;
@@ -41,7 +41,7 @@ impl Alpha {
 /// receives only its first `out.len()` pixels).
 ///
 /// ```
-/// use vorl_core::{enhance::{enhance_row, Alpha}, Frame};
+/// use vorl_core::{pixels::enhance::{enhance_row, Alpha}, Frame};
 /// // A vertical step edge from 0 to 100.
 /// let px = [0u8, 0, 100, 100, 0, 0, 100, 100, 0, 0, 100, 100];
 /// let frame = Frame::new_checked(&px[..], 4, 3).unwrap();

@@ -14,13 +14,13 @@
 //!
 //! Memory: `width·height` bytes (plus the borrowed high-byte plane while learning).
 
-use crate::enhance::{enhance_row, enhance_span, Alpha};
+use crate::pixels::enhance::{enhance_row, enhance_span, Alpha};
 
 /// Pixels of `I'` computed at a time on the stack while learning or updating.
 const CHUNK: usize = 64;
 use crate::error::{Error, Result};
-use crate::exposure::{fit_exposure_rounds, Exposure};
-use crate::frame::Frame;
+use crate::pixels::exposure::{fit_exposure_rounds, Exposure};
+use crate::pixels::frame::Frame;
 
 /// The largest number of frames [`Background::learn`] averages (the 16-bit sum of 255 frames of
 /// 255 still fits).
@@ -46,7 +46,7 @@ pub struct PlatformKeeping {
     pub every: u32,
     served: u32,
     spread: f32,
-    stats: crate::platform::PlatformStats,
+    stats: crate::pixels::platform::PlatformStats,
 }
 
 impl PlatformKeeping {
@@ -56,7 +56,7 @@ impl PlatformKeeping {
             every: if every == 0 { 1 } else { every },
             served: 0,
             spread: 0.0,
-            stats: crate::platform::PlatformStats {
+            stats: crate::pixels::platform::PlatformStats {
                 cell: 0,
                 cells_x: 0,
                 cells_y: 0,
@@ -79,11 +79,11 @@ impl PlatformKeeping {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum PlatformUse {
     /// The platform was estimated from this frame.
-    Estimated(crate::platform::PlatformStats),
+    Estimated(crate::pixels::platform::PlatformStats),
     /// An earlier estimate served.
     Kept {
         /// That estimate's figures.
-        stats: crate::platform::PlatformStats,
+        stats: crate::pixels::platform::PlatformStats,
         /// How many frames before this one it was made.
         frames_ago: u32,
         /// This frame's exposure against it (the identity, or it would not have been kept).
@@ -93,7 +93,7 @@ pub enum PlatformUse {
 
 impl PlatformUse {
     /// The figures of the estimate in use.
-    pub fn stats(&self) -> crate::platform::PlatformStats {
+    pub fn stats(&self) -> crate::pixels::platform::PlatformStats {
         match self {
             PlatformUse::Estimated(s) | PlatformUse::Kept { stats: s, .. } => *s,
         }
@@ -103,7 +103,7 @@ impl PlatformUse {
 /// The learned background over a caller-provided plane of `width·height` bytes.
 ///
 /// ```
-/// use vorl_core::{background::Background, enhance::Alpha, Frame};
+/// use vorl_core::{pixels::background::Background, pixels::enhance::Alpha, Frame};
 /// let a = Alpha::new(1.0).unwrap();
 /// let mut plane = [0u8; 4];
 /// let mut high = [0u8; 4];
@@ -274,19 +274,19 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Background<S> {
     }
 
     /// No empty shot: the model becomes the platform estimated from this frame itself
-    /// ([`crate::platform::estimate_platform`]: vignetting, fall-off and exposure are the
+    /// ([`crate::pixels::platform::estimate_platform`]: vignetting, fall-off and exposure are the
     /// frame's own), with `grid` as storage. Call it for every frame before processing it.
     ///
     /// # Errors
-    /// [`Error::FrameSize`]; [`crate::platform::estimate_platform`]'s errors.
+    /// [`Error::FrameSize`]; [`crate::pixels::platform::estimate_platform`]'s errors.
     pub fn estimate_from_frame<B: AsRef<[u8]>, const G: usize>(
         &mut self,
         frame: &Frame<B>,
         alpha: Alpha,
-        grid: &mut crate::platform::PlatformGrid<G>,
-    ) -> Result<crate::platform::PlatformStats> {
+        grid: &mut crate::pixels::platform::PlatformGrid<G>,
+    ) -> Result<crate::pixels::platform::PlatformStats> {
         self.check(frame)?;
-        let stats = crate::platform::estimate_platform(frame, alpha, self.plane.as_mut(), grid)?;
+        let stats = crate::pixels::platform::estimate_platform(frame, alpha, self.plane.as_mut(), grid)?;
         self.learned = 0;
         self.ready = true;
         Ok(stats)
@@ -299,20 +299,20 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Background<S> {
     ///
     /// The earlier estimate is kept when all of these hold:
     /// - it has served fewer than [`PlatformKeeping::every`] frames;
-    /// - this frame's exposure against it ([`crate::exposure::fit_exposure_rounds`] with
+    /// - this frame's exposure against it ([`crate::pixels::exposure::fit_exposure_rounds`] with
     ///   [`KEEP_ROUNDS`]) is the identity: no level of the
-    ///   platform moved by more than [`crate::exposure::DEAD_BAND`] (a new exposure, a
+    ///   platform moved by more than [`crate::pixels::exposure::DEAD_BAND`] (a new exposure, a
     ///   dimmed backlight: estimated anew, so the frame gives what its own estimate would);
-    /// - enough samples agree with it ([`crate::exposure::MIN_SAMPLES`]);
+    /// - enough samples agree with it ([`crate::pixels::exposure::MIN_SAMPLES`]);
     /// - their spread ([`Exposure::spread`]) is at most [`KEEP_SPREAD`] grey levels above that
     ///   of the estimate's own frame (light that changed in places, a moved camera).
     ///
     /// A kept frame costs one exposure check (the median offset and one round of least squares
-    /// on at most [`crate::exposure::MAX_SAMPLES`] samples) instead of the estimate and its
+    /// on at most [`crate::pixels::exposure::MAX_SAMPLES`] samples) instead of the estimate and its
     /// plane; an estimated one costs the estimate and one check more (its own spread).
     ///
     /// ```
-    /// use vorl_core::{background::{Background, PlatformKeeping, PlatformUse}, enhance::Alpha, platform::PlatformGrid, Frame};
+    /// use vorl_core::{pixels::background::{Background, PlatformKeeping, PlatformUse}, pixels::enhance::Alpha, pixels::platform::PlatformGrid, Frame};
     /// let (w, h) = (64usize, 48usize);
     /// // A backlight falling off to the right, a little noise, and a dark part that moves.
     /// let scene = |x0: usize| -> Vec<u8> {
@@ -345,7 +345,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Background<S> {
         &mut self,
         frame: &Frame<B>,
         alpha: Alpha,
-        grid: &mut crate::platform::PlatformGrid<G>,
+        grid: &mut crate::pixels::platform::PlatformGrid<G>,
         keeping: &mut PlatformKeeping,
     ) -> Result<PlatformUse> {
         self.check(frame)?;
@@ -353,7 +353,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Background<S> {
             let e = fit_exposure_rounds(frame, alpha, self.plane.as_ref(), KEEP_ROUNDS)?;
             let fits = e.is_identity()
                 && e.samples > 0
-                && e.inliers >= crate::exposure::MIN_SAMPLES
+                && e.inliers >= crate::pixels::exposure::MIN_SAMPLES
                 && e.spread <= keeping.spread + KEEP_SPREAD;
             if fits {
                 let frames_ago = keeping.served;

@@ -85,17 +85,8 @@
 //! (to bound halves) nor reported (a winner, when the correspondence is asked for) record no
 //! bits.
 //!
-//! **Cost.** The 159 searches `vorl detect` runs on the bench set (n = 64, m = 96, the
-//! recognizer's bounds; 102 of them unbounded) take 51.3 M x86_64 instructions (callgrind;
-//! 80.5 M row by row), 1.71 M of the core's 5.19 M per frame; a part against its own template costs
-//! 0.27 M (0.44 M row by row), against another template unbounded 0.67 M (0.93 M); the results
-//! are identical. On the Cortex-M4 (QEMU) the same 159 searches take 101.7 M instructions
-//! (119.3 M row by row). Row by row, a search paid about 180 instructions per band row besides
-//! its cells (≈ 1300 band rows a search, the deep levels' bands a few cells wide); by columns
-//! the host pays about 20–45 a column and 13–21 for four cells (with records: more), a chain row
-//! about 15. Before: 177 M for 269 searches (an older recognizer), 224 M before the band rows
-//! were streamlined and 270 M before paths and records were kept as bit patterns (the
-//! Cortex-M4's frame counts: `docs/firmware.md`).
+//! **Cost.** A search visits `O(n·m·log m)` cells (each bounded or relaxed DP a band of them);
+//! what that comes to on the bench set and on the Cortex-M4 is in `docs/performance.md`.
 //!
 //! **Rounding.** The lemma holds in exact arithmetic. Each DP is exact in `f32` too — a rounded
 //! sum is monotone in each term, so a DP returns the least rounded path total of its region —
@@ -127,8 +118,8 @@
 //! backtrack; the optimum is the same either way (up to the rounding above). The recursion is
 //! `⌈log2 m⌉` calls deep (about 130 bytes of stack each on a Cortex-M4).
 
+use crate::borders::resample::check_counts;
 use crate::error::{Error, Result};
-use crate::resample::check_counts;
 
 /// Cells of the backtracking table for `n` part and `m` template points: `n·(m − n + 1)`
 /// (`usize::MAX` where that overflows: no buffer holds it).
@@ -256,7 +247,7 @@ pub fn best_cost(part: &[f32], template: &[f32], bound: f32, row: &mut [f32]) ->
 /// same additions on the same values and give the same bits.
 ///
 /// ```
-/// use vorl_core::matching::{best_cost, sorted_lower_bound};
+/// use vorl_core::shape::matching::{best_cost, sorted_lower_bound};
 /// let template = [0.0f32, 3.0, 1.0, 4.0, 2.0, 5.0];
 /// let part = [5.0f32, 0.5, 3.0, 1.0];
 /// let (mut ts, mut ps) = (template, part);
@@ -364,7 +355,7 @@ fn sorted_columns(part: &[f32], template: &[f32], bound: f32, buf: &mut [f32]) -
 /// part's without their `n·(m − n + 1)` DP. `None` when `n ≤ m < 2n` fails.
 ///
 /// ```
-/// use vorl_core::matching::{sorted_lower_bound, sorted_window_bound};
+/// use vorl_core::shape::matching::{sorted_lower_bound, sorted_window_bound};
 /// let part = [0.5f32, 1.0, 3.0, 5.0];
 /// let template = [0.0f32, 1.0, 2.0, 3.0, 4.0, 4.0];
 /// let window = sorted_window_bound(&part, &template).unwrap();
@@ -393,7 +384,7 @@ pub fn sorted_window_bound(part: &[f32], template: &[f32]) -> Option<f32> {
 /// [`table_cells`]`(n, m)` cells.
 ///
 /// ```
-/// use vorl_core::matching::{best_cost, match_at_start};
+/// use vorl_core::shape::matching::{best_cost, match_at_start};
 /// let template = [0.0f32, 1.0, 2.0, 3.0, 4.0, 5.0];
 /// let part = [2.0f32, 3.0, 5.0, 0.0];
 /// let mut table = [0.0f32; 12];
@@ -550,7 +541,7 @@ fn lesser(acc: f32, v: f32) -> f32 {
 /// otherwise the plain DP runs and the table is refilled for the winning start.
 ///
 /// ```
-/// use vorl_core::matching::{match_with_assignment, table_cells};
+/// use vorl_core::shape::matching::{match_with_assignment, table_cells};
 /// let template = [0.0f32, 1.0, 2.0, 3.0, 4.0, 5.0];
 /// let part = [2.0f32, 3.0, 5.0, 0.0]; // starts at template point 2, skips point 4 and 1
 /// let mut table = [0.0f32; 12];
@@ -580,7 +571,7 @@ pub fn match_with_assignment(
 /// it. `table` needs [`table_cells`]`(n, m)` cells (as [`match_with_assignment`]).
 ///
 /// ```
-/// use vorl_core::matching::{best_cost, best_match, table_cells};
+/// use vorl_core::shape::matching::{best_cost, best_match, table_cells};
 /// let template = [0.0f32, 1.0, 2.0, 3.0, 4.0, 5.0];
 /// let part = [2.0f32, 3.0, 5.0, 0.0];
 /// let mut table = [0.0f32; 12];
@@ -1334,13 +1325,13 @@ impl Cell {
 }
 
 #[cfg(test)]
-#[path = "matching_spec.rs"]
 mod spec;
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::descriptor::{describe, scaled_k, DescriptorParams};
+    use crate::shape::descriptor::{describe, scaled_k, DescriptorParams};
+    use crate::test_support::{descriptors, outline, sample};
     extern crate std;
     use std::vec;
     use std::vec::Vec;
@@ -1587,72 +1578,6 @@ mod tests {
             let template = values(&mut rng, 384, kind);
             compare(&part, &template, kind != 0);
         }
-    }
-
-    /// The benchmark's wrench-like outline.
-    fn outline(deg: f32) -> Vec<[f32; 2]> {
-        let v: [[f32; 2]; 12] = [
-            [-60.0, -8.0],
-            [20.0, -8.0],
-            [30.0, -22.0],
-            [52.0, -22.0],
-            [44.0, -8.0],
-            [44.0, 8.0],
-            [52.0, 22.0],
-            [30.0, 22.0],
-            [20.0, 8.0],
-            [-60.0, 8.0],
-            [-66.0, 0.0],
-            [-64.0, -4.0],
-        ];
-        let (s, c) = (deg.to_radians().sin(), deg.to_radians().cos());
-        v.iter().map(|p| [p[0] * c + p[1] * s, -p[0] * s + p[1] * c]).collect()
-    }
-    /// `count` points evenly spaced along a closed polygon.
-    fn sample(poly: &[[f32; 2]], count: usize, offset: f32) -> Vec<[f32; 2]> {
-        let n = poly.len();
-        let seg = |i: usize| {
-            let (a, b) = (poly[i % n], poly[(i + 1) % n]);
-            ((b[0] - a[0]).hypot(b[1] - a[1]), a, b)
-        };
-        let perimeter: f32 = (0..n).map(|i| seg(i).0).sum();
-        let step = perimeter / count as f32;
-        (0..count)
-            .map(|k| {
-                let mut s = (k as f32 + offset) * step;
-                let mut i = 0;
-                loop {
-                    let (len, a, b) = seg(i);
-                    if s <= len || i >= 4 * n {
-                        let t = if len > 0.0 { (s / len).min(1.0) } else { 0.0 };
-                        return [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
-                    }
-                    s -= len;
-                    i += 1;
-                }
-            })
-            .collect()
-    }
-    /// The benchmark's descriptors (`core/benches/common.rs`), the part's points rotated by
-    /// `shift`.
-    fn descriptors(n: usize, m: usize, deg: f32, shift: usize) -> (Vec<f32>, Vec<f32>) {
-        let k = (n / 16).max(1);
-        let mut part_pts = sample(&outline(deg), n, 0.3);
-        part_pts.rotate_left(shift % n);
-        let tpl_pts = sample(&outline(0.0), m, 0.0);
-        let mut part = vec![0.0; n];
-        let mut tpl = vec![0.0; m];
-        describe(&part_pts, DescriptorParams { k, omega: 0.5 }, &mut part).unwrap();
-        describe(
-            &tpl_pts,
-            DescriptorParams {
-                k: scaled_k(k, n, m),
-                omega: 0.5,
-            },
-            &mut tpl,
-        )
-        .unwrap();
-        (part, tpl)
     }
 
     /// The least left-to-right `f32` total over every start and every `δ` sequence.

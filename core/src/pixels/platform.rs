@@ -39,9 +39,9 @@
 //! [`PlatformGrid`] (`9·G` bytes), a 512-byte histogram and a table of the plane's segments on
 //! the stack.
 
-use crate::enhance::{enhance_span, Alpha};
 use crate::error::{Error, Result};
-use crate::frame::Frame;
+use crate::pixels::enhance::{enhance_span, Alpha};
+use crate::pixels::frame::Frame;
 
 /// Smallest cell side, px.
 pub const MIN_CELL: usize = 16;
@@ -74,7 +74,7 @@ const FILLED: u8 = 3;
 /// Storage of the platform estimate: up to `G` cells.
 ///
 /// ```
-/// use vorl_core::platform::PlatformGrid;
+/// use vorl_core::pixels::platform::PlatformGrid;
 /// let grid = PlatformGrid::<512>::new();
 /// assert_eq!(PlatformGrid::<512>::BYTES, 9 * 512);
 /// # let _ = grid;
@@ -169,7 +169,7 @@ fn math_sqrt_ratio(n: usize, cells: usize) -> f32 {
 /// (`width·height` bytes, row-major), using `grid` as storage. See the module doc.
 ///
 /// ```
-/// use vorl_core::{enhance::Alpha, platform::{estimate_platform, PlatformGrid}, Frame};
+/// use vorl_core::{pixels::enhance::Alpha, pixels::platform::{estimate_platform, PlatformGrid}, Frame};
 /// // A 64×48 backlight falling off from 240 (left) to 200 (right), with a dark 20×12 bar.
 /// let (w, h) = (64, 48);
 /// let mut px = vec![0u8; w * h];

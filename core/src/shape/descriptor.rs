@@ -42,7 +42,7 @@ pub fn scaled_k(k: usize, n: usize, points: usize) -> usize {
 /// Writes `c_i` for the resampled points into `out` (same length) and returns the centroid.
 ///
 /// ```
-/// use vorl_core::descriptor::{describe, DescriptorParams};
+/// use vorl_core::shape::descriptor::{describe, DescriptorParams};
 /// // A regular 16-gon: every point looks the same, so every c_i is 1.
 /// let pts: Vec<[f32; 2]> = (0..16)
 ///     .map(|i| { let t = i as f32 * core::f32::consts::PI / 8.0; [10.0 * t.cos(), 10.0 * t.sin()] })

@@ -9,13 +9,13 @@
 //!
 //! **Hypotheses.** Each template that fits in the blob (its area at the least scale, plus half
 //! the smallest template's inside the frame) is matched against arcs of the blob's border
-//! ([`crate::arcs`]: the paper's order-preserving DP, open instead of cyclic, on turning
+//! ([`crate::shape::arcs`]: the paper's order-preserving DP, open instead of cyclic, on turning
 //! angles, at every [`STRIDE`]-th template point and the border at that step). Each of the
 //! best runs ([`RUNS_PER_TEMPLATE`] of a template, [`MAX_HYPOTHESES`] over all) seeds a pose:
 //! the similarity that maps the run's template points onto its border points (least squares).
 //!
 //! **Fits.** The template is aligned on the frame from there as a whole part is
-//! ([`crate::refine`], up to [`PARTIAL_ITERATIONS`] steps), and verified on the **visible edge
+//! ([`crate::pose::refine`], up to [`PARTIAL_ITERATIONS`] steps), and verified on the **visible edge
 //! only**: the share of its edge points whose profile finds the part's edge within
 //! [`CONFIRM_PX`] (scaled as the verification's limit) is its `visible_fraction`, and the mean
 //! distance over those is its score; only the edge points that the pose puts inside the frame,
@@ -57,17 +57,17 @@
 //! [`MAX_HYPOTHESES`] alignments run a round, two rounds a blob, and at most
 //! [`MAX_BLOB_PARTS`] parts come out of one. Memory: the recognizer's `arc_points` and
 //! `arc_turning` ([`BLOB_POINTS`] each), `arc_template` (`M`) and `arc_rows`
-//! (`(`[`crate::arcs::ARC_ROWS`]` + 1)·M`), counted by `vorl budget`; the search runs out of
+//! (`(`[`crate::shape::arcs::ARC_ROWS`]` + 1)·M`), counted by `vorl budget`; the search runs out of
 //! line, so its locals take stack only while it runs.
 
-use crate::arcs::{best_arcs, turning, ArcMatch, ArcParams};
-use crate::frame::Frame;
-use crate::holes::{agreement, HoleAgreement, Holes};
+use crate::borders::resample::resample;
+use crate::library::template::Template;
 use crate::math;
+use crate::pixels::frame::Frame;
+use crate::pose::holes::{agreement, HoleAgreement, Holes};
+use crate::pose::refine::{align_recording, edge_distances, Difference, Outline, Pose, RefineParams};
 use crate::recognizer::{Detection, Recognizer, Report, SkipReason, NEAR_MISS};
-use crate::refine::{align_recording, edge_distances, Difference, Outline, Pose, RefineParams};
-use crate::resample::resample;
-use crate::template::Template;
+use crate::shape::arcs::{best_arcs, turning, ArcMatch, ArcParams};
 
 /// Most points of a blob's border at a template's step: a longer blob is not searched.
 pub const BLOB_POINTS: usize = 512;

@@ -1,0 +1,15 @@
+//! Pixels to mask: the first stage of the data flow (paper §3.1–3.2). A gray frame
+//! ([`frame`]) is edge-enhanced ([`enhance`], eq. 3.1), compared with the platform it lies on
+//! — the mean of empty shots ([`background`], eq. 3.2) or, without one, the platform estimated
+//! from the frame itself ([`platform`]) with its exposure fitted to it ([`exposure`]) — and
+//! thresholded into the foreground mask ([`mask`]) that the border stage follows.
+//!
+//! Everything here works row by row over caller-owned planes of the frame's size: no
+//! allocation, `O(width·height)` time, a few hundred bytes of stack.
+
+pub mod background;
+pub mod enhance;
+pub mod exposure;
+pub mod frame;
+pub mod mask;
+pub mod platform;
