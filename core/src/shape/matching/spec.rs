@@ -45,7 +45,7 @@ struct Spec<'a> {
 pub(super) fn search(part: &[f32], template: &[f32], bound: f32, want_out: bool) -> Found {
     let (n, m) = (part.len(), template.len());
     let t2: Vec<f32> = template.iter().chain(template).copied().collect();
-    let slots = 1 + super::ceil_log2(m);
+    let slots = 1 + super::search::ceil_log2(m);
     let mut st = Spec {
         part,
         t2,
