@@ -1,0 +1,451 @@
+//! One candidate aligned, verified and judged. The descriptor alone confuses near-similar
+//! parts, so each candidate template is aligned on the frame itself from the DP's pose (the
+//! part's centroid, the signed angle of the correspondence, the scale of the areas;
+//! [`crate::pose::refine`]) and scored: the verification score is the mean of the template →
+//! part and part → template distances, each capped and averaged over the nearest
+//! [`VERIFY_KEPT`] of its points (a part of one type may differ from its template over a
+//! stretch: a head, a burr, the walls a close lens sees), held to a limit that grows with the
+//! part's size ([`Params::verify_limit`]).
+//!
+//! - **Retries.** A near miss ([`NEAR_MISS`]) that is not [`CONFIDENT`] is aligned again with
+//!   the outline offset free, and an outline grown beyond the scale range with a wall too
+//!   ([`WALL_FACTOR`]); a nearly 2-fold outline is aligned half a turn on too
+//!   ([`HALF_TURN_AMBIGUOUS`]); a template with holes whose holes are not found is aligned
+//!   once more from the pose its holes give.
+//! - **The decision.** A fit is the part when its score is below its limit — or, for a
+//!   template with holes, all found and one off its centre, and the DP's `f' < ε`, below
+//!   [`NEAR_MISS`] times it. Fits are ranked by their holes, then their score over its limit;
+//!   between a template and its own mirror image the upside-down reading needs clear evidence
+//!   ([`FLIP_EVIDENCE`]).
+//!
+//! Cost: up to three starts a candidate, each aligned once or twice (an alignment is
+//! `O(iterations · m · search/step)`), and the part → template distances, `n` queries of an
+//! [`Outline`]. Memory: on the stack, `M` distances and the template outline moved by the
+//! fitted offset (`12·M` bytes). Guards: a scale outside the template's range scores
+//! infinite; a score over a limit that is not a number counts as infinite; a side without
+//! distances scores the cap.
+
+use crate::library::template::Template;
+use crate::math;
+use crate::params::Params;
+use crate::pose::holes::{agreement, pose_from_holes, HoleAgreement, Holes};
+use crate::pose::refine::{
+    align_recording, edge_distances_walled, wall_facing, Alignment, Difference, Outline, Pose, RefineParams,
+    VERIFY_KEPT,
+};
+use crate::recognizer::Recognizer;
+// What the doc links name.
+#[cfg(doc)]
+use crate::recognizer::{FALLBACK_RATIO, NEAR_TIE_RATIO};
+
+impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: usize> Recognizer<T, M, P, C, D> {
+    /// Slot `slot`'s template ([`Self::slot_template`]) aligned on the frame from the DP's pose (the part's `position`, the
+    /// `signed` angle in degrees, the scale of the areas), and its verification score against
+    /// the part's edge (`self.part_edges`) with the score's limit for the aligned part's size,
+    /// and which of its holes `part_holes` shows there.
+    /// A template whose outline is nearly but not exactly 2-fold ([`Template::half_turn`]
+    /// between [`HALF_TURN_SYMMETRIC`] and [`HALF_TURN_AMBIGUOUS`]: a connecting rod) is
+    /// aligned half a turn on too, and the better of the two kept ([`Fit::better_than`]: the
+    /// holes decide where they can, a rod's two eyes of different size).
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn align_and_verify<B: AsRef<[u8]>>(
+        &self,
+        n: usize,
+        position: [f32; 2],
+        signed: f32,
+        area: f32,
+        slot: usize,
+        family: bool,
+        part_holes: &Holes,
+        diff: &Difference<'_, B>,
+        refine_params: &RefineParams,
+    ) -> Option<Fit> {
+        let t = self.slot_template(slot)?;
+        let params = &self.params;
+        let part_edges = self.part_edges.get(..n).unwrap_or(&[]);
+        let seed = seed_pose(position, signed, area, t);
+        let limit_at = |scale: f32| params.verify_limit(t.size() * scale) * t.tolerance().verify;
+        // The alignment gives up at the limit for the seed's size, at least the caller's
+        // (unless the caller never gives up).
+        // The distance cap grows with the limit (a large part's edge may lie farther from its
+        // template's than a small one's and still be the same part); the profiles keep their
+        // length, which thin rings and slots need.
+        let limit = limit_at(seed.scale);
+        let reach = limit / params.verify_threshold.max(f32::MIN_POSITIVE);
+        let reach = if reach.is_finite() { reach.max(1.0) } else { 1.0 };
+        let rp = RefineParams {
+            give_up: if refine_params.give_up.is_finite() {
+                refine_params.give_up.max(limit)
+            } else {
+                f32::INFINITY
+            },
+            cap: refine_params.cap * reach,
+            ..*refine_params
+        };
+        // Without an outline offset first; a near miss that is not CONFIDENT is aligned again
+        // from where it ended with the offset free (walls, blur), and the better kept.
+        // The walls of a thick part under a close lens show on its side towards the principal
+        // point (taken at the frame's centre), up to WALL_FACTOR times the offset's limit.
+        let offset_max = params.offset_relative * t.size() * seed.scale;
+        let principal = [(diff.width() as f32 - 1.0) * 0.5, (diff.height() as f32 - 1.0) * 0.5];
+        let (ux, uy) = (principal[0] - position[0], principal[1] - position[1]);
+        let far = math::hypot(ux, uy);
+        let wall_toward = if far >= 1.0 { [ux / far, uy / far] } else { [0.0, 0.0] };
+        let with_offset = RefineParams {
+            offset_max,
+            wall_max: WALL_FACTOR * offset_max,
+            wall_toward,
+            ..rp
+        };
+        let once = |s: Pose, retry_allowed: bool| {
+            let mut distances = [0.0f32; M];
+            let aligned = align_recording(diff, t.edge(), t.normals(), s, &rp, &mut distances);
+            let (verify, full) = verify_score(&aligned, &mut distances, t, part_edges, diff, &rp, params);
+            let fit = |pose: Pose, (verify, full): (f32, f32), wall: f32| Fit {
+                pose,
+                verify,
+                full,
+                limit: limit_at(pose.scale),
+                holes: agreement(t.holes(), &pose, part_holes),
+                family,
+                wall,
+            };
+            let first = fit(aligned.pose, (verify, full), 0.0);
+            let near_miss = verify < NEAR_MISS * first.limit;
+            // A scale just beyond the range may be the outline grown by walls or blur, which
+            // the offset and the wall explain instead — for a template of the DP's family
+            // (`f' < ε`) and a part whose area did grow beyond the range, even where the first
+            // alignment gave up on it.
+            let (_, hi) = t.tolerance().scale_range(params.scale_min, params.scale_max);
+            let grown = family
+                && verify.is_infinite()
+                && area > hi * hi * t.area()
+                && aligned.pose.scale > hi
+                && aligned.pose.scale <= hi * self.grown_max();
+            if !retry_allowed
+                || verify < CONFIDENT * first.limit
+                || !(near_miss || grown)
+                || !(with_offset.offset_max > 0.0)
+                || (aligned.gave_up && !grown)
+            {
+                return first;
+            }
+            // Grown: from the range's end, so the wall and the offset take up the growth rather
+            // than the scale that did.
+            let start = if grown {
+                Pose {
+                    scale: hi,
+                    ..aligned.pose
+                }
+            } else {
+                aligned.pose
+            };
+            // The wall only where the outline grew beyond the range: a near miss within it is
+            // a part's own variation, which the offset alone takes up.
+            let retry = if grown {
+                with_offset
+            } else {
+                RefineParams {
+                    wall_max: 0.0,
+                    ..with_offset
+                }
+            };
+            let again = align_recording(diff, t.edge(), t.normals(), start, &retry, &mut distances);
+            let scores = verify_score(&again, &mut distances, t, part_edges, diff, &retry, params);
+            let second = fit(again.pose, scores, again.wall);
+            if second.ratio() < first.ratio() {
+                second
+            } else {
+                first
+            }
+        };
+        let mut best = once(seed_pose(position, signed, area, t), true);
+        // Once a fit is CONFIDENT with its holes all found, an alternative pose is aligned once,
+        // without the retry that rescues near misses: a near miss could beat it only by a
+        // score below the confident one's, which the retry's freedom does not bring.
+        let settled = |f: &Fit| f.verify < CONFIDENT * f.limit && f.holes.all_found();
+        // A 2-fold symmetric outline (a gear of even teeth, a washer) is the same half a turn on,
+        // unless its holes say otherwise (a bar with one eye at one end).
+        let symmetric = t.half_turn() < HALF_TURN_SYMMETRIC;
+        if t.half_turn() < HALF_TURN_AMBIGUOUS && (!symmetric || !best.holes.all_found()) {
+            let second = once(seed_pose(position, signed + 180.0, area, t), !settled(&best));
+            if second.better_than(&best) {
+                best = second;
+            }
+        }
+        // Holes that are not where the outline's pose puts them, or a pose that does not
+        // verify: the outline may have pulled the pose off (a part whose outline departs from
+        // its template's); a template with two or more holes is aligned once more from the
+        // pose its two largest holes give.
+        if !best.holes.all_found() || !accepted(best) {
+            if let Some(seed) = pose_from_holes(t.holes(), part_holes) {
+                let third = once(seed, !settled(&best));
+                if third.better_than(&best) {
+                    best = third;
+                }
+            }
+        }
+        Some(best)
+    }
+
+    /// How far beyond the scale range's end an outline grown by walls may be and still be
+    /// aligned with the wall model: `1 + 2 · offset_relative · (1 + WALL_FACTOR)` (the offset
+    /// and the wall, each on both sides).
+    pub(super) fn grown_max(&self) -> f32 {
+        1.0 + 2.0 * self.params.offset_relative * (1.0 + WALL_FACTOR)
+    }
+}
+
+/// One candidate's alignment: the aligned pose, its verification score and the score's limit
+/// (px), which of the template's holes the part shows there, and whether the DP puts the part
+/// in the template's family (the paper's decision, `f' < ε`, eq. 5.2).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Fit {
+    pub(super) pose: Pose,
+    pub(super) verify: f32,
+    /// The verification's distances over every point, none left out, px.
+    pub(super) full: f32,
+    pub(super) limit: f32,
+    pub(super) holes: HoleAgreement,
+    pub(super) family: bool,
+    /// The wall the alignment fitted, px (0 without one).
+    pub(super) wall: f32,
+}
+
+impl Fit {
+    /// The score over its limit (the same meaning for every size; NaN counts as infinite).
+    fn ratio(&self) -> f32 {
+        let r = self.verify / self.limit;
+        if r.is_nan() {
+            f32::INFINITY
+        } else {
+            r
+        }
+    }
+
+    /// Whether this fit beats `other` for the same part: one that is [`accepted`] beats one
+    /// that is not; of two accepted, the one with fewer of its template's holes missing, then
+    /// the one whose template's holes explain more of the part's (a rod with two eyes is the
+    /// two-eyed template's, even when the one-eyed template's outline fits it as well), then
+    /// the lower [`Self::ratio`]; of two that are not, one with a finite score, then one
+    /// whose template's holes are all found, then the lower ratio.
+    fn better_than(&self, other: &Fit) -> bool {
+        let (a, b) = (accepted(*self), accepted(*other));
+        if a != b {
+            return a;
+        }
+        let (h, g) = (self.holes, other.holes);
+        if a && h.missing() != g.missing() {
+            return h.missing() < g.missing();
+        }
+        if a && h.found != g.found {
+            return h.found > g.found;
+        }
+        // Of two accepted, one without a wall (the simpler model).
+        if a && (self.wall > 0.0) != (other.wall > 0.0) {
+            return self.wall == 0.0;
+        }
+        // Of two not accepted: one that could be verified at all, then one whose holes are
+        // all found (an alignment that ran off the part finds holes by chance).
+        let (fa, fb) = (self.ratio().is_finite(), other.ratio().is_finite());
+        if !a && fa != fb {
+            return fa;
+        }
+        if !a && h.all_found() != g.all_found() {
+            return h.all_found();
+        }
+        self.ratio() < other.ratio()
+    }
+}
+
+impl Fit {
+    /// Whether this fit, of candidate slot `slot`, beats `other`, of slot `other_slot`
+    /// (the candidate scan's slots): [`Self::better_than`] — except between a template and its
+    /// own mirror image: then the upside-down reading needs clear evidence, a mean distance
+    /// over every point ([`Fit::full`]: a nearly mirror-symmetric part differs from its mirror
+    /// image only over a stretch, which the verification's trimmed score leaves out) below
+    /// [`FLIP_EVIDENCE`] times the other's, whatever the holes and the DP's family say (they
+    /// follow the same outline). A part whose mirror axis the template nearly has (a real
+    /// part photographed for its template, with its walls and variation) fits both alike, and
+    /// is not flipped.
+    pub(super) fn beats(&self, slot: usize, other: &Fit, other_slot: usize) -> bool {
+        if slot ^ 1 == other_slot {
+            let (flipped, plain) = if slot % 2 == 1 { (self, other) } else { (other, self) };
+            // (An infinite plain mean loses to any finite one; NaN never wins.)
+            let flip_wins = flipped.full.is_finite() && flipped.full < FLIP_EVIDENCE * plain.full;
+            return flip_wins == (slot % 2 == 1);
+        }
+        self.better_than(other)
+    }
+}
+
+/// Whether an aligned candidate is the part: its verification score is below its limit — or,
+/// for a template with holes, all of them found where the pose puts them, at least one of them
+/// off its centre ([`HoleAgreement::off_centre`]: a central hole fits a washer, a bore, a
+/// triangle with a hole, and says nothing of the part's ends), and the DP's `f' < ε`, below
+/// [`NEAR_MISS`] times its limit (not for a fit with a wall, [`WALL_FACTOR`]). The holes and the
+/// DP's family are two cues the rigid
+/// outline fit lacks: a part of one type may depart from its template's outline over a shaft
+/// or a head (real rods), and a distractor that fits the outline that loosely does not also
+/// have the template's descriptor profile and its holes in place. Holes never veto an outline
+/// that verifies (the holes of small parts close in the mask, and a close lens's walls shrink
+/// and move them); they rank the candidates ([`Fit::better_than`]).
+pub(super) fn accepted(fit: Fit) -> bool {
+    let r = fit.ratio();
+    // A fit that took a wall to get there has used its freedom: the outline alone decides.
+    r < 1.0 || (fit.wall == 0.0 && fit.family && fit.holes.off_centre > 0 && fit.holes.all_found() && r < NEAR_MISS)
+}
+
+/// The alignment's start: the part's centroid, the DP's signed angle (degrees), the scale of the
+/// areas.
+fn seed_pose<const M: usize>(position: [f32; 2], angle_deg: f32, area: f32, t: &Template<M>) -> Pose {
+    Pose {
+        x: position[0],
+        y: position[1],
+        angle: math::radians(angle_deg),
+        scale: if t.area() > 0.0 {
+            math::sqrt(area / t.area())
+        } else {
+            1.0
+        },
+    }
+}
+
+/// Verification score of an alignment, px: the mean of the template → part and part → template
+/// distances (capped), each over the nearest [`VERIFY_KEPT`] of its points (a part of one type
+/// may differ from its template over a stretch of its outline: a head, a burr, the walls a
+/// close lens sees); infinite for a scale outside `[scale_min, scale_max]`.
+/// `distances` holds the template → part distances that the alignment recorded
+/// ([`align_recording`]; measured again here when it gave up) and is scratch afterwards.
+/// Also returns the same mean over every point, none left out (what tells a part upside down
+/// from one the right way up, where they differ only over a stretch: [`Fit::beats`]).
+#[allow(clippy::too_many_arguments)]
+fn verify_score<const M: usize, B: AsRef<[u8]>>(
+    a: &Alignment,
+    distances: &mut [f32; M],
+    t: &Template<M>,
+    part_edges: &[[f32; 2]],
+    diff: &Difference<'_, B>,
+    params: &RefineParams,
+    limits: &Params,
+) -> (f32, f32) {
+    let edge = t.edge();
+    let pose = a.pose;
+    let (lo, hi) = t.tolerance().scale_range(limits.scale_min, limits.scale_max);
+    if !(pose.scale >= lo && pose.scale <= hi) {
+        return (f32::INFINITY, f32::INFINITY);
+    }
+    let dist = distances;
+    let mean = |d: &[f32]| {
+        if d.is_empty() {
+            params.cap
+        } else {
+            d.iter().sum::<f32>() / d.len() as f32
+        }
+    };
+    let (there, there_all) = {
+        let d = dist.get_mut(..edge.len()).unwrap_or(&mut []);
+        if a.gave_up {
+            edge_distances_walled(diff, edge, t.normals(), pose, a.offset, a.wall, params, d);
+        }
+        let all = mean(d);
+        (trimmed_mean(d, VERIFY_KEPT, params.cap), all)
+    };
+    let valid = part_edges.iter().filter(|e| e[0].is_finite()).count();
+    let (back, back_all) = if valid == 0 {
+        (params.cap, params.cap)
+    } else {
+        // Distances are measured in the template's frame (the part's edge mapped back by the
+        // pose) and scaled back, so the template outline needs no mapping.
+        let scale = pose.scale;
+        let cap = params.cap / scale;
+        // The template's outline moved by the fitted offset (in its own frame: over the scale).
+        let mut moved = [[0.0f32; 2]; M];
+        let sc = math::sin_cos(pose.angle);
+        let edge = if a.offset == 0.0 && a.wall == 0.0 {
+            edge
+        } else {
+            let toward = params.wall_toward;
+            let (s, c) = sc;
+            for ((slot, e), nrm) in moved.iter_mut().zip(edge).zip(t.normals()) {
+                // The wall on the side whose (frame) normal faces the principal point.
+                let facing = if a.wall == 0.0 {
+                    0.0
+                } else {
+                    wall_facing([nrm[0] * c + nrm[1] * s, -nrm[0] * s + nrm[1] * c], toward)
+                };
+                let o = (a.offset + a.wall * facing) / scale;
+                *slot = [e[0] + o * nrm[0], e[1] + o * nrm[1]];
+            }
+            moved.get(..edge.len()).unwrap_or(edge)
+        };
+        let outline = Outline::new(edge);
+        for (e, d) in part_edges.iter().zip(dist.iter_mut()) {
+            *d = match pose.invert_sc(sc, *e).filter(|_| e[0].is_finite() && cap.is_finite()) {
+                Some(q) => scale * outline.capped_distance(q, cap),
+                None => params.cap,
+            };
+        }
+        let d = dist.get_mut(..part_edges.len()).unwrap_or(&mut []);
+        let all = mean(d);
+        (trimmed_mean(d, VERIFY_KEPT, params.cap), all)
+    };
+    (0.5 * (there + back), 0.5 * (there_all + back_all))
+}
+
+/// The mean of the smallest `kept` fraction of `values` (at least one; `empty` for none): the
+/// values below the `keep`-th smallest, and that one for the rest ([`math::select_nth`], which
+/// reorders `values`).
+fn trimmed_mean(values: &mut [f32], kept: f32, empty: f32) -> f32 {
+    let len = values.len();
+    if len == 0 {
+        return empty;
+    }
+    let keep = ((len as f32 * kept) as usize).clamp(1, len);
+    let Some(t) = math::select_nth(values, keep - 1) else {
+        return empty;
+    };
+    let (mut sum, mut below) = (0.0f32, 0usize);
+    for &v in values.iter() {
+        if v < t {
+            sum += v;
+            below += 1;
+        }
+    }
+    (sum + (keep.saturating_sub(below)) as f32 * t) / keep as f32
+}
+
+/// A candidate whose score is below this fraction of its limit (with its holes found, and no
+/// hole of the part's left unexplained) ends the candidate scan: the first candidate at once,
+/// a later one at the cost records (the right template of a generated set's part scores 0.1–0.4
+/// of it); above, the scan goes on within [`NEAR_TIE_RATIO`], then [`FALLBACK_RATIO`].
+pub const CONFIDENT: f32 = 0.5;
+
+/// A candidate whose score is below this multiple of its limit is a near miss: only then does
+/// the alignment try the outline offset, and the candidate scan go on (a part far from every
+/// template so far, such as a distractor, is not searched further; on the generated sets their
+/// scores are 2.6× their limit and more, the real rods' right templates 0.5–2.2×).
+pub const NEAR_MISS: f32 = 2.5;
+
+/// How much closer than the template itself its mirror image must fit a part for the part to
+/// be reported upside down: the ratio of their mean distances over every point. A part that
+/// lies upside down fits the mirror image at the noise's level and the template by the
+/// stretch where the two differ; a mirror-symmetric part whose template is not quite (a real
+/// rod) fits both alike.
+pub const FLIP_EVIDENCE: f32 = 0.5;
+
+/// Largest wall the second alignment may fit, as a multiple of its offset's limit
+/// ([`Params::offset_relative`]): a close lens over a thick part shows its walls up to about a
+/// fifth of the part's size on the side towards the principal point.
+pub const WALL_FACTOR: f32 = 4.0;
+
+/// A fitted wall above this (px) makes the part's position its pose's (its top face's).
+pub const WALL_SIGNIFICANT: f32 = 0.5;
+
+/// [`Template::half_turn`] below which the outline counts as nearly 2-fold: the DP's
+/// correspondence may then be half a turn off, and both are aligned.
+pub const HALF_TURN_AMBIGUOUS: f32 = 0.2;
+
+/// [`Template::half_turn`] below which the outline is 2-fold symmetric: half a turn on is the
+/// same pose, and it is not aligned twice.
+pub const HALF_TURN_SYMMETRIC: f32 = 0.01;
