@@ -497,7 +497,7 @@ enum Listing {
 
 /// Where [`Recognizer::next_candidate`] is in a part's templates. Each template has two
 /// slots, `2·ti` for itself and `2·ti + 1` for its mirror image (a part lying upside down;
-/// [`Listing::Out`] unless the template is chiral and [`Params::flipped_parts`] is on): the
+/// [`Listing::Out`] unless the template is chiral and [`crate::Params::flipped_parts`] is on): the
 /// arrays below hold them in pairs, and read flattened they are indexed by slot.
 struct CandidateScan<const T: usize, const M: usize> {
     /// The part's descriptor, sorted (its first `n` values).
