@@ -34,8 +34,9 @@
 
 use crate::pose::refine::Difference;
 
-mod bit_rows;
 mod definition;
+
+mod bit_rows;
 mod print;
 
 pub use print::{print_deficit, MAX_PRINT_WINDOW, PRINT_BAND, PRINT_KEEP_OFF};
