@@ -8,7 +8,8 @@
 //! ## Data flow: one folder per stage
 //!
 //! The stages, in the order a frame goes through them (each folder's first paragraph says what
-//! it does and why; rustdoc lists the folders alphabetically, this is their order):
+//! it does and why; a stable `cargo doc` lists the folders alphabetically, `bash scripts/doc.sh`
+//! — nightly rustdoc's `--sort-modules-by-appearance`, as docs.rs is set up to — in this order):
 //!
 //! 1. [`pixels`] — frame → foreground mask: enhancement, the platform (empty shots or estimated),
 //!    exposure, threshold and clean-up.
@@ -64,18 +65,19 @@
 // rejects it); clippy's preferred `x <= 0.0` would let NaN through.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-pub mod borders;
-pub mod library;
-pub mod location;
+// The stages in data-flow order (rustdoc keeps this order with `--sort-modules-by-appearance`).
 pub mod pixels;
+pub mod borders;
+pub mod shape;
 pub mod pose;
 pub mod recognizer;
-pub mod shape;
+pub mod location;
 
+pub mod library;
+pub mod params;
 pub mod budget;
 pub mod error;
 pub mod math;
-pub mod params;
 #[cfg(test)]
 mod test_rng;
 // The test-support module names the crate as the benchmarks do.
