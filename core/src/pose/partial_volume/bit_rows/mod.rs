@@ -696,56 +696,54 @@ impl<C: Copy> RingFifo<C> {
     }
 }
 
-impl Weights {
-    /// `sums` plus the weights of the inside pixels `cols` of box row `y`: 1, unless the pixel
-    /// looks like the platform (a small hole or a narrow gap that the mask's closing filled;
-    /// printed labels keep at least a third of the part's contrast, holes keep none).
-    #[inline(always)]
-    fn inside_run<S: Source>(
-        &self,
-        src: &S,
-        image_row: S::Row,
-        cols: Range<usize>,
-        y: usize,
-        sums: [f32; 3],
-    ) -> [f32; 3] {
-        let (contrast, sign) = (self.contrast, self.sign);
-        // Division by the contrast is monotonic: when the least `D · sign` passes, all do.
-        let least = src.least(image_row, cols.clone(), sign);
-        if (least * sign) / contrast >= HOLE_RATIO {
-            return add_ones(sums, cols, y);
-        }
-        self.inside_by_pixel(src, image_row, cols, y, sums)
+/// `sums` plus `weights`' share of the inside pixels `cols` of box row `y`: 1, unless the pixel
+/// looks like the platform (a small hole or a narrow gap that the mask's closing filled;
+/// printed labels keep at least a third of the part's contrast, holes keep none).
+#[inline(always)]
+fn inside_run<S: Source>(
+    weights: &Weights,
+    src: &S,
+    image_row: S::Row,
+    cols: Range<usize>,
+    y: usize,
+    sums: [f32; 3],
+) -> [f32; 3] {
+    let (contrast, sign) = (weights.contrast, weights.sign);
+    // Division by the contrast is monotonic: when the least `D · sign` passes, all do.
+    let least = src.least(image_row, cols.clone(), sign);
+    if (least * sign) / contrast >= HOLE_RATIO {
+        return add_ones(sums, cols, y);
     }
+    inside_by_pixel(weights, src, image_row, cols, y, sums)
+}
 
-    /// [`Self::inside_run`] pixel by pixel (runs of weight 1 between the others at once).
-    #[inline(never)]
-    fn inside_by_pixel<S: Source>(
-        &self,
-        src: &S,
-        image_row: S::Row,
-        cols: Range<usize>,
-        y: usize,
-        sums: [f32; 3],
-    ) -> [f32; 3] {
-        let contrast = self.contrast;
-        let mut sums = sums;
-        let mut ones = cols.start;
-        for c in cols.clone() {
-            let ratio = src.d(image_row, c) / contrast;
-            if ratio >= HOLE_RATIO {
-                continue;
-            }
-            sums = add_ones(sums, ones..c, y);
-            ones = c + 1;
-            let weight = ratio.clamp(0.0, 1.0);
-            if weight > 0.0 {
-                let [sw, sx, sy] = sums;
-                sums = [sw + weight, sx + weight * c as u32 as f32, sy + weight * y as f32];
-            }
+/// [`inside_run`] pixel by pixel (runs of weight 1 between the others at once).
+#[inline(never)]
+fn inside_by_pixel<S: Source>(
+    weights: &Weights,
+    src: &S,
+    image_row: S::Row,
+    cols: Range<usize>,
+    y: usize,
+    sums: [f32; 3],
+) -> [f32; 3] {
+    let contrast = weights.contrast;
+    let mut sums = sums;
+    let mut ones = cols.start;
+    for c in cols.clone() {
+        let ratio = src.d(image_row, c) / contrast;
+        if ratio >= HOLE_RATIO {
+            continue;
         }
-        add_ones(sums, ones..cols.end, y)
+        sums = add_ones(sums, ones..c, y);
+        ones = c + 1;
+        let weight = ratio.clamp(0.0, 1.0);
+        if weight > 0.0 {
+            let [sw, sx, sy] = sums;
+            sums = [sw + weight, sx + weight * c as u32 as f32, sy + weight * y as f32];
+        }
     }
+    add_ones(sums, ones..cols.end, y)
 }
 
 #[cfg(test)]

@@ -247,7 +247,7 @@ pub(super) trait Source: Sized {
         let mut after = 0usize;
         for_each_run(band, |a, e| {
             if a > after && bit(inside, after) {
-                sums = weights.inside_run(self, row, after..a, y, sums);
+                sums = inside_run(weights, self, row, after..a, y, sums);
             }
             after = e;
             sums = self.band_run(row, a..e, yf, columns, weights, sums);
@@ -582,7 +582,7 @@ impl ExactPart {
                     add_ones([sw, sx, sy], after..a, y)
                 } else {
                     let row = if self.positive { (hi, lo) } else { (lo, hi) };
-                    self.weights.inside_by_pixel(src, row, after..a, y, [sw, sx, sy])
+                    inside_by_pixel(&self.weights, src, row, after..a, y, [sw, sx, sy])
                 };
             }
             after = e;
