@@ -5,7 +5,8 @@
 //! thresholded into the foreground mask ([`mask`]) that the border stage follows.
 //!
 //! Everything here works row by row over caller-owned planes of the frame's size: no
-//! allocation, `O(width·height)` time, a few hundred bytes of stack.
+//! allocation, `O(width·height)` time, a fixed stack of a few KiB at most (histograms, the
+//! mask's row spans; the platform estimate's cells are the caller's grid).
 
 pub mod background;
 pub mod enhance;
