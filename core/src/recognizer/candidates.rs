@@ -12,6 +12,8 @@
 //!   template first), the scan starts again without the candidates tried, within
 //!   [`NEAR_TIE_RATIO`] of the lowest cost, then [`FALLBACK_RATIO`]; a confident first
 //!   candidate, or one far off the part in size and shape ([`UNVERIFIED_FAMILY`]), ends it.
+//!   After the first search, no template of a whole part is searched beyond `f′ = 2ε`
+//!   ([`UNVERIFIED_FAMILY`]), whatever the pass's ratio.
 //! - **Sizes.** A whole part is not searched against a template whose scale from the areas
 //!   lies outside the template's range ([`SCALE_SLACK`]).
 //! - **Mirror images.** Each chiral template has a second slot for its mirror image (a part
@@ -61,6 +63,11 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let whole = !detection.touches_edge;
         // A part cut by the frame's edge shows too little to tell its sides apart.
         let mut scan = self.candidate_scan(n, whole);
+        // No later candidate of a whole part at `f′ ≥ 2ε` (UNVERIFIED_FAMILY), whatever the
+        // pass's ratio: the wider passes then search only templates of the part's family.
+        if whole {
+            scan.cap = UNVERIFIED_FAMILY * params.epsilon * n as f32;
+        }
         if whole {
             self.leave_out_by_size(&mut scan, area);
         }
@@ -294,6 +301,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             tried: [[false; 2]; T],
             cost: [[f32::NAN; 2]; T],
             searches: 0,
+            cap: f32::INFINITY,
         };
         let flips = self.params.flipped_parts && mirrors;
         let (Some(part), Some(sorted)) = (self.descriptor.get(..n), scan.sorted.get_mut(..n)) else {
@@ -332,8 +340,12 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
     ) -> Option<(usize, Match)> {
         while scan.found < k.max(1) {
             // (An infinite ratio takes every template in turn, even after a cost of 0.)
+            // (The first search is not capped: a bound would cost it a relaxed pass over every
+            // start, and it is what the part is compared with.)
             let bound = if ratio == f32::INFINITY {
                 f32::INFINITY
+            } else if scan.lowest.is_finite() {
+                (scan.lowest * ratio).min(scan.cap)
             } else {
                 scan.lowest * ratio
             };
@@ -518,6 +530,9 @@ struct CandidateScan<const T: usize, const M: usize> {
     cost: [[f32; 2]; T],
     /// DP searches run so far.
     searches: usize,
+    /// The DP cost no later candidate reaches once one was found ([`UNVERIFIED_FAMILY`] times
+    /// `ε·n` for a whole part; `+∞` on the paper's path and for a part the frame's edge cuts).
+    cap: f32,
 }
 
 impl<const T: usize, const M: usize> CandidateScan<T, M> {
@@ -601,6 +616,12 @@ pub const FALLBACK_RATIO: f32 = 3.0;
 /// align on each, none verifying. Measured over every generated set and the real photos
 /// (`docs/accuracy.md`): no classification or rejection changes, and fewer instructions on the
 /// bench set (`docs/performance.md`).
+///
+/// The same cost caps the later searches of a whole part (every search after its first, in
+/// every pass): a template at `f′ ≥ 2ε` is not of the part's family, and the wider passes'
+/// ratios (up to [`FALLBACK_RATIO`] times a distractor's lowest cost) would otherwise search
+/// and align every template. The right templates of known parts lie at `f′` 0.025–0.09 on every
+/// set measured (ε = 0.08); parts cut by the frame's edge reach 0.16 and are not capped.
 pub const UNVERIFIED_FAMILY: f32 = 2.0;
 
 /// An accepted fit of a chiral template (or its mirror image) whose mean distance over every
@@ -713,7 +734,7 @@ mod tests {
             k: 2,
             ..Params::DEFAULT
         };
-        let (mut more_than_one, mut cut_short, mut never_bounded) = (0, 0, 0);
+        let (mut more_than_one, mut cut_short, mut never_bounded, mut capped_off) = (0, 0, 0, 0);
         for seed in 1..60u64 {
             let mut r: Recognizer<12, MM, 64, 4, { N * (MM - N + 1) }> = Recognizer::new();
             r.set_params(params).unwrap();
@@ -748,21 +769,45 @@ mod tests {
                 })
                 .collect();
             all.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-            for (k, ratio) in [(3usize, 1.0f32), (8, 1.0), (3, 1.5), (2, f32::INFINITY)] {
+            // A cap that some templates' costs reach: the median cost.
+            let mut costs: std::vec::Vec<f32> = all.iter().map(|a| a.2).collect();
+            costs.sort_by(f32::total_cmp);
+            let median = costs[costs.len() / 2];
+            let runs = [
+                (3usize, 1.0f32, f32::INFINITY),
+                (8, 1.0, f32::INFINITY),
+                (3, 1.5, f32::INFINITY),
+                (2, f32::INFINITY, f32::INFINITY),
+                (3, 1.0, median),
+                (8, 3.0, median),
+                (2, f32::INFINITY, median),
+            ];
+            for (k, ratio, cap) in runs {
                 // By definition: along the bound order, a template whose cost is below `ratio`
-                // times the lowest cost before it, until `k` are found.
+                // times the lowest cost before it, until `k` are found; once a cost is known,
+                // also below `cap` (unless the ratio is infinite).
                 let mut want = std::vec::Vec::new();
                 let mut lowest = f32::INFINITY;
                 for &(_, ti, c) in &all {
                     if want.len() == k {
                         break;
                     }
-                    if c < lowest * ratio {
+                    let bound = if ratio == f32::INFINITY {
+                        f32::INFINITY
+                    } else if lowest.is_finite() {
+                        (lowest * ratio).min(cap)
+                    } else {
+                        lowest * ratio
+                    };
+                    if c < bound {
                         want.push(ti);
+                    } else if c < lowest * ratio {
+                        capped_off += 1;
                     }
                     lowest = lowest.min(c);
                 }
                 let mut scan = r.candidate_scan(N, true);
+                scan.cap = cap;
                 let mut got = std::vec::Vec::new();
                 while let Some((slot, m)) = r.next_candidate(&mut scan, N, k, ratio) {
                     // A circle's outline is not chiral: no mirror image is searched.
@@ -798,9 +843,10 @@ mod tests {
                 }
             }
         }
-        // Both ways of ending must occur for the test to mean anything, and the window bounds
-        // must have spared some exact bounds.
+        // Both ways of ending must occur for the test to mean anything, the cap must have
+        // kept some templates out, and the window bounds must have spared some exact bounds.
         assert!(more_than_one > 5 && cut_short > 5, "{more_than_one} {cut_short}");
+        assert!(capped_off > 5, "{capped_off}");
         assert!(never_bounded > 100, "{never_bounded}");
     }
 }
