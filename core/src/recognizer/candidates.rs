@@ -11,9 +11,12 @@
 //! - **Wider passes.** When no candidate verified well (the descriptor may rank a near-alike
 //!   template first), the scan starts again without the candidates tried, within
 //!   [`NEAR_TIE_RATIO`] of the lowest cost, then [`FALLBACK_RATIO`]; a confident first
-//!   candidate, or one far off the part in size and shape ([`UNVERIFIED_FAMILY`]), ends it.
-//!   After the first search, no template of a whole part is searched beyond `f′ = 2ε`
-//!   ([`UNVERIFIED_FAMILY`]), whatever the pass's ratio.
+//!   candidate ends it.
+//! - **The part's family** ([`UNVERIFIED_FAMILY`]). A whole part is no template's at
+//!   `f′ ≥ 2ε`: a first candidate that far off ends the scan unaligned (the part unknown, its
+//!   nearest template reported), and no later search of any pass goes beyond that cost. A part
+//!   the frame's edge cuts is exempt; its first candidate ends the scan that far off only when
+//!   it could not be verified.
 //! - **Sizes.** A whole part is not searched against a template whose scale from the areas
 //!   lies outside the template's range ([`SCALE_SLACK`]).
 //! - **Mirror images.** Each chiral template has a second slot for its mirror image (a part
@@ -63,8 +66,8 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let whole = !detection.touches_edge;
         // A part cut by the frame's edge shows too little to tell its sides apart.
         let mut scan = self.candidate_scan(n, whole);
-        // No later candidate of a whole part at `f′ ≥ 2ε` (UNVERIFIED_FAMILY), whatever the
-        // pass's ratio: the wider passes then search only templates of the part's family.
+        // A whole part is no template's at `f′ ≥ 2ε` (UNVERIFIED_FAMILY): no later search of
+        // any pass goes beyond that cost, and a first candidate that far off ends the scan.
         if whole {
             scan.cap = UNVERIFIED_FAMILY * params.epsilon * n as f32;
         }
@@ -122,6 +125,18 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 }
                 break;
             };
+            // A first candidate at `f′ ≥ 2ε` (UNVERIFIED_FAMILY): the part is of no template's
+            // family and unknown; the DP's nearest template is reported, not aligned.
+            if scan.found == 1 && m.cost >= scan.cap {
+                if let Some((signed, paper)) = self.angles(n, centroid, slot) {
+                    detection.best_template = Some((slot / 2) as u16);
+                    detection.flipped = slot % 2 == 1;
+                    detection.score = m.normalized;
+                    detection.angle_paper_deg = paper;
+                    detection.angle_dp_deg = signed;
+                }
+                break;
+            }
             if let Some(t) = scan.tried.as_flattened_mut().get_mut(slot) {
                 *t = true;
             }
@@ -173,8 +188,9 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 }
             }
             // A first candidate that is confident ends the scan: a later cost record would have
-            // to beat a fit within half its limit with all its holes, and the part's. So does
-            // one far off the part in size and shape (UNVERIFIED_FAMILY).
+            // to beat a fit within half its limit with all its holes, and the part's. So does,
+            // for a part the frame's edge cuts, one far off the part in size and shape
+            // (UNVERIFIED_FAMILY; a whole part's ended before its alignment).
             if scan.found == 1
                 && (confident(detection)
                     || (!detection.verify.is_finite() && m.normalized >= UNVERIFIED_FAMILY * params.epsilon))
@@ -608,20 +624,20 @@ pub const NEAR_TIE_RATIO: f32 = 1.25;
 /// near tie ([`NEAR_TIE_RATIO`]) was left.
 pub const FALLBACK_RATIO: f32 = 3.0;
 
-/// A first candidate far off the part in size and in shape ends the candidate scan, the part
-/// unknown: one that could not be verified (its alignment put the part's scale outside the
-/// accepted range) and whose DP cost `f′` is at least this multiple of `ε` (the paper's
-/// decision would call the part unknown twice over). On every set measured such parts were
-/// distractors, which the scan would otherwise search against two or three more templates and
-/// align on each, none verifying. Measured over every generated set and the real photos
-/// (`docs/accuracy.md`): no classification or rejection changes, and fewer instructions on the
-/// bench set (`docs/performance.md`).
+/// The family of a part, in multiples of `ε`: a whole part (not cut by the frame's edge) is no
+/// template's whose DP cost is `f′ ≥ UNVERIFIED_FAMILY·ε` (the paper's decision would call it
+/// unknown twice over). A first candidate that far off ends the candidate scan before any
+/// alignment, the part unknown (its DP's nearest template reported as `best_template` with its
+/// `score`); every later search of the scan, in every pass, is bounded by that cost, so the
+/// wider passes (up to [`FALLBACK_RATIO`] times a distractor's lowest cost) search only the
+/// part's family. A part the frame's edge cuts (its outline holds the straight cut, `f′` up to
+/// 0.16 on the border set) has no cap; its first candidate that far off ends the scan only
+/// when it could not be verified.
 ///
-/// The same cost caps the later searches of a whole part (every search after its first, in
-/// every pass): a template at `f′ ≥ 2ε` is not of the part's family, and the wider passes'
-/// ratios (up to [`FALLBACK_RATIO`] times a distractor's lowest cost) would otherwise search
-/// and align every template. The right templates of known parts lie at `f′` 0.025–0.09 on every
-/// set measured (ε = 0.08); parts cut by the frame's edge reach 0.16 and are not capped.
+/// The right templates of known parts lie at `f′` 0.025–0.09 on every set measured (ε = 0.08;
+/// `docs/accuracy.md`): over every generated set, the 3× camera set and the real photos the
+/// rule changes no known part's class, angle or position, and spares the searches and
+/// alignments of distractors (`docs/performance.md`).
 pub const UNVERIFIED_FAMILY: f32 = 2.0;
 
 /// An accepted fit of a chiral template (or its mirror image) whose mean distance over every

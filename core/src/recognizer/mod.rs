@@ -849,6 +849,49 @@ mod tests {
             .unwrap()
     }
 
+    /// A disc of the L's area, `inside` in offsets from its centre.
+    fn disc_inside(t: [f32; 2]) -> bool {
+        t[0] * t[0] + t[1] * t[1] < 600.0 / core::f32::consts::PI
+    }
+
+    /// A whole part far from every template in shape (a disc against an L of its area: its
+    /// DP cost is `f′ ≥ 2ε`) is unknown after one DP search and no alignment, its nearest
+    /// template and cost reported; the L itself beside it is aligned and named.
+    #[test]
+    fn a_part_of_no_templates_family_is_not_aligned() {
+        let (w, h) = (160usize, 80usize);
+        let px = scene_of(
+            w,
+            h,
+            &[
+                (l_inside, 40.0, 40.0, 30.0, false),
+                (disc_inside, 115.0, 40.0, 0.0, false),
+            ],
+        );
+        let bg = platform(w, h);
+        let mut rec: std::boxed::Box<Recognizer<4, 96, 4096, 64, 2112>> = std::boxed::Box::default();
+        rec.add_template(taught(l_inside)).unwrap();
+        let mut labels = std::vec![0u8; w * h];
+        let report = rec
+            .process(&Frame::new_checked(&px[..], w, h).unwrap(), &bg, &mut labels)
+            .unwrap();
+        assert_eq!(report.detections.len(), 2, "{:?}", report.detections);
+        let eps = Params::DEFAULT.epsilon;
+        for d in &report.detections {
+            if d.x < 80.0 {
+                assert_eq!(d.template, Some(0), "{d:?}");
+                assert!(d.pose.is_some() && d.score < eps, "{d:?}");
+            } else {
+                assert!(
+                    d.score >= UNVERIFIED_FAMILY * eps,
+                    "the disc must lie outside the L's family: {d:?}"
+                );
+                assert_eq!((d.template, d.best_template, d.searches), (None, Some(0), 1), "{d:?}");
+                assert!(d.pose.is_none() && d.verify.is_infinite(), "{d:?}");
+            }
+        }
+    }
+
     /// Two parts that touch and overlap (the L's bar under the T's by about a tenth of the L)
     /// form one blob; the whole-border match fails on it, and the partial search finds both,
     /// each with its template, `touching`, a visible share below 1 and the pose of its

@@ -81,8 +81,8 @@ pub struct Detection {
     pub flipped: bool,
     /// DP searches run for this part: one per template searched along the candidate scan
     /// (whether or not it came in), saturating at 255. The work the part took: 1 for a part
-    /// settled by its first candidate, more for a near miss or an unknown part near some
-    /// template ([`UNVERIFIED_FAMILY`]). For a part found by the partial search
+    /// settled by its first candidate, more for a near miss or an unknown part within some
+    /// template's family ([`UNVERIFIED_FAMILY`]). For a part found by the partial search
     /// ([`crate::recognizer::split`]): the templates whose arcs were searched.
     pub searches: u8,
     /// Found in a blob that held other parts too (touching or overlapping another part, or
