@@ -194,9 +194,11 @@ pub fn class_tolerance(fits: &[Vec<Option<CrossFit>>]) -> (vorl_core::Tolerance,
 }
 
 /// `silhouette` (part bright on black) recognised against `template` taught alone, with
-/// `params` but any scale in 0.5–2: the detection of its largest part (`None` without one).
-/// How one example of a class lies against another ([`Engine::add_silhouettes`], `vorl teach
-/// --add`).
+/// `params` but any scale in 0.5–2 and the template aligned whatever its DP cost (an infinite
+/// `candidate_ratio`: examples of one class may lie further apart in the descriptor than the
+/// family of [`vorl_core::recognizer::UNVERIFIED_FAMILY`]): the detection of its largest part
+/// (`None` without one). How one example of a class lies against another
+/// ([`Engine::add_silhouettes`], `vorl teach --add`).
 ///
 /// # Errors
 /// `template` cannot be taught.
@@ -208,6 +210,7 @@ pub fn recognise_alone(
     let mut one = Engine::new(Params {
         scale_min: 0.5,
         scale_max: 2.0,
+        candidate_ratio: f32::INFINITY,
         ..params
     })?;
     one.add_silhouette("template", template)?;

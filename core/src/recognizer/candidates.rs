@@ -15,8 +15,8 @@
 //! - **The part's family** ([`UNVERIFIED_FAMILY`]). A whole part is no template's at
 //!   `f′ ≥ 2ε`: a first candidate that far off ends the scan unaligned (the part unknown, its
 //!   nearest template reported), and no later search of any pass goes beyond that cost. A part
-//!   the frame's edge cuts is exempt; its first candidate ends the scan that far off only when
-//!   it could not be verified.
+//!   the frame's edge cuts, a class taught from several examples and `candidate_ratio = inf`
+//!   are exempt.
 //! - **Sizes.** A whole part is not searched against a template whose scale from the areas
 //!   lies outside the template's range ([`SCALE_SLACK`]).
 //! - **Mirror images.** Each chiral template has a second slot for its mirror image (a part
@@ -35,6 +35,7 @@
 //! that do not fit, NaN) is left out of the scan; the passes, the candidates and the searches
 //! are bounded by the templates (`2·T` slots, each searched at most once a pass).
 
+use crate::library::template::Tolerance;
 use crate::params::MAX_CANDIDATES;
 use crate::pose::holes::{Holes, MIN_HOLE_FRACTION};
 use crate::pose::refine::{Difference, RefineParams};
@@ -70,6 +71,8 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         // any pass goes beyond that cost, and a first candidate that far off ends the scan.
         if whole {
             scan.cap = UNVERIFIED_FAMILY * params.epsilon * n as f32;
+            let tolerant = self.templates.iter().any(|t| t.tolerance() != Tolerance::NONE);
+            scan.walk_cap = if tolerant { f32::INFINITY } else { scan.cap };
         }
         if whole {
             self.leave_out_by_size(&mut scan, area);
@@ -127,7 +130,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             };
             // A first candidate at `f′ ≥ 2ε` (UNVERIFIED_FAMILY): the part is of no template's
             // family and unknown; the DP's nearest template is reported, not aligned.
-            if scan.found == 1 && m.cost >= scan.cap {
+            if scan.found == 1 && ratio != f32::INFINITY && m.cost >= self.family_cap(&scan, slot) {
                 if let Some((signed, paper)) = self.angles(n, centroid, slot) {
                     detection.best_template = Some((slot / 2) as u16);
                     detection.flipped = slot % 2 == 1;
@@ -318,6 +321,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             cost: [[f32::NAN; 2]; T],
             searches: 0,
             cap: f32::INFINITY,
+            walk_cap: f32::INFINITY,
         };
         let flips = self.params.flipped_parts && mirrors;
         let (Some(part), Some(sorted)) = (self.descriptor.get(..n), scan.sorted.get_mut(..n)) else {
@@ -341,6 +345,17 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         scan
     }
 
+    /// The DP cost that slot `slot` must stay below to be a candidate once a first search has
+    /// run ([`UNVERIFIED_FAMILY`]): the scan's cap for a template taught from one example,
+    /// none (`+∞`) for a class taught from several, whose examples may lie further apart in
+    /// the descriptor than `2ε` and still verify within the class's tolerance.
+    fn family_cap(&self, scan: &CandidateScan<T, M>, slot: usize) -> f32 {
+        match self.templates.get(slot / 2) {
+            Some(t) if t.tolerance() == Tolerance::NONE => scan.cap,
+            _ => f32::INFINITY,
+        }
+    }
+
     /// The next candidate of `refine = Verify`, its correspondence in `self.assignment`: the
     /// templates are taken in ascending order of their sorted-value bound
     /// ([`Self::next_template`]), each searched by the DP bounded by `ratio` times the lowest
@@ -358,14 +373,18 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             // (An infinite ratio takes every template in turn, even after a cost of 0.)
             // (The first search is not capped: a bound would cost it a relaxed pass over every
             // start, and it is what the part is compared with.)
-            let bound = if ratio == f32::INFINITY {
+            // A class taught from several examples is not capped (its examples' own spread sets
+            // its tolerance), so the bound order is walked to the widest cap of the library.
+            let uncapped = if ratio == f32::INFINITY {
                 f32::INFINITY
-            } else if scan.lowest.is_finite() {
-                (scan.lowest * ratio).min(scan.cap)
             } else {
                 scan.lowest * ratio
             };
-            let slot = self.next_template(scan, n, bound)?;
+            // (An infinite ratio asks for templates whatever their costs: no cap.)
+            let searched = scan.lowest.is_finite() && ratio != f32::INFINITY;
+            let capped = |cap: f32| if searched { uncapped.min(cap) } else { uncapped };
+            let slot = self.next_template(scan, n, capped(scan.walk_cap))?;
+            let bound = capped(self.family_cap(scan, slot));
             // A mirror image whose template was searched comes in only well below its cost: a
             // part that is neither fits both about alike.
             let twin_cost = scan.cost.as_flattened().get(slot ^ 1).copied().unwrap_or(f32::NAN);
@@ -547,8 +566,12 @@ struct CandidateScan<const T: usize, const M: usize> {
     /// DP searches run so far.
     searches: usize,
     /// The DP cost no later candidate reaches once one was found ([`UNVERIFIED_FAMILY`] times
-    /// `ε·n` for a whole part; `+∞` on the paper's path and for a part the frame's edge cuts).
+    /// `ε·n` for a whole part; `+∞` on the paper's path and for a part the frame's edge cuts),
+    /// for a template taught from one example ([`Recognizer::family_cap`]).
     cap: f32,
+    /// The largest of the templates' caps: `cap`, or `+∞` when a class of the library was
+    /// taught from several examples.
+    walk_cap: f32,
 }
 
 impl<const T: usize, const M: usize> CandidateScan<T, M> {
@@ -632,7 +655,10 @@ pub const FALLBACK_RATIO: f32 = 3.0;
 /// wider passes (up to [`FALLBACK_RATIO`] times a distractor's lowest cost) search only the
 /// part's family. A part the frame's edge cuts (its outline holds the straight cut, `f′` up to
 /// 0.16 on the border set) has no cap; its first candidate that far off ends the scan only
-/// when it could not be verified.
+/// when it could not be verified. Neither has a template of a class taught from several
+/// examples (its examples may lie further apart than `2ε` and the class's tolerance still
+/// take them in), nor a scan with `candidate_ratio = inf`, which asks for templates whatever
+/// their costs (how the host measures one example against another).
 ///
 /// The right templates of known parts lie at `f′` 0.025–0.09 on every set measured (ε = 0.08;
 /// `docs/accuracy.md`): over every generated set, the 3× camera set and the real photos the
@@ -823,7 +849,7 @@ mod tests {
                     lowest = lowest.min(c);
                 }
                 let mut scan = r.candidate_scan(N, true);
-                scan.cap = cap;
+                (scan.cap, scan.walk_cap) = (cap, cap);
                 let mut got = std::vec::Vec::new();
                 while let Some((slot, m)) = r.next_candidate(&mut scan, N, k, ratio) {
                     // A circle's outline is not chiral: no mirror image is searched.
