@@ -370,17 +370,17 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         ratio: f32,
     ) -> Option<(usize, Match)> {
         while scan.found < k.max(1) {
-            // (An infinite ratio takes every template in turn, even after a cost of 0.)
-            // (The first search is not capped: a bound would cost it a relaxed pass over every
-            // start, and it is what the part is compared with.)
-            // A class taught from several examples is not capped (its examples' own spread sets
-            // its tolerance), so the bound order is walked to the widest cap of the library.
+            // (An infinite ratio takes every template in turn, even after a cost of 0, whatever
+            // its cost: no cap.)
             let uncapped = if ratio == f32::INFINITY {
                 f32::INFINITY
             } else {
                 scan.lowest * ratio
             };
-            // (An infinite ratio asks for templates whatever their costs: no cap.)
+            // The family's cap (UNVERIFIED_FAMILY) bounds every search after the first (a bound
+            // on the first would cost it a relaxed pass over every start). The bound order is
+            // walked to the widest cap of the library (a class taught from several examples has
+            // none); each template is searched within its own.
             let searched = scan.lowest.is_finite() && ratio != f32::INFINITY;
             let capped = |cap: f32| if searched { uncapped.min(cap) } else { uncapped };
             let slot = self.next_template(scan, n, capped(scan.walk_cap))?;
