@@ -1,5 +1,7 @@
 //! Overlay pictures: each part's contour, its class name (or "unknown"), f' and the
-//! verification score, a cross at its position and an arrow along its angle. A part lying
+//! verification score, a cross at its position and an arrow along its angle (none for an
+//! unknown part that was never aligned, being of no template's family: its label says the
+//! nearest template and its f' instead). A part lying
 //! upside down says `flipped` after its class; one the partial search found says `touching` or
 //! `cut` and its visible share.
 //!
@@ -78,15 +80,19 @@ pub fn draw_detection(img: &mut RgbImage, d: &HostDetection) {
     }
     let (x, y) = (d.core.x, d.core.y);
     draw_cross_mut(img, WHITE, x.round() as i32, y.round() as i32);
-    let len = (d.core.area.max(1.0).sqrt() * 0.6).clamp(12.0, 120.0);
-    let (s, co) = d.core.angle_deg.to_radians().sin_cos();
-    let tip = (x + len * co, y - len * s);
-    draw_line_segment_mut(img, (x, y), tip, c);
-    // Arrow head: two short strokes back from the tip at ±25°.
-    for side in [-1.0f32, 1.0] {
-        let a = d.core.angle_deg.to_radians() + std::f32::consts::PI - side * 25f32.to_radians();
-        let back = (tip.0 + 7.0 * a.cos(), tip.1 - 7.0 * a.sin());
-        draw_line_segment_mut(img, tip, back, c);
+    // An unknown part that was never aligned (of no template's family) has no angle: no arrow.
+    let angled = d.class.is_some() || d.core.pose.is_some();
+    if angled {
+        let len = (d.core.area.max(1.0).sqrt() * 0.6).clamp(12.0, 120.0);
+        let (s, co) = d.core.angle_deg.to_radians().sin_cos();
+        let tip = (x + len * co, y - len * s);
+        draw_line_segment_mut(img, (x, y), tip, c);
+        // Arrow head: two short strokes back from the tip at ±25°.
+        for side in [-1.0f32, 1.0] {
+            let a = d.core.angle_deg.to_radians() + std::f32::consts::PI - side * 25f32.to_radians();
+            let back = (tip.0 + 7.0 * a.cos(), tip.1 - 7.0 * a.sin());
+            draw_line_segment_mut(img, tip, back, c);
+        }
     }
     let class = d.class.as_deref().unwrap_or("unknown");
     let name = if d.core.flipped {
@@ -114,8 +120,11 @@ pub fn draw_detection(img: &mut RgbImage, d: &HostDetection) {
             "{name} f'={:.3} v={:.2}/{:.2}px {:.1}deg",
             d.core.score, d.core.verify, d.core.verify_limit, d.core.angle_deg
         )
-    } else if d.core.score.is_finite() {
+    } else if d.core.score.is_finite() && angled {
         format!("{name} f'={:.3} {:.1}deg", d.core.score, d.core.angle_deg)
+    } else if d.core.score.is_finite() {
+        let nearest = d.best_class.as_deref().unwrap_or("?");
+        format!("{name} f'={:.3} from {nearest}", d.core.score)
     } else {
         name
     };
