@@ -73,8 +73,6 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             scan.cap = UNVERIFIED_FAMILY * params.epsilon * n as f32;
             let tolerant = self.templates.iter().any(|t| t.tolerance() != Tolerance::NONE);
             scan.walk_cap = if tolerant { f32::INFINITY } else { scan.cap };
-        }
-        if whole {
             self.leave_out_by_size(&mut scan, area);
         }
         let significant_holes = part_holes
@@ -131,12 +129,8 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             // A first candidate at `f′ ≥ 2ε` (UNVERIFIED_FAMILY): the part is of no template's
             // family and unknown; the DP's nearest template is reported, not aligned.
             if scan.found == 1 && ratio != f32::INFINITY && m.cost >= self.family_cap(&scan, slot) {
-                if let Some((signed, paper)) = self.angles(n, centroid, slot) {
-                    detection.best_template = Some((slot / 2) as u16);
-                    detection.flipped = slot % 2 == 1;
-                    detection.score = m.normalized;
-                    detection.angle_paper_deg = paper;
-                    detection.angle_dp_deg = signed;
+                if let Some(angles) = self.angles(n, centroid, slot) {
+                    note_dp(detection, slot, m, angles);
                 }
                 break;
             }
@@ -191,9 +185,10 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 }
             }
             // A first candidate that is confident ends the scan: a later cost record would have
-            // to beat a fit within half its limit with all its holes, and the part's. So does,
-            // for a part the frame's edge cuts, one far off the part in size and shape
-            // (UNVERIFIED_FAMILY; a whole part's ended before its alignment).
+            // to beat a fit within half its limit with all its holes, and the part's. So does
+            // one far off the part in size and shape (UNVERIFIED_FAMILY) that the family rule
+            // left to its alignment: a part the frame's edge cuts, a class taught from several
+            // examples, `candidate_ratio = inf`.
             if scan.found == 1
                 && (confident(detection)
                     || (!detection.verify.is_finite() && m.normalized >= UNVERIFIED_FAMILY * params.epsilon))
@@ -277,11 +272,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             detection.verify = fit.verify;
             detection.verify_limit = fit.limit;
             detection.holes = fit.holes;
-            detection.best_template = Some((slot / 2) as u16);
-            detection.flipped = slot % 2 == 1;
-            detection.score = m.normalized;
-            detection.angle_paper_deg = paper;
-            detection.angle_dp_deg = signed;
+            note_dp(detection, slot, m, (signed, paper));
         }
     }
 
@@ -529,6 +520,16 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
 struct Tried {
     best: Option<(usize, Fit)>,
     fits: heapless::Vec<(usize, Fit), { 2 * MAX_CANDIDATES }>,
+}
+
+/// Notes the DP's side of candidate slot `slot` in `detection`: its template, side, cost
+/// (`score`) and the angles of its correspondence (`signed`, `paper`).
+fn note_dp(detection: &mut Detection, slot: usize, m: Match, (signed, paper): (f32, f32)) {
+    detection.best_template = Some((slot / 2) as u16);
+    detection.flipped = slot % 2 == 1;
+    detection.score = m.normalized;
+    detection.angle_paper_deg = paper;
+    detection.angle_dp_deg = signed;
 }
 
 /// Where a template is in a [`CandidateScan`].
