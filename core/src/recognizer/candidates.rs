@@ -257,8 +257,20 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             return;
         };
         let family = m.normalized < self.params.epsilon;
-        let Some(fit) = self.align_and_verify(n, position, signed, area, slot, family, part_holes, diff, refine_params)
-        else {
+        // A part the frame's edge cuts shows too little for its DP match to rule a side out.
+        let dp = (!detection.touches_edge).then_some(m);
+        let Some(fit) = self.align_and_verify(
+            n,
+            position,
+            signed,
+            area,
+            slot,
+            family,
+            dp,
+            part_holes,
+            diff,
+            refine_params,
+        ) else {
             return;
         };
         // A template and its mirror image are held against each other even when neither is

@@ -589,6 +589,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             area,
             slot,
             family,
+            None,
             part_holes,
             diff,
             &RefineParams::DEFAULT,

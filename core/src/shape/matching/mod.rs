@@ -147,6 +147,56 @@ pub fn match_at_start(
     })
 }
 
+/// Whether every start within `reach` of `centre` (modulo `m`: `centre`, `centre ± 1`, …,
+/// `centre ± reach`, at most `m` starts) costs at least `bound` (eq. 5.1, not normalised).
+/// Each start's own DP on `row` (`m − n + 1` cells), abandoned once its row minimum reaches
+/// `bound`; the test ends at the first start that comes in below it, the nearest starts first.
+/// The recognizer asks it whether the correspondences half a turn on from the one the DP found
+/// are all far worse (a part that the DP tells from its half-turned self).
+///
+/// ```
+/// use vorl_core::shape::matching::starts_reach;
+/// let template = [0.0f32, 1.0, 4.0, 2.0, 3.0, 5.0, 0.5, 2.5];
+/// let part = [4.0f32, 2.0, 3.0, 5.0, 0.5, 2.5];
+/// let mut row = [0.0f32; 3];
+/// // Start 2 matches exactly (cost 0): not every start around 3 reaches 0.5.
+/// assert!(!starts_reach(&part, &template, 3, 1, 0.5, &mut row).unwrap());
+/// // Starts 5, 6 and 7 all cost at least 0.5.
+/// assert!(starts_reach(&part, &template, 6, 1, 0.5, &mut row).unwrap());
+/// ```
+///
+/// # Errors
+/// [`Error::PointCounts`] when `n ≤ m < 2n` fails, [`Error::BufferTooSmall`] for `row`.
+pub fn starts_reach(
+    part: &[f32],
+    template: &[f32],
+    centre: usize,
+    reach: usize,
+    bound: f32,
+    row: &mut [f32],
+) -> Result<bool> {
+    let (n, m) = (part.len(), template.len());
+    check_counts(n, m)?;
+    let width = m - n + 1;
+    let Some(row) = row.get_mut(..width) else {
+        return Err(Error::BufferTooSmall {
+            needed: width,
+            got: row.len(),
+        });
+    };
+    let centre = centre.checked_rem(m).unwrap_or(0);
+    let starts = reach.saturating_mul(2).saturating_add(1).min(m);
+    for k in 0..starts {
+        // 0, +1, −1, +2, −2, …
+        let step = k.div_ceil(2);
+        let s = if k % 2 == 1 { centre + step } else { centre + m - step };
+        if run_start(part, template, s.checked_rem(m).unwrap_or(0), bound, row).is_some() {
+            return Ok(false);
+        }
+    }
+    Ok(true)
+}
+
 /// The plain search: every start in turn on one row of `m − n + 1` cells, with row-minimum
 /// pruning.
 fn plain_best_cost(part: &[f32], template: &[f32], bound: f32, row: &mut [f32]) -> Option<Match> {
@@ -430,6 +480,46 @@ mod tests {
     extern crate std;
     use std::vec;
     use std::vec::Vec;
+
+    /// `starts_reach` says whether each start of its window, every start's own optimum (the
+    /// unpruned per-start DP), reaches the bound; windows that run past `m` and wider than `m`.
+    #[test]
+    fn starts_reach_is_every_start_of_its_window_reaching_the_bound() {
+        let mut rng = crate::test_rng::XorShift(0x0b0d_5eed_4a1f);
+        let (mut reached, mut not) = (0, 0);
+        for _ in 0..400 {
+            let n = 1 + rng.below(40);
+            let m = n + rng.below(n);
+            let part: Vec<f32> = (0..n).map(|_| rng.below(1000) as f32 / 250.0).collect();
+            let template: Vec<f32> = (0..m).map(|_| rng.below(1000) as f32 / 250.0).collect();
+            let mut row = vec![0.0f32; m - n + 1];
+            let own: Vec<f32> = (0..m)
+                .map(|s| run_start(&part, &template, s, f32::INFINITY, &mut row).unwrap())
+                .collect();
+            let centre = rng.below(3 * m);
+            let reach = rng.below(m / 2 + 2);
+            let window: Vec<usize> = (0..(2 * reach + 1).min(m))
+                .map(|k| (centre + m * 2 + if k % 2 == 1 { k.div_ceil(2) } else { m - k / 2 }) % m)
+                .collect();
+            let least = window.iter().map(|&s| own[s]).fold(f32::INFINITY, f32::min);
+            // A bound just above or at the window's least cost, or between.
+            let bound = [least, least * 1.01 + 1e-3, least * 0.99][rng.below(3)];
+            let expected = window.iter().all(|&s| own[s] >= bound);
+            assert_eq!(
+                starts_reach(&part, &template, centre, reach, bound, &mut row).unwrap(),
+                expected,
+                "n {n} m {m} centre {centre} reach {reach} bound {bound}"
+            );
+            if expected {
+                reached += 1;
+            } else {
+                not += 1;
+            }
+        }
+        assert!(reached > 50 && not > 50, "{reached} {not}");
+        assert!(starts_reach(&[1.0, 2.0], &[1.0, 2.0, 3.0], 0, 1, 1.0, &mut [0.0; 1]).is_err());
+        assert!(starts_reach(&[1.0, 2.0, 3.0], &[1.0, 2.0], 0, 1, 1.0, &mut [0.0; 4]).is_err());
+    }
 
     #[test]
     fn sort_total_is_the_standard_sort_by_total_cmp() {
