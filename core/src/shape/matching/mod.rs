@@ -502,7 +502,7 @@ mod tests {
                 .map(|k| (centre + m * 2 + if k % 2 == 1 { k.div_ceil(2) } else { m - k / 2 }) % m)
                 .collect();
             let least = window.iter().map(|&s| own[s]).fold(f32::INFINITY, f32::min);
-            // A bound just above or at the window's least cost, or between.
+            // A bound at the window's least cost, just below it or just above it.
             let bound = [least, least * 1.01 + 1e-3, least * 0.99][rng.below(3)];
             let expected = window.iter().all(|&s| own[s] >= bound);
             assert_eq!(
