@@ -855,6 +855,54 @@ mod tests {
         t[0] * t[0] + t[1] * t[1] < 600.0 / core::f32::consts::PI
     }
 
+    /// A cam: a disc of radius 14 and one of radius 8, their centres 18 apart, joined by a
+    /// tapered neck. Nearly 2-fold (its half-turned outline lies 0.14 of its size off), so its
+    /// template is aligned half a turn on too unless the DP rules that side out.
+    fn cam_inside(t: [f32; 2]) -> bool {
+        let (u, v) = (t[0] + 9.0, t[1]);
+        let neck = (0.0..18.0).contains(&u) && v.abs() < 8.0 + 6.0 * (18.0 - u) / 18.0;
+        u * u + v * v < 196.0 || (u - 18.0).powi(2) + v * v < 64.0 || neck
+    }
+
+    /// A whole cam whose fit is confident is aligned once: the DP's matches half a turn on cost
+    /// more than `HALF_TURN_DP_RATIO` times its own (about 7 times here). The same cam cut by
+    /// the frame's edge is still aligned both ways round (a cut part's DP match is no evidence).
+    #[test]
+    fn a_confident_part_the_dp_tells_from_its_half_turn_is_aligned_once() {
+        use crate::recognizer::verdict::{HALF_TURN_AMBIGUOUS, HALF_TURN_SYMMETRIC};
+        let template = taught(cam_inside);
+        let h = template.half_turn();
+        assert!(
+            (HALF_TURN_SYMMETRIC..HALF_TURN_AMBIGUOUS).contains(&h),
+            "the cam must be nearly 2-fold: {h}"
+        );
+        let (w, ht) = (120usize, 80usize);
+        let bg = platform(w, ht);
+        // Whole at (60, 40), then with its large end beyond the frame's left edge.
+        for (x, cut) in [(60.0f32, false), (12.0, true)] {
+            let px = scene_of(w, ht, &[(cam_inside, x, 40.0, 25.0, false)]);
+            let mut rec: std::boxed::Box<Recognizer<4, 96, 4096, 64, 2112>> = std::boxed::Box::default();
+            rec.add_template(template.clone()).unwrap();
+            let mut labels = std::vec![0u8; w * ht];
+            crate::recognizer::verdict::ALIGNMENTS.with(|a| a.set(0));
+            let report = rec
+                .process(&Frame::new_checked(&px[..], w, ht).unwrap(), &bg, &mut labels)
+                .unwrap();
+            assert_eq!(report.detections.len(), 1, "{:?}", report.detections);
+            let d = report.detections[0];
+            assert_eq!(d.touches_edge, cut, "{d:?}");
+            let aligned = crate::recognizer::verdict::ALIGNMENTS.with(|a| a.get());
+            if cut {
+                assert!(aligned >= 2, "a cut cam is aligned both ways round: {aligned}");
+            } else {
+                assert_eq!(d.template, Some(0), "{d:?}");
+                let err = (d.angle_deg - 25.0 + 540.0).rem_euclid(360.0) - 180.0;
+                assert!(err.abs() < 0.5, "{d:?}");
+                assert_eq!(aligned, 1, "{d:?}");
+            }
+        }
+    }
+
     /// A whole part far from every template in shape (a disc against an L of its area: its
     /// DP cost is `f′ ≥ 2ε`) is unknown after one DP search and no alignment, its nearest
     /// template and cost reported; the L itself beside it is aligned and named. When the L is

@@ -104,6 +104,8 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         };
         let once = |s: Pose, retry_allowed: bool| {
             let mut distances = [0.0f32; M];
+            #[cfg(test)]
+            ALIGNMENTS.with(|a| a.set(a.get() + 1));
             let aligned = align_recording(diff, t.edge(), t.normals(), s, &rp, &mut distances);
             let (verify, full) = verify_score(&aligned, &mut distances, t, part_edges, diff, &rp, params);
             let fit = |pose: Pose, (verify, full): (f32, f32), wall: f32| Fit {
@@ -488,3 +490,12 @@ pub const HALF_TURN_SYMMETRIC: f32 = 0.01;
 /// better than the first) the half-turned fit never won where those starts cost more than 1.8
 /// times the DP's when the first fit was confident, nor more than 3.5 times otherwise.
 pub const HALF_TURN_DP_RATIO: f32 = 4.0;
+
+#[cfg(test)]
+extern crate std;
+
+#[cfg(test)]
+std::thread_local! {
+    /// Alignments run on this thread (for the tests' work counts).
+    pub(crate) static ALIGNMENTS: core::cell::Cell<usize> = const { core::cell::Cell::new(0) };
+}
