@@ -486,9 +486,10 @@ pub const HALF_TURN_SYMMETRIC: f32 = 0.01;
 /// The factor over the DP cost of its match that every correspondence half a turn on (every
 /// start within `m/24`, at least 2, of half the template's `m` points on from the match's) must
 /// cost at least for a confident fit, its holes all found, to keep its side without an
-/// alignment the other way round. Over the 28 sets of `docs/accuracy.md` (1 979 half-turn alignments, 244 of them
-/// better than the first) the half-turned fit never won where those starts cost more than 1.8
-/// times the DP's when the first fit was confident, nor more than 3.5 times otherwise.
+/// alignment the other way round. Over the 28 sets of `docs/accuracy.md` (1 979 half-turn
+/// alignments, 244 of them better than the first) the half-turned fit never won where those
+/// starts cost more than 1.8 times the DP's when the first fit was confident, nor more than 3.5
+/// times otherwise.
 pub const HALF_TURN_DP_RATIO: f32 = 4.0;
 
 #[cfg(test)]
