@@ -19,7 +19,7 @@ use crate::pixels::enhance::{enhance_row, enhance_span, Alpha};
 /// Pixels of `I'` computed at a time on the stack while learning or updating.
 const CHUNK: usize = 64;
 use crate::error::{Error, Result};
-use crate::pixels::exposure::{fit_exposure_rounds, Exposure};
+use crate::pixels::exposure::{fit_platform_shift, Exposure};
 use crate::pixels::frame::Frame;
 
 /// The largest number of frames [`Background::learn`] averages (the 16-bit sum of 255 frames of
@@ -31,8 +31,10 @@ pub const MAX_LEARN_FRAMES: usize = 255;
 /// grey levels: one step of the spread's resolution (the median of whole-level residuals).
 pub const KEEP_SPREAD: f32 = 1.5;
 
-/// Rounds of least squares in the exposure check of [`Background::estimate_or_keep`] (after the
-/// median offset): one tells an unchanged exposure from a changed one.
+/// Rounds of least squares in a quick exposure check (after the median offset): one tells an
+/// unchanged exposure from a changed one. [`Background::estimate_or_keep`]'s check
+/// ([`crate::pixels::exposure::fit_platform_shift`]) takes one; with an empty shot, the host
+/// runs the full fit only where one round finds the exposure changed.
 pub const KEEP_ROUNDS: usize = 1;
 
 /// A sensible [`PlatformKeeping::every`] for a fixed camera: one estimate serves at most 30
@@ -299,10 +301,11 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Background<S> {
     ///
     /// The earlier estimate is kept when all of these hold:
     /// - it has served fewer than [`PlatformKeeping::every`] frames;
-    /// - this frame's exposure against it ([`crate::pixels::exposure::fit_exposure_rounds`] with
-    ///   [`KEEP_ROUNDS`]) is the identity: no level of the
-    ///   platform moved by more than [`crate::pixels::exposure::DEAD_BAND`] (a new exposure, a
-    ///   dimmed backlight: estimated anew, so the frame gives what its own estimate would);
+    /// - this frame's platform against it ([`crate::pixels::exposure::fit_platform_shift`]: one
+    ///   round of least squares, a gain only where the platform's levels spread enough to
+    ///   measure one) is the identity: no level of the platform moved by more than
+    ///   [`crate::pixels::exposure::DEAD_BAND`] (a new exposure, a dimmed backlight: estimated
+    ///   anew, so the frame gives what its own estimate would);
     /// - enough samples agree with it ([`crate::pixels::exposure::MIN_SAMPLES`]);
     /// - their spread ([`Exposure::spread`]) is at most [`KEEP_SPREAD`] grey levels above that
     ///   of the estimate's own frame (light that changed in places, a moved camera).
@@ -350,7 +353,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Background<S> {
     ) -> Result<PlatformUse> {
         self.check(frame)?;
         if self.ready && keeping.served > 0 && keeping.served < keeping.every {
-            let e = fit_exposure_rounds(frame, alpha, self.plane.as_ref(), KEEP_ROUNDS)?;
+            let e = fit_platform_shift(frame, alpha, self.plane.as_ref())?;
             let fits = e.is_identity()
                 && e.samples > 0
                 && e.inliers >= crate::pixels::exposure::MIN_SAMPLES
@@ -366,7 +369,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Background<S> {
             }
         }
         let stats = self.estimate_from_frame(frame, alpha, grid)?;
-        let own = fit_exposure_rounds(frame, alpha, self.plane.as_ref(), KEEP_ROUNDS)?;
+        let own = fit_platform_shift(frame, alpha, self.plane.as_ref())?;
         *keeping = PlatformKeeping {
             every: keeping.every,
             served: 1,

@@ -164,7 +164,58 @@ pub fn fit_exposure_rounds<B: AsRef<[u8]>>(
     fit_rounds(frame, alpha, background, rounds.clamp(1, ROUNDS))
 }
 
+/// Whether the platform still matches `background` (the platform's estimate): [`fit_exposure`]
+/// with one round of least squares, its gain kept only where the platform's levels spread enough
+/// to measure it ([`shift_unless_measurable`]), else an offset. The no-shot path's check of whether an
+/// estimate still serves a frame ([`crate::pixels::background::Background::estimate_or_keep`]):
+/// it undoes nothing, and asks only whether the platform's levels moved.
+///
+/// ```
+/// use vorl_core::{pixels::enhance::Alpha, pixels::exposure::{fit_exposure_rounds, fit_platform_shift}, Frame};
+/// // A platform of 8 levels (120–127) seen twice with fresh noise (±2 levels), the second
+/// // time 3 levels brighter.
+/// let (w, h) = (96usize, 72usize);
+/// let noise = |i: usize, k: usize| (((i * (2 * k + 1) * 2_654_435_761) >> 16) % 5) as u8;
+/// let level = |i: usize| (120 + (i % w) * 8 / w) as u8;
+/// let bg: Vec<u8> = (0..w * h).map(|i| level(i) + noise(i, 1) - 2).collect();
+/// let frame: Vec<u8> = (0..w * h).map(|i| level(i) + noise(i, 2) + 1).collect();
+/// let frame = Frame::new_checked(&frame[..], w, h).unwrap();
+/// // Least squares flatten the gain: the background's noise is a third of its levels' spread.
+/// let full = fit_exposure_rounds(&frame, Alpha::ONE, &bg, 1).unwrap();
+/// assert!(full.gain < 0.85, "{full:?}");
+/// // The shift is an offset.
+/// let shift = fit_platform_shift(&frame, Alpha::ONE, &bg).unwrap();
+/// assert_eq!(shift.gain, 1.0);
+/// assert!((shift.offset - 3.0).abs() < 0.3, "{shift:?}");
+/// ```
+///
+/// # Errors
+/// As [`fit_exposure`].
+pub fn fit_platform_shift<B: AsRef<[u8]>>(frame: &Frame<B>, alpha: Alpha, background: &[u8]) -> Result<Exposure> {
+    fit_with(frame, alpha, background, 1, GainRule::WhereMeasurable)
+}
+
+/// When a fit's least squares give a gain rather than an offset alone.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum GainRule {
+    /// Wherever the levels spread over more than a grey level (an exposure undone: a real
+    /// change of it on a narrow platform still moves the parts' levels).
+    Spread,
+    /// Where the gain is measurable ([`shift_unless_measurable`]).
+    WhereMeasurable,
+}
+
 fn fit_rounds<B: AsRef<[u8]>>(frame: &Frame<B>, alpha: Alpha, background: &[u8], rounds: usize) -> Result<Exposure> {
+    fit_with(frame, alpha, background, rounds, GainRule::Spread)
+}
+
+fn fit_with<B: AsRef<[u8]>>(
+    frame: &Frame<B>,
+    alpha: Alpha,
+    background: &[u8],
+    rounds: usize,
+    rule: GainRule,
+) -> Result<Exposure> {
     let (w, h) = (frame.width(), frame.height());
     let needed = w.saturating_mul(h);
     if background.len() < needed {
@@ -243,7 +294,7 @@ fn fit_rounds<B: AsRef<[u8]>>(frame: &Frame<B>, alpha: Alpha, background: &[u8],
         }
         (gain, offset) = (g, o);
     }
-    let e = Exposure {
+    let mut e = Exposure {
         gain,
         offset,
         inliers,
@@ -251,6 +302,12 @@ fn fit_rounds<B: AsRef<[u8]>>(frame: &Frame<B>, alpha: Alpha, background: &[u8],
         levels,
         spread,
     };
+    // (A fit within the dead band is the identity either way.)
+    if rule == GainRule::WhereMeasurable && gain != 1.0 && !e.is_identity() {
+        if let Some(shift) = shift_unless_measurable(frame, alpha, background, e, threshold) {
+            e = shift;
+        }
+    }
     Ok(if e.is_identity() {
         Exposure {
             gain: 1.0,
@@ -260,6 +317,87 @@ fn fit_rounds<B: AsRef<[u8]>>(frame: &Frame<B>, alpha: Alpha, background: &[u8],
     } else {
         e
     })
+}
+
+/// [`GainRule::WhereMeasurable`]: `None` where `fit`'s gain `g` is measurable, else the offset
+/// that replaces it. One more pass over the samples: `g` is measurable where it moves the
+/// platform's levels, one standard deviation from their mean, by at least the robust spread
+/// (`1.4826 × MAD`) of the residuals around it: `(g − 1)²·var_b ≥ σ²`, over the samples within
+/// `threshold` of the line. Else the offset is the mean `frame − background` of the samples
+/// within `threshold` of the line's offset at their mid level, with their levels and spread.
+///
+/// Over a platform of a few grey levels a gain is not measurable: the background's own noise
+/// flattens it (by `var / (var + σ²)`), and light that varies across the platform by a level or
+/// two from frame to frame tilts it. The generated sets' platforms (levels 116–138) fit gains
+/// of 0.5–0.85 at their own exposure, which extrapolate to a dark part 15 levels and more away,
+/// and which moved the extreme platform levels past [`DEAD_BAND`] so that an estimate that still
+/// fitted was made anew. A change of exposure on a wide platform (the real backlights' levels
+/// spread over 60–90) moves its levels apart by far more than the residuals.
+fn shift_unless_measurable<B: AsRef<[u8]>>(
+    frame: &Frame<B>,
+    alpha: Alpha,
+    background: &[u8],
+    fit: Exposure,
+    threshold: f32,
+) -> Option<Exposure> {
+    // One pass: the residuals of the samples within `threshold` of the fitted line (their
+    // median, and their background levels' variance), and those within it of the offset line
+    // through the median difference's inliers (their mean difference, levels and median).
+    let mut line_hist = [0u32; 256];
+    let (mut n, mut sb, mut sbb) = (0u32, 0u64, 0u64);
+    let mut shift_hist = [0u32; 256];
+    let (mut m, mut sd) = (0u32, 0i64);
+    let mut range = [u8::MAX, 0u8];
+    let mut predicted = [0.0f32; 256];
+    for (b, p) in predicted.iter_mut().enumerate() {
+        *p = fit.gain * b as f32 + fit.offset;
+    }
+    // The offset line's offset: the fit's value at the inliers' mean level.
+    let mid = 0.5 * (fit.levels[0] + fit.levels[1]);
+    let offset = fit.gain * mid + fit.offset - mid;
+    for_samples(frame, alpha, background, |f, b| {
+        let r = (f as f32 - predicted.get(b as usize).copied().unwrap_or(0.0)).abs();
+        if r <= threshold {
+            if let Some(slot) = line_hist.get_mut(r as usize) {
+                *slot += 1;
+            }
+            n += 1;
+            sb += b as u64;
+            sbb += b as u64 * b as u64;
+        }
+        let d = f as f32 - b as f32 - offset;
+        if d.abs() <= threshold {
+            if let Some(slot) = shift_hist.get_mut(d.abs() as usize) {
+                *slot += 1;
+            }
+            m += 1;
+            sd += f as i64 - b as i64;
+            range = [range[0].min(b), range[1].max(b)];
+        }
+    });
+    if n < MIN_SAMPLES || m < MIN_SAMPLES {
+        return None;
+    }
+    let sigma = 1.4826 * median_bin(&line_hist, n).map_or(0.0, |i| i as f32 + 0.5);
+    let nf = n as f32;
+    let var_b = (nn_var(n, sb, sbb)) / (nf * nf);
+    if (fit.gain - 1.0) * (fit.gain - 1.0) * var_b >= sigma * sigma {
+        return None;
+    }
+    let mad = median_bin(&shift_hist, m).map_or(0.0, |i| i as f32 + 0.5);
+    Some(Exposure {
+        gain: 1.0,
+        offset: sd as f32 / m as f32,
+        inliers: m,
+        levels: [range[0] as f32, range[1] as f32],
+        spread: 1.4826 * mad,
+        ..fit
+    })
+}
+
+/// `n²` times the variance of `n` values of sum `s` and sum of squares `ss` (exact in integers).
+fn nn_var(n: u32, s: u64, ss: u64) -> f32 {
+    ((n as u64 * ss) as i64 - (s as i64) * (s as i64)) as f32
 }
 
 /// The sampling step for a `w`×`h` frame ([`MIN_STEP`], [`MAX_SAMPLES`]).
@@ -402,6 +540,48 @@ mod tests {
         let e = fit_exposure(&frame, Alpha::ONE, &bg).unwrap();
         assert_eq!(e.gain, 1.0);
         assert!((e.offset - 20.0).abs() < 1e-3, "{e:?}");
+    }
+
+    #[test]
+    fn the_platform_shift_keeps_a_gain_only_where_it_is_measurable() {
+        // A wide platform (140–210) at another exposure: the gain is measurable and kept (one
+        // round of least squares: on its way to the exposure's, parts' pixels still pull it).
+        let (w, h) = (120, 90);
+        let (bg, s) = scene(w, h);
+        for (gain, offset) in [(0.6, 10.0), (1.15, -8.0)] {
+            let f = expose(&s, gain, offset);
+            let frame = Frame::new_checked(&f[..], w, h).unwrap();
+            let e = fit_platform_shift(&frame, Alpha::ONE, &bg).unwrap();
+            assert!(
+                (e.gain - 1.0).signum() == (gain - 1.0).signum() && (e.gain - 1.0).abs() > 0.1,
+                "{gain} {offset}: {e:?}"
+            );
+            assert!(!e.is_identity());
+        }
+        // A platform of a few levels (124..=129) seen twice with fresh noise (σ ≈ 1.6), the
+        // second time under light tilted by up to ±1.5 levels across it: least squares find a
+        // gain well below 1 (the noise of the background flattens it, the tilt tilts it) that
+        // moves the platform past the dead band; the shift is an offset within it.
+        let noise = |i: usize, k: u64| {
+            let mut v = (i as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15).wrapping_add(k);
+            v ^= v >> 29;
+            v = v.wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            ((v >> 40) % 4 + (v >> 20) % 4) as f32 - 3.0
+        };
+        let level = |i: usize| 124.0 + ((i % w) * 6 / w) as f32;
+        let bg: Vec<u8> = (0..w * h).map(|i| (level(i) + noise(i, 1)).round() as u8).collect();
+        let f: Vec<u8> = (0..w * h)
+            .map(|i| {
+                let tilt = 1.5 - 3.0 * (i % w) as f32 / w as f32;
+                (level(i) + tilt + noise(i, 2)).round() as u8
+            })
+            .collect();
+        let frame = Frame::new_checked(&f[..], w, h).unwrap();
+        let full = fit_exposure(&frame, Alpha::ONE, &bg).unwrap();
+        assert!(full.gain < 0.7 && !full.is_identity(), "{full:?}");
+        let shift = fit_platform_shift(&frame, Alpha::ONE, &bg).unwrap();
+        assert_eq!(shift.gain, 1.0, "{shift:?}");
+        assert!(shift.offset.abs() < 0.5 && shift.is_identity(), "{shift:?}");
     }
 
     #[test]
