@@ -166,9 +166,11 @@ pub fn fit_exposure_rounds<B: AsRef<[u8]>>(
 
 /// Whether the platform still matches `background` (the platform's estimate): [`fit_exposure`]
 /// with one round of least squares, its gain kept only where the platform's levels spread enough
-/// to measure it ([`shift_unless_measurable`]), else an offset. The no-shot path's check of whether an
-/// estimate still serves a frame ([`crate::pixels::background::Background::estimate_or_keep`]):
-/// it undoes nothing, and asks only whether the platform's levels moved.
+/// to measure it ([`shift_unless_measurable`]), else an offset: whether the platform's levels
+/// moved. The no-shot path's check of whether an estimate still serves a frame
+/// ([`crate::pixels::background::Background::estimate_or_keep`]), and the host's quick check of
+/// whether a frame's exposure changed against the empty shot (a changed one then gets
+/// [`fit_exposure`], whose gain is undone).
 ///
 /// ```
 /// use vorl_core::{pixels::enhance::Alpha, pixels::exposure::{fit_exposure_rounds, fit_platform_shift}, Frame};
@@ -342,7 +344,8 @@ fn shift_unless_measurable<B: AsRef<[u8]>>(
 ) -> Option<Exposure> {
     // One pass: the residuals of the samples within `threshold` of the fitted line (their
     // median, and their background levels' variance), and those within it of the offset line
-    // through the median difference's inliers (their mean difference, levels and median).
+    // that meets the fitted one at the inliers' mid level (their mean difference, levels and
+    // median residual).
     let mut line_hist = [0u32; 256];
     let (mut n, mut sb, mut sbb) = (0u32, 0u64, 0u64);
     let mut shift_hist = [0u32; 256];
