@@ -166,8 +166,11 @@ pub fn fit_exposure_rounds<B: AsRef<[u8]>>(
 
 /// Whether the platform still matches `background` (the platform's estimate): [`fit_exposure`]
 /// with one round of least squares, its gain kept only where the platform's levels spread enough
-/// to measure it ([`shift_unless_measurable`]), else an offset: whether the platform's levels
-/// moved. The no-shot path's check of whether an estimate still serves a frame
+/// to measure it, else an offset: whether the platform's levels moved. The gain is measurable
+/// where it moves the platform's levels, one standard deviation from their mean, by at least the
+/// robust spread of the residuals around it (one more pass over the samples, only where the
+/// gain fit is not already the identity); over a platform of a few grey levels it is not: the
+/// background's own noise flattens it, and light that varies across the platform tilts it. The no-shot path's check of whether an estimate still serves a frame
 /// ([`crate::pixels::background::Background::estimate_or_keep`]), and the host's quick check of
 /// whether a frame's exposure changed against the empty shot (a changed one then gets
 /// [`fit_exposure`], whose gain is undone).
