@@ -124,7 +124,6 @@ fuzz_target!(|data: &[u8]| {
         step: input.num_or(0.25),
         min_contrast: input.num_or(8.0),
         cap: input.num_or(2.0),
-        scale_penalty: input.num_or(4.0),
         give_up: input.num_or(f32::INFINITY),
         offset_max: input.num_or(0.0),
         wall_max: input.num_or(0.0),

@@ -189,7 +189,6 @@ fn refine_params() -> RefineParams {
         step: f(),
         min_contrast: f(),
         cap: f(),
-        scale_penalty: f(),
         give_up: f(),
         offset_max: f(),
         wall_max: f(),

@@ -168,8 +168,6 @@ pub struct RefineParams {
     /// is not a number or negative caps nothing (a profile without an edge then counts
     /// infinite: never verified).
     pub cap: f32,
-    /// Weight of `|ln scale|` in the verification score (px per unit of log-scale).
-    pub scale_penalty: f32,
     /// The alignment gives up once a step, from the [`GIVE_UP_AFTER`]-th on, finds its
     /// profiles farther than this from the edge on average (capped at [`Self::cap`], profiles
     /// without an edge counting the cap), px, or a step that finds too few edges to be taken
@@ -201,7 +199,6 @@ impl RefineParams {
         step: 0.25,
         min_contrast: 8.0,
         cap: 2.0,
-        scale_penalty: 4.0,
         give_up: f32::INFINITY,
         offset_max: 0.0,
         wall_max: 0.0,
