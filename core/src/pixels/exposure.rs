@@ -251,15 +251,12 @@ fn fit_with<B: AsRef<[u8]>>(
         // Least squares of f = gain·b + offset over the samples within the threshold of the
         // last fit, and their residuals' histogram for the next round's threshold. The sums
         // are exact integers (levels ≤ 255, at most MAX_SAMPLES of them: below 2^32 each).
-        let mut predicted = [0.0f32; 256];
-        for (b, p) in predicted.iter_mut().enumerate() {
-            *p = gain * b as f32 + offset;
-        }
+        let line = Line::new(gain, offset);
         let mut abs_hist = [0u32; 256];
         let (mut n, mut sb, mut sf, mut sbb, mut sbf) = (0u32, 0u64, 0u64, 0u64, 0u64);
         let mut range = [u8::MAX, 0u8];
         for_samples(frame, alpha, background, |f, b| {
-            let r = (f as f32 - predicted.get(b as usize).copied().unwrap_or(0.0)).abs();
+            let r = line.residual(f, b);
             if r <= threshold {
                 range = [range[0].min(b), range[1].max(b)];
                 if let Some(slot) = abs_hist.get_mut(r as usize) {
@@ -278,12 +275,12 @@ fn fit_with<B: AsRef<[u8]>>(
         }
         inliers = n;
         levels = [range[0] as f32, range[1] as f32];
-        let mad = median_bin(&abs_hist, n).map_or(0.0, |i| i as f32 + 0.5);
+        let mad = mad_of(&abs_hist, n);
         spread = 1.4826 * mad;
         threshold = (4.0 * 1.4826 * mad).max(MIN_INLIER);
         // Centred moments, exact in integers: n²·var = n·Σb² − (Σb)², n²·cov = n·Σbf − Σb·Σf.
         let nn = n as u64;
-        let var_n2 = (nn * sbb) as i64 - (sb as i64) * (sb as i64);
+        let var_n2 = nn_var(n, sb, sbb);
         let cov_n2 = (nn * sbf) as i64 - (sb as i64) * (sf as i64);
         let nf = n as f32;
         let (mb, mf) = (sb as f32 / nf, sf as f32 / nf);
@@ -354,15 +351,12 @@ fn shift_unless_measurable<B: AsRef<[u8]>>(
     let mut shift_hist = [0u32; 256];
     let (mut m, mut sd) = (0u32, 0i64);
     let mut range = [u8::MAX, 0u8];
-    let mut predicted = [0.0f32; 256];
-    for (b, p) in predicted.iter_mut().enumerate() {
-        *p = fit.gain * b as f32 + fit.offset;
-    }
+    let line = Line::new(fit.gain, fit.offset);
     // The offset line's offset: the fit's value at the inliers' mean level.
     let mid = 0.5 * (fit.levels[0] + fit.levels[1]);
     let offset = fit.gain * mid + fit.offset - mid;
     for_samples(frame, alpha, background, |f, b| {
-        let r = (f as f32 - predicted.get(b as usize).copied().unwrap_or(0.0)).abs();
+        let r = line.residual(f, b);
         if r <= threshold {
             if let Some(slot) = line_hist.get_mut(r as usize) {
                 *slot += 1;
@@ -384,13 +378,13 @@ fn shift_unless_measurable<B: AsRef<[u8]>>(
     if n < MIN_SAMPLES || m < MIN_SAMPLES {
         return None;
     }
-    let sigma = 1.4826 * median_bin(&line_hist, n).map_or(0.0, |i| i as f32 + 0.5);
+    let sigma = 1.4826 * mad_of(&line_hist, n);
     let nf = n as f32;
-    let var_b = (nn_var(n, sb, sbb)) / (nf * nf);
+    let var_b = nn_var(n, sb, sbb) as f32 / (nf * nf);
     if (fit.gain - 1.0) * (fit.gain - 1.0) * var_b >= sigma * sigma {
         return None;
     }
-    let mad = median_bin(&shift_hist, m).map_or(0.0, |i| i as f32 + 0.5);
+    let mad = mad_of(&shift_hist, m);
     Some(Exposure {
         gain: 1.0,
         offset: sd as f32 / m as f32,
@@ -402,8 +396,32 @@ fn shift_unless_measurable<B: AsRef<[u8]>>(
 }
 
 /// `n²` times the variance of `n` values of sum `s` and sum of squares `ss` (exact in integers).
-fn nn_var(n: u32, s: u64, ss: u64) -> f32 {
-    ((n as u64 * ss) as i64 - (s as i64) * (s as i64)) as f32
+fn nn_var(n: u32, s: u64, ss: u64) -> i64 {
+    (n as u64 * ss) as i64 - (s as i64) * (s as i64)
+}
+
+/// The line `gain · b + offset` tabulated over the background's levels.
+struct Line([f32; 256]);
+
+impl Line {
+    fn new(gain: f32, offset: f32) -> Self {
+        let mut predicted = [0.0f32; 256];
+        for (b, p) in predicted.iter_mut().enumerate() {
+            *p = gain * b as f32 + offset;
+        }
+        Line(predicted)
+    }
+
+    /// `|f − (gain · b + offset)|`.
+    fn residual(&self, f: u8, b: u8) -> f32 {
+        (f as f32 - self.0.get(b as usize).copied().unwrap_or(0.0)).abs()
+    }
+}
+
+/// The median absolute residual of `n` residuals binned by whole grey levels in `hist` (a
+/// bin's centre; 0 for none).
+fn mad_of(hist: &[u32], n: u32) -> f32 {
+    median_bin(hist, n).map_or(0.0, |i| i as f32 + 0.5)
 }
 
 /// The sampling step for a `w`×`h` frame ([`MIN_STEP`], [`MAX_SAMPLES`]).
