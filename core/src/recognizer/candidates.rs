@@ -536,7 +536,7 @@ struct Tried {
 
 /// Notes the DP's side of candidate slot `slot` in `detection`: its template, side, cost
 /// (`score`) and the angles of its correspondence (`signed`, `paper`).
-fn note_dp(detection: &mut Detection, slot: usize, m: Match, (signed, paper): (f32, f32)) {
+pub(super) fn note_dp(detection: &mut Detection, slot: usize, m: Match, (signed, paper): (f32, f32)) {
     detection.best_template = Some((slot / 2) as u16);
     detection.flipped = slot % 2 == 1;
     detection.score = m.normalized;

@@ -565,11 +565,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         detection.searches = u8::try_from(searches).unwrap_or(u8::MAX);
         let (slot, m) = found?;
         let (signed, paper) = self.angles(n, centroid, slot)?;
-        detection.best_template = Some((slot / 2) as u16);
-        detection.flipped = slot % 2 == 1;
-        detection.score = m.normalized;
-        detection.angle_paper_deg = paper;
-        detection.angle_dp_deg = signed;
+        candidates::note_dp(detection, slot, m, (signed, paper));
         detection.angle_deg = match params.angle {
             AngleEstimator::Signed => signed,
             AngleEstimator::Paper => paper,
