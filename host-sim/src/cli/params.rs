@@ -125,6 +125,7 @@ impl ParamArgs {
             ($($f:ident),*) => { $( if let Some(v) = self.$f { c.$f = v; } )* };
         }
         set!(
+            cleanup,
             alpha,
             n,
             m,
@@ -164,5 +165,96 @@ impl ParamArgs {
     /// As [`Self::config_over`] and [`Config::to_params`].
     pub fn params_over(&self, base: Option<&std::path::Path>) -> Result<Params, String> {
         self.config_over(base)?.to_params()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::{Args, CommandFactory, Parser};
+
+    use super::*;
+
+    /// A command of nothing but the pipeline flags.
+    #[derive(Debug, Parser)]
+    struct Cli {
+        #[command(flatten)]
+        params: ParamArgs,
+    }
+
+    /// Whether a config holds the value a row's flag gives.
+    type Holds = fn(&Config) -> bool;
+
+    /// Every flag of [`ParamArgs`] (long name without `--`), a value other than the default, and
+    /// whether a config holds it. `--config`'s value is a file setting `min_points`, which no
+    /// flag sets.
+    const FLAGS: &[(&str, &str, Holds)] = &[
+        ("config", "", |c| c.min_points == 7),
+        ("threshold", "42", |c| c.threshold == ThresholdSetting::Fixed(42)),
+        ("cleanup", "open-close", |c| c.cleanup == CleanupSetting::OpenClose),
+        ("alpha", "0.75", |c| c.alpha == 0.75),
+        ("n", "48", |c| c.n == 48),
+        ("m", "80", |c| c.m == 80),
+        ("k", "6", |c| c.k == 6),
+        ("omega", "0.25", |c| c.omega == 0.25),
+        ("epsilon", "0.125", |c| c.epsilon == 0.125),
+        ("angle", "paper", |c| c.angle == AngleSetting::Paper),
+        ("refine", "pose", |c| c.refine == RefineSetting::Pose),
+        ("candidates", "5", |c| c.candidates == 5),
+        ("candidate-ratio", "2.5", |c| c.candidate_ratio == 2.5),
+        ("verify-threshold", "1.5", |c| c.verify_threshold == 1.5),
+        ("verify-relative", "0.0625", |c| c.verify_relative == 0.0625),
+        ("offset-relative", "0.125", |c| c.offset_relative == 0.125),
+        ("scale-min", "0.75", |c| c.scale_min == 0.75),
+        ("scale-max", "1.5", |c| c.scale_max == 1.5),
+        ("position", "polygon", |c| c.position == PositionSetting::Polygon),
+        ("exposure", "fixed", |c| c.exposure == ExposureSetting::Fixed),
+        ("platform-every", "3", |c| c.platform_every == 3),
+        ("nested-parts", "true", |c| c.nested_parts),
+        ("flipped-parts", "false", |c| !c.flipped_parts),
+        ("touching-parts", "true", |c| c.touching_parts),
+    ];
+
+    /// Every flag of [`ParamArgs`] has a row in [`FLAGS`], and each flag, given a value other
+    /// than the default, reaches the [`Config`]: a flag added without being applied, or without
+    /// a row here, fails.
+    #[test]
+    fn every_flag_reaches_the_config() {
+        let declared: Vec<String> = ParamArgs::augment_args(clap::Command::new("params"))
+            .get_arguments()
+            .map(|a| a.get_long().map_or_else(|| a.get_id().to_string(), str::to_string))
+            .collect();
+        for flag in &declared {
+            assert!(
+                FLAGS.iter().any(|(f, _, _)| f == flag),
+                "--{flag} has no row in FLAGS: add one, and apply it in config_over"
+            );
+        }
+        for (flag, _, _) in FLAGS {
+            assert!(
+                declared.iter().any(|d| d == flag),
+                "FLAGS names --{flag}, which ParamArgs lacks"
+            );
+        }
+        Cli::command().debug_assert();
+
+        let file = std::env::temp_dir().join(format!("vorl-params-test-{}.toml", std::process::id()));
+        std::fs::write(&file, "min_points = 7\n").expect("write the config file");
+        let mut line = vec!["params".to_string()];
+        for (flag, value, _) in FLAGS {
+            line.push(format!("--{flag}"));
+            line.push(if *flag == "config" {
+                file.display().to_string()
+            } else {
+                value.to_string()
+            });
+        }
+        let parsed = Cli::try_parse_from(&line).map(|cli| cli.params.config());
+        std::fs::remove_file(&file).ok();
+        let config = parsed.expect("the command line parses").expect("the config loads");
+        let defaults = Config::default();
+        for (flag, value, holds) in FLAGS {
+            assert!(!holds(&defaults), "--{flag} {value} is the default: pick another value");
+            assert!(holds(&config), "--{flag} {value} did not reach the config: {config:?}");
+        }
     }
 }
