@@ -965,6 +965,43 @@ fn similarity_diagonal_is_near_zero() {
     assert!(bad.is_empty(), "f' of a silhouette against itself ≥ ε/2: {bad:?}");
 }
 
+/// `vorl similarity` takes a folder of more silhouettes than one library holds (64): 65 ellipses
+/// of different proportions and a class of two examples give a 67×67 matrix of finite entries,
+/// and the class's tolerance line.
+#[test]
+fn similarity_of_more_silhouettes_than_a_library_holds() {
+    let scratch = Scratch::new("simmany");
+    let dir = scratch.join("templates");
+    std::fs::create_dir_all(dir.join("pair")).expect("mkdir");
+    let ellipse = |a: f64, b: f64| {
+        GrayImage::from_fn(64, 64, |x, y| {
+            let (dx, dy) = ((x as f64 - 31.5) / a, (y as f64 - 31.5) / b);
+            Luma([if dx * dx + dy * dy <= 1.0 { 255 } else { 0 }])
+        })
+    };
+    for i in 0..65u32 {
+        let (a, b) = (12.0 + f64::from(i % 13), 6.0 + 1.5 * f64::from(i / 13));
+        ellipse(a, b).save(dir.join(format!("e{i:02}.png"))).expect("save");
+    }
+    ellipse(20.0, 8.0).save(dir.join("pair").join("a.png")).expect("save");
+    ellipse(21.0, 8.0).save(dir.join("pair").join("b.png")).expect("save");
+    let out = vorl([OsStr::new("similarity"), dir.as_os_str()]).success();
+    let (names, matrix) = similarity_of(&dir);
+    assert_eq!(names.len(), 67, "{names:?}");
+    assert_eq!(matrix.len(), 67, "one row per silhouette");
+    for (i, row) in matrix.iter().enumerate() {
+        assert_eq!(row.len(), 67, "row {i}");
+        assert!(row.iter().all(|v| v.is_finite() && *v >= 0.0), "row {i}: {row:?}");
+    }
+    assert!(names.contains(&"pair/a.png".to_string()), "{names:?}");
+    assert_eq!(
+        out.stderr_lines_with("class pair: 2 examples").len(),
+        1,
+        "the class's tolerance line:\n{}",
+        out.dump()
+    );
+}
+
 // ---------------------------------------------------------------------------------------------
 // 7: config
 // ---------------------------------------------------------------------------------------------

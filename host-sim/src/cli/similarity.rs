@@ -3,8 +3,10 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use vorl_core::Params;
+
 use crate::cli::params::ParamArgs;
-use crate::engine::load_silhouettes;
+use crate::engine::{load_silhouettes, Engine, NamedSilhouette, HOST_TEMPLATES};
 use crate::similarity::similarity;
 
 /// Output format of the matrix.
@@ -41,6 +43,41 @@ pub struct SimilarityArgs {
     pub params: ParamArgs,
 }
 
+/// The tolerance of each class of several examples, as detect and export measure it: one line
+/// per class ([`Engine::add_silhouettes`]), in the order the classes first appear.
+///
+/// Each class is taught into an engine of its own, so the folder may hold more silhouettes than
+/// one library holds ([`HOST_TEMPLATES`]); the matrix itself needs no library. A class of more
+/// examples than that gets a line saying its tolerance is not measured.
+///
+/// # Errors
+/// As [`Engine::add_silhouettes`].
+fn class_notes(params: Params, sils: &[NamedSilhouette]) -> Result<Vec<String>, String> {
+    let mut notes = Vec::new();
+    let mut done: Vec<&str> = Vec::new();
+    for s in sils {
+        if done.contains(&s.name.as_str()) {
+            continue;
+        }
+        done.push(&s.name);
+        let examples: Vec<NamedSilhouette> = sils.iter().filter(|e| e.name == s.name).cloned().collect();
+        if examples.len() < 2 {
+            continue;
+        }
+        if examples.len() > HOST_TEMPLATES {
+            notes.push(format!(
+                "class {}: {} examples, more than one library holds ({HOST_TEMPLATES}); its tolerance is not measured",
+                s.name,
+                examples.len()
+            ));
+            continue;
+        }
+        let mut engine = Engine::new(params)?;
+        notes.extend(engine.add_silhouettes(&examples)?);
+    }
+    Ok(notes)
+}
+
 /// Runs `vorl similarity`.
 ///
 /// # Errors
@@ -51,9 +88,7 @@ pub fn run(args: SimilarityArgs) -> Result<ExitCode, String> {
     for n in sils.iter().filter_map(|s| s.note.as_ref()) {
         eprintln!("note: {n}");
     }
-    // The tolerance of each class of several examples, as detect and export measure it.
-    let mut engine = crate::engine::Engine::new(params)?;
-    let classes = engine.add_silhouettes(&sils)?;
+    let classes = class_notes(params, &sils)?;
     let class_of: Vec<String> = sils.iter().map(|s| s.name.clone()).collect();
     let mut sils = sils;
     for s in sils.iter_mut() {
