@@ -7,7 +7,7 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use std::hint::black_box;
 use vorl_core::pixels::background::Background;
 use vorl_core::pixels::enhance::Alpha;
-use vorl_core::pixels::mask::{foreground_mask, Cleanup, Threshold};
+use vorl_core::pixels::mask::{foreground_mask, Cleanup, Polarity, Threshold};
 use vorl_core::Frame;
 
 /// Hash noise in `0..=7`.
@@ -60,11 +60,29 @@ fn mask(c: &mut Criterion) {
             ("fixed15_open", Threshold::Fixed(15), Cleanup::Open),
             ("otsu_openclose", Threshold::Otsu, Cleanup::OpenClose),
         ] {
-            let stats = foreground_mask(&frame, &bg, Alpha::ONE, threshold, cleanup, &mut labels).expect("mask");
+            let stats = foreground_mask(
+                &frame,
+                &bg,
+                Alpha::ONE,
+                threshold,
+                Polarity::Either,
+                cleanup,
+                &mut labels,
+            )
+            .expect("mask");
             assert!(stats.foreground > w * h / 20, "bench scene must show its blobs");
             g.bench_function(format!("{w}x{h}_{name}"), |b| {
                 b.iter(|| {
-                    foreground_mask(black_box(&frame), &bg, Alpha::ONE, threshold, cleanup, &mut labels).expect("mask")
+                    foreground_mask(
+                        black_box(&frame),
+                        &bg,
+                        Alpha::ONE,
+                        threshold,
+                        Polarity::Either,
+                        cleanup,
+                        &mut labels,
+                    )
+                    .expect("mask")
                 })
             });
         }

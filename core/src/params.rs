@@ -4,7 +4,7 @@ use crate::borders::contour::BorderFilter;
 use crate::borders::resample::check_counts;
 use crate::error::{Error, Result};
 use crate::pixels::enhance::Alpha;
-use crate::pixels::mask::{Cleanup, Threshold};
+use crate::pixels::mask::{Cleanup, Polarity, Threshold};
 use crate::shape::descriptor::DescriptorParams;
 
 /// Most DP candidates a part is verified against ([`Params::candidates`]).
@@ -59,6 +59,8 @@ pub struct Params {
     pub alpha: f32,
     /// Foreground threshold on `|I' − B|`.
     pub threshold: Threshold,
+    /// Which sign of `I' − B` is foreground: parts darker, brighter, or either (the default).
+    pub polarity: Polarity,
     /// 3×3 clean-up of the mask.
     pub cleanup: Cleanup,
     /// Fewest border points of a kept contour.
@@ -133,6 +135,7 @@ impl Params {
     pub const DEFAULT: Params = Params {
         alpha: 1.0,
         threshold: Threshold::Fixed(15),
+        polarity: Polarity::Either,
         cleanup: Cleanup::Open,
         min_points: 16,
         min_area: 64.0,

@@ -16,7 +16,7 @@ use libfuzzer_sys::fuzz_target;
 use vorl_core::pixels::background::Background;
 use vorl_core::borders::contour::{clear_labels, trace_borders, trace_borders_in, BorderFilter, ContourStore};
 use vorl_core::pixels::enhance::Alpha;
-use vorl_core::pixels::mask::{foreground_mask_spans, Cleanup, RowSpans, Threshold};
+use vorl_core::pixels::mask::{foreground_mask_spans, Cleanup, Polarity, RowSpans, Threshold};
 use vorl_core::Frame;
 use vorl_fuzz::Input;
 
@@ -81,6 +81,7 @@ fn run<const P: usize, const C: usize>(mask: &[u8], w: usize, h: usize, filter: 
         &bg,
         Alpha::ONE,
         Threshold::Fixed(0),
+        Polarity::Either,
         Cleanup::Off,
         &mut labels,
         &mut spans,

@@ -11,7 +11,7 @@ use serde::Serialize;
 use vorl_core::borders::contour::{trace_borders, BorderKind, ContourStore};
 use vorl_core::borders::resample::resample;
 use vorl_core::pixels::background::Background;
-use vorl_core::pixels::mask::{foreground_mask, Cleanup, Threshold};
+use vorl_core::pixels::mask::{foreground_mask, Cleanup, Polarity, Threshold};
 use vorl_core::pose::{angle_paper, angle_signed, area_centroid};
 use vorl_core::shape::descriptor::describe;
 use vorl_core::shape::matching::{match_with_assignment, search_cells, table_cells};
@@ -95,6 +95,11 @@ pub fn ref_params(p: &Params) -> r::RefParams {
             Threshold::Fixed(t) => r::RefThreshold::Fixed(t),
             Threshold::Otsu => r::RefThreshold::Otsu,
         },
+        polarity: match p.polarity {
+            Polarity::Either => r::RefPolarity::Either,
+            Polarity::Darker => r::RefPolarity::Darker,
+            Polarity::Brighter => r::RefPolarity::Brighter,
+        },
         cleanup: match p.cleanup {
             Cleanup::Off => r::RefCleanup::Off,
             Cleanup::Open => r::RefCleanup::Open,
@@ -157,12 +162,14 @@ pub fn compare_frame(
         &bg,
         params.alpha(),
         params.threshold,
+        params.polarity,
         params.cleanup,
         &mut labels,
     )
     .map_err(|e| e.to_string())?;
     let ref_enh = r::enhance(frame, rp.alpha);
-    let ref_mask = r::foreground_mask(&ref_enh, &ref_bg, rp.threshold, rp.cleanup).map_err(|e| e.to_string())?;
+    let ref_mask =
+        r::foreground_mask(&ref_enh, &ref_bg, rp.threshold, rp.polarity, rp.cleanup).map_err(|e| e.to_string())?;
     let differing = labels
         .iter()
         .zip(ref_mask.as_raw())

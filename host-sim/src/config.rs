@@ -1,7 +1,7 @@
 //! Pipeline parameters on the host: flags, a TOML file, and `vorl config --defaults`.
 
 use serde::{Deserialize, Serialize};
-use vorl_core::pixels::mask::{Cleanup, Threshold};
+use vorl_core::pixels::mask::{Cleanup, Polarity, Threshold};
 use vorl_core::{AngleEstimator, Params, Position, Refine};
 
 /// The parameters as they appear in a TOML config file. Every field is optional in the file;
@@ -13,6 +13,9 @@ pub struct Config {
     pub alpha: f32,
     /// Foreground threshold on |I' − B|: a number 0..255, or "otsu".
     pub threshold: ThresholdSetting,
+    /// Which parts are foreground: "either" (darker or brighter than the platform), "darker"
+    /// or "brighter" (a shadow beside a brighter part is then not part of it).
+    pub polarity: PolaritySetting,
     /// 3×3 clean-up of the foreground mask: "off", "open" or "open-close".
     pub cleanup: CleanupSetting,
     /// Fewest border points of a kept contour.
@@ -85,6 +88,38 @@ pub enum ExposureSetting {
     Fit,
     /// The frame as it is.
     Fixed,
+}
+
+/// `polarity` as written in a config file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum PolaritySetting {
+    /// Parts darker or brighter than the platform.
+    Either,
+    /// Parts darker than the platform.
+    Darker,
+    /// Parts brighter than the platform (their shadows are not part of them).
+    Brighter,
+}
+
+impl PolaritySetting {
+    /// The core's polarity.
+    pub fn to_core(self) -> Polarity {
+        match self {
+            PolaritySetting::Either => Polarity::Either,
+            PolaritySetting::Darker => Polarity::Darker,
+            PolaritySetting::Brighter => Polarity::Brighter,
+        }
+    }
+
+    /// The setting of a core polarity.
+    pub fn from_core(p: Polarity) -> Self {
+        match p {
+            Polarity::Either => PolaritySetting::Either,
+            Polarity::Darker => PolaritySetting::Darker,
+            Polarity::Brighter => PolaritySetting::Brighter,
+        }
+    }
 }
 
 /// `cleanup` as written in a config file.
@@ -166,6 +201,7 @@ impl Config {
                 Threshold::Fixed(t) => ThresholdSetting::Fixed(t),
                 Threshold::Otsu => ThresholdSetting::Named(ThresholdName::Otsu),
             },
+            polarity: PolaritySetting::from_core(p.polarity),
             cleanup: match p.cleanup {
                 Cleanup::Off => CleanupSetting::Off,
                 Cleanup::Open => CleanupSetting::Open,
@@ -221,6 +257,7 @@ impl Config {
                 ThresholdSetting::Fixed(t) => Threshold::Fixed(t),
                 ThresholdSetting::Named(ThresholdName::Otsu) => Threshold::Otsu,
             },
+            polarity: self.polarity.to_core(),
             cleanup: match self.cleanup {
                 CleanupSetting::Off => Cleanup::Off,
                 CleanupSetting::Open => Cleanup::Open,
@@ -306,6 +343,9 @@ impl Config {
              alpha = {:?}\n\
              # Foreground threshold on |I' − B|: 0..255, or \"otsu\" for Otsu's level per frame.\n\
              threshold = {}\n\
+             # Which parts are foreground: \"either\" (darker or brighter than the platform), \"darker\", or \"brighter\"\n\
+             # (front-lit parts on a darker mat: the shadow beside a part is then not part of it). `vorl teach` measures it.\n\
+             polarity = \"{}\"\n\
              # 3×3 clean-up of the mask: \"off\", \"open\" (removes specks; keeps narrow holes), \"open-close\" (also fills pinholes and holes under ~3 px).\n\
              cleanup = \"{}\"\n\
              # Fewest border points of a kept contour.\n\
@@ -358,7 +398,7 @@ impl Config {
              # Whether a blob whose border is not one template's is searched for the parts along it (touching and overlapping\n\
              # parts, parts the frame's edge cuts that show half their border), reported \"touching\": true with \"visible_fraction\".\n\
              touching_parts = {}\n",
-            d.alpha, thr, setting_name(&d.cleanup), d.min_points, d.min_area, d.n, d.m, d.k, d.omega, d.epsilon, angle,
+            d.alpha, thr, setting_name(&d.polarity), setting_name(&d.cleanup), d.min_points, d.min_area, d.n, d.m, d.k, d.omega, d.epsilon, angle,
             setting_name(&d.refine), d.candidates, toml_float(d.candidate_ratio), d.verify_threshold,
             d.verify_relative, d.offset_relative, d.scale_min, d.scale_max, setting_name(&d.position),
             setting_name(&d.exposure), d.platform_every, d.nested_parts, d.flipped_parts,

@@ -17,4 +17,5 @@ pub mod run;
 pub mod set;
 pub mod similarity;
 pub mod soak;
+pub mod teaching;
 pub mod truth;

@@ -322,6 +322,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             background,
             params.alpha(),
             params.threshold,
+            params.polarity,
             params.cleanup,
             labels,
             &mut spans,
@@ -678,7 +679,7 @@ mod tests {
             let report = rec.process(&frame, &bg, &mut labels).unwrap();
             let p = Params::DEFAULT;
             let mut mask = std::vec![0u8; n];
-            let stats = foreground_mask(&frame, &bg, p.alpha(), p.threshold, p.cleanup, &mut mask).unwrap();
+            let stats = foreground_mask(&frame, &bg, p.alpha(), p.threshold, p.polarity, p.cleanup, &mut mask).unwrap();
             assert_eq!(report.mask, stats);
             assert!(labels[..n] == mask[..], "case {case}: {w}×{h}");
         }

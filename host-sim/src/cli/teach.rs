@@ -10,6 +10,7 @@ use crate::cli::params::ParamArgs;
 use crate::engine::Engine;
 use crate::io::load_gray;
 use crate::set::load_background_frames;
+use vorl_core::pixels::mask::Polarity;
 
 /// Arguments of `vorl teach`.
 #[derive(Debug, clap::Args)]
@@ -74,6 +75,7 @@ pub fn run(args: TeachArgs) -> Result<ExitCode, String> {
     if let Some(n) = &frame.note {
         eprintln!("note: {}: {n}", args.frame.display());
     }
+    let mut shots = None;
     match args.background.as_deref().filter(|b| !crate::cli::detect::is_auto(b)) {
         Some(bg) => {
             let bgs = load_background_frames([&bg.to_path_buf()]).map_err(|e| e.to_string())?;
@@ -88,6 +90,7 @@ pub fn run(args: TeachArgs) -> Result<ExitCode, String> {
                 ));
             }
             engine.learn_background(&bgs)?;
+            shots = Some(bgs);
         }
         None => engine.set_auto_background(),
     }
@@ -130,41 +133,63 @@ pub fn run(args: TeachArgs) -> Result<ExitCode, String> {
         ));
     }
     let (w, h) = (frame.image.width() as usize, frame.image.height() as usize);
-    let part = match (args.part, args.at.as_deref()) {
-        (Some(n), _) => result.detections.get(n.wrapping_sub(1)).ok_or_else(|| {
-            format!(
-                "--part {n}: {} has {} part(s), numbered 1 to {} (see --list)",
-                args.frame.display(),
-                result.detections.len(),
-                result.detections.len()
-            )
-        })?,
-        (None, Some(at)) => {
-            let (x, y) = parse_point(at)?;
-            part_at(&result, engine.labels(), w, h, x, y).ok_or_else(|| {
-                format!(
-                    "--at {at}: no part of {} lies there (see --list for the parts and their centres)",
-                    args.frame.display()
-                )
-            })?
+    let mut result = result;
+    let mut part_index = choose_part(&args, &result, engine.labels(), w, h)?;
+    // Polarity: a shadow beside the part is not part of it (crate::teaching). Measured on the
+    // blob as segmented; where it is one-sided, the frame is segmented again with it.
+    let mut measured = None;
+    if let Some(platform) = engine.background().map(|b| b.plane().to_vec()) {
+        let part = &result.detections[part_index];
+        if let Some(&(sx, sy)) = part.border.first() {
+            let pixels = component_pixels(engine.labels(), w, h, sx as usize, sy as usize);
+            measured = crate::teaching::measure_polarity(
+                frame.image.as_raw(),
+                &platform,
+                w,
+                h,
+                &pixels,
+                result.report.mask.threshold,
+            );
         }
-        (None, None) => {
-            let largest = result
-                .detections
-                .iter()
-                .max_by(|a, b| a.core.area.total_cmp(&b.core.area))
-                .ok_or("no part")?;
-            if result.detections.len() > 1 {
-                eprintln!(
-                    "warning: {}: {} parts in the frame; teaching the largest (area {:.0} px²; --list, --part, --at choose another)",
-                    args.frame.display(),
-                    result.detections.len(),
-                    largest.core.area
-                );
+    }
+    if let Some(evidence) = &measured {
+        println!("{}", evidence.describe());
+        if evidence.polarity != engine.params().polarity && evidence.polarity != Polarity::Either {
+            let (cx, cy) = (
+                result.detections[part_index].core.x,
+                result.detections[part_index].core.y,
+            );
+            let mut params = *engine.params();
+            params.polarity = evidence.polarity;
+            let mut again = Engine::new(params)?;
+            match &shots {
+                Some(bgs) => again.learn_background(bgs)?,
+                None => again.set_auto_background(),
             }
-            largest
+            let second = again
+                .detect(&frame.image)
+                .map_err(|e| format!("{}: {e}", args.frame.display()))?;
+            // The same part: the one at the teach point, else the one nearest the first centroid.
+            let at = args.at.as_deref().map(parse_point).transpose()?;
+            let (px, py) = at.unwrap_or((f64::from(cx), f64::from(cy)));
+            let index = part_at(&second, again.labels(), w, h, px, py)
+                .or_else(|| nearest(&second, f64::from(cx), f64::from(cy)))
+                .and_then(|d| second.detections.iter().position(|e| std::ptr::eq(e, d)));
+            match index {
+                Some(i) => {
+                    engine = again;
+                    result = second;
+                    part_index = i;
+                }
+                None => eprintln!(
+                    "warning: {}: with polarity {:?} no part lies at the taught one; taught as segmented",
+                    args.frame.display(),
+                    evidence.polarity
+                ),
+            }
         }
-    };
+    }
+    let part = &result.detections[part_index];
     if part.core.touches_edge {
         eprintln!(
             "warning: {}: the part touches the frame's edge; the template may be cut",
@@ -219,6 +244,9 @@ pub fn run(args: TeachArgs) -> Result<ExitCode, String> {
         },
         target.display()
     );
+    if let Some(polarity) = measured.map(|e| e.polarity).filter(|&p| p != Polarity::Either) {
+        keep_polarity(out, polarity)?;
+    }
     if args.add {
         let examples = crate::engine::load_silhouettes(&folder).map_err(|e| e.to_string())?;
         let examples: Vec<_> = examples
@@ -234,6 +262,138 @@ pub fn run(args: TeachArgs) -> Result<ExitCode, String> {
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The index of the part to teach: `--part N`, the part at `--at X,Y`, or the largest.
+fn choose_part(
+    args: &TeachArgs,
+    result: &crate::engine::FrameResult,
+    labels: &[u8],
+    w: usize,
+    h: usize,
+) -> Result<usize, String> {
+    let index_of = |d: &crate::engine::HostDetection| {
+        result
+            .detections
+            .iter()
+            .position(|e| std::ptr::eq(e, d))
+            .ok_or_else(|| "no part".to_string())
+    };
+    match (args.part, args.at.as_deref()) {
+        (Some(n), _) => {
+            if n == 0 || n > result.detections.len() {
+                return Err(format!(
+                    "--part {n}: {} has {} part(s), numbered 1 to {} (see --list)",
+                    args.frame.display(),
+                    result.detections.len(),
+                    result.detections.len()
+                ));
+            }
+            Ok(n - 1)
+        }
+        (None, Some(at)) => {
+            let (x, y) = parse_point(at)?;
+            let d = part_at(result, labels, w, h, x, y).ok_or_else(|| {
+                format!(
+                    "--at {at}: no part of {} lies there (see --list for the parts and their centres)",
+                    args.frame.display()
+                )
+            })?;
+            index_of(d)
+        }
+        (None, None) => {
+            let largest = result
+                .detections
+                .iter()
+                .max_by(|a, b| a.core.area.total_cmp(&b.core.area))
+                .ok_or("no part")?;
+            if result.detections.len() > 1 {
+                eprintln!(
+                    "warning: {}: {} parts in the frame; teaching the largest (area {:.0} px²; --list, --part, --at choose another)",
+                    args.frame.display(),
+                    result.detections.len(),
+                    largest.core.area
+                );
+            }
+            index_of(largest)
+        }
+    }
+}
+
+/// Keeps a measured one-sided polarity where `detect` and `eval` read it: the `vorl.toml` of
+/// the set whose `templates/` folder `out` is (a key added or replaced, the rest of the file
+/// left as it was). A set whose classes were measured of opposite polarities gets `either`.
+/// With `out` not named `templates`, the line to add is printed instead.
+fn keep_polarity(out: &std::path::Path, polarity: Polarity) -> Result<(), String> {
+    let name = crate::config::PolaritySetting::from_core(polarity);
+    let value = |p: crate::config::PolaritySetting| {
+        serde_json::to_value(p)
+            .ok()
+            .and_then(|v| v.as_str().map(String::from))
+            .unwrap_or_default()
+    };
+    let set = match (out.file_name(), out.parent()) {
+        (Some(n), Some(parent)) if n == "templates" => parent,
+        _ => {
+            println!(
+                "add `polarity = \"{}\"` to the set's vorl.toml (detect and eval read it there)",
+                value(name)
+            );
+            return Ok(());
+        }
+    };
+    let file = set.join("vorl.toml");
+    let text = match std::fs::read_to_string(&file) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => String::new(),
+        Err(e) => return Err(format!("{}: {}", file.display(), crate::io::io_problem(&e))),
+    };
+    let is_key = |l: &str| {
+        l.trim_start()
+            .strip_prefix("polarity")
+            .is_some_and(|r| r.trim_start().starts_with('='))
+    };
+    let before = text.lines().find(|l| is_key(l)).map(|l| {
+        let v = l.split_once('=').map_or("", |(_, v)| v).trim().trim_matches('"');
+        v.to_string()
+    });
+    let wanted = match before.as_deref() {
+        Some(v) if v == value(name) => return Ok(()),
+        Some("either") => return Ok(()),
+        Some(v) if !v.is_empty() => {
+            println!(
+                "note: {} says polarity {v}, this part measured {}: the set's classes differ, so it becomes \"either\"",
+                file.display(),
+                value(name)
+            );
+            crate::config::PolaritySetting::Either
+        }
+        _ => name,
+    };
+    let line = format!("polarity = \"{}\"", value(wanted));
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    match lines.iter().position(|l| is_key(l)) {
+        Some(i) => lines[i] = line.clone(),
+        None => {
+            if lines.is_empty() {
+                lines.push("# Parameters for this set (keys of `vorl config --defaults`).".into());
+            }
+            lines.push("# Measured by `vorl teach`: a shadow beside the taught part is not part of it.".into());
+            lines.push(line.clone());
+        }
+    }
+    std::fs::write(&file, lines.join("\n") + "\n").map_err(|e| format!("{}: cannot write: {e}", file.display()))?;
+    println!("{}: {line}", file.display());
+    Ok(())
+}
+
+/// The part whose centre lies nearest (x, y).
+fn nearest(result: &crate::engine::FrameResult, x: f64, y: f64) -> Option<&crate::engine::HostDetection> {
+    result.detections.iter().min_by(|a, b| {
+        let da = (f64::from(a.core.x) - x).hypot(f64::from(a.core.y) - y);
+        let db = (f64::from(b.core.x) - x).hypot(f64::from(b.core.y) - y);
+        da.total_cmp(&db)
+    })
 }
 
 /// `silhouette` turned onto the reference pose of `first` (another example of its class): the

@@ -5,7 +5,7 @@ use std::cmp::Ordering;
 
 use image::{GrayImage, Luma};
 
-use super::{RefCleanup, RefError, RefThreshold};
+use super::{RefCleanup, RefError, RefPolarity, RefThreshold};
 
 /// Edge-enhanced intensity `I'` of eq. 3.1 as fixed by §1.
 ///
@@ -193,18 +193,33 @@ impl Big {
     }
 }
 
-/// Foreground mask of §3: `D = |I' − B|`, foreground (255) where `D > τ`, else 0, with τ fixed
-/// or [`otsu`]`(D)`; then, when `cleanup`, a 3×3 opening (erode, dilate) followed by a 3×3
-/// closing (dilate, erode), neighbours outside the image ignored.
+/// Foreground mask of §3: `D = |I' − B|` (or one side of it, by `polarity`), foreground (255)
+/// where `D > τ`, else 0, with τ fixed or [`otsu`]`(D)`; then, when `cleanup`, a 3×3 opening
+/// (erode, dilate) followed by a 3×3 closing (dilate, erode), neighbours outside the image
+/// ignored.
 ///
 /// Errors when the two images differ in size.
 pub fn foreground_mask(
     enhanced: &GrayImage,
     background: &GrayImage,
     threshold: RefThreshold,
+    polarity: RefPolarity,
     cleanup: RefCleanup,
 ) -> Result<GrayImage, RefError> {
-    let d = difference(enhanced, background)?;
+    let mut d = difference(enhanced, background)?;
+    if polarity != RefPolarity::Either {
+        for ((o, &a), &b) in d.iter_mut().zip(enhanced.as_raw()).zip(background.as_raw()) {
+            let signed = i32::from(a) - i32::from(b);
+            let keep = if polarity == RefPolarity::Brighter {
+                signed > 0
+            } else {
+                signed < 0
+            };
+            if !keep {
+                *o = 0;
+            }
+        }
+    }
     let tau = match threshold {
         RefThreshold::Fixed(t) => t,
         RefThreshold::Otsu => otsu(&d),

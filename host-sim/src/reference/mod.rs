@@ -139,6 +139,19 @@ pub enum RefThreshold {
     Otsu,
 }
 
+/// Which sign of `I' − B` is foreground (a part darker or brighter than the platform, or
+/// either): `D` is `|I' − B|`, `B − I'` or `I' − B`, negative values counting as 0.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum RefPolarity {
+    /// `D = |I' − B|` (§3 as written).
+    #[default]
+    Either,
+    /// `D = B − I'`.
+    Darker,
+    /// `D = I' − B`.
+    Brighter,
+}
+
 /// The 3×3 clean-up of §3: none, an opening, or an opening then a closing.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum RefCleanup {
@@ -157,6 +170,8 @@ pub struct RefParams {
     pub alpha: f64,
     /// Foreground threshold (§3).
     pub threshold: RefThreshold,
+    /// Which sign of `I' − B` is foreground.
+    pub polarity: RefPolarity,
     /// Whether the 3×3 opening + closing clean-up runs (§3).
     pub cleanup: RefCleanup,
     /// A border is kept only with at least this many points (§4).
@@ -183,6 +198,7 @@ impl Default for RefParams {
         RefParams {
             alpha: 1.0,
             threshold: RefThreshold::Fixed(30),
+            polarity: RefPolarity::Either,
             cleanup: RefCleanup::Open,
             min_points: 16,
             min_area: 64.0,

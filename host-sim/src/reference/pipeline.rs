@@ -113,7 +113,7 @@ pub fn detect(
     }
 
     let enhanced = enhance(frame, params.alpha);
-    let mask = foreground_mask(&enhanced, background, params.threshold, params.cleanup)?;
+    let mask = foreground_mask(&enhanced, background, params.threshold, params.polarity, params.cleanup)?;
     let all = borders(&mask);
     let kept: Vec<bool> = all
         .iter()

@@ -439,9 +439,23 @@ fn mask_clean_up_removes_specks_and_keeps_edges() {
         let block = x <= 4 && (2..=7).contains(&y);
         Luma([if block || (x, y) == (9, 1) { 200 } else { 40 }])
     });
-    let raw = foreground_mask(&frame, &bg, RefThreshold::Fixed(30), RefCleanup::Off).unwrap();
+    let raw = foreground_mask(
+        &frame,
+        &bg,
+        RefThreshold::Fixed(30),
+        RefPolarity::Either,
+        RefCleanup::Off,
+    )
+    .unwrap();
     assert_eq!(raw.get_pixel(9, 1).0[0], 255);
-    let clean = foreground_mask(&frame, &bg, RefThreshold::Fixed(30), RefCleanup::OpenClose).unwrap();
+    let clean = foreground_mask(
+        &frame,
+        &bg,
+        RefThreshold::Fixed(30),
+        RefPolarity::Either,
+        RefCleanup::OpenClose,
+    )
+    .unwrap();
     assert_eq!(clean.get_pixel(9, 1).0[0], 0);
     for y in 0..10 {
         for x in 0..12 {
@@ -449,9 +463,16 @@ fn mask_clean_up_removes_specks_and_keeps_edges() {
             assert_eq!(clean.get_pixel(x, y).0[0] == 255, block, "({x},{y})");
         }
     }
-    let otsu_mask = foreground_mask(&frame, &bg, RefThreshold::Otsu, RefCleanup::Off).unwrap();
+    let otsu_mask = foreground_mask(&frame, &bg, RefThreshold::Otsu, RefPolarity::Either, RefCleanup::Off).unwrap();
     assert_eq!(otsu_mask, raw);
-    assert!(foreground_mask(&frame, &GrayImage::new(3, 3), RefThreshold::Otsu, RefCleanup::OpenClose).is_err());
+    assert!(foreground_mask(
+        &frame,
+        &GrayImage::new(3, 3),
+        RefThreshold::Otsu,
+        RefPolarity::Either,
+        RefCleanup::OpenClose
+    )
+    .is_err());
 }
 
 // ---------------------------------------------------------------- §9 and the whole pipeline

@@ -42,6 +42,43 @@ pub enum Threshold {
     Otsu,
 }
 
+/// Which side of the platform a part lies on: the sign of `I' − B` that counts as foreground.
+///
+/// A part front-lit on a mat is brighter than the platform and throws a shadow darker than it
+/// beside itself; with [`Polarity::Brighter`] the shadow is not part (and neither is a dark
+/// facet or bore inside the part: it becomes a hole or a notch, the same in the taught template
+/// and in every frame). `vorl teach` measures the polarity of the taught part.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Polarity {
+    /// `|I' − B| > τ`: parts darker or brighter than the platform (default).
+    #[default]
+    Either,
+    /// `B − I' > τ`: parts darker than the platform (dark parts on a backlight).
+    Darker,
+    /// `I' − B > τ`: parts brighter than the platform (front-lit metal on a dark mat).
+    Brighter,
+}
+
+impl Polarity {
+    /// The difference this polarity thresholds: `|i − b|`, `b − i` or `i − b`, saturated at 0.
+    ///
+    /// ```
+    /// use vorl_core::pixels::mask::Polarity;
+    /// assert_eq!(Polarity::Either.difference(10, 50), 40);
+    /// assert_eq!(Polarity::Darker.difference(10, 50), 40);
+    /// assert_eq!(Polarity::Brighter.difference(10, 50), 0);
+    /// assert_eq!(Polarity::Brighter.difference(90, 50), 40);
+    /// ```
+    #[inline(always)]
+    pub fn difference(self, i: u8, b: u8) -> u8 {
+        match self {
+            Polarity::Either => i.abs_diff(b),
+            Polarity::Darker => b.saturating_sub(i),
+            Polarity::Brighter => i.saturating_sub(b),
+        }
+    }
+}
+
 /// The 3×3 clean-up of the mask.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Cleanup {
@@ -181,7 +218,7 @@ impl RowSpans {
 /// Writes the foreground mask of `frame` against `background` into `labels` (0/1 per pixel).
 ///
 /// ```
-/// use vorl_core::{pixels::background::Background, pixels::enhance::Alpha, pixels::mask::{foreground_mask, Cleanup, Threshold}, Frame};
+/// use vorl_core::{pixels::background::Background, pixels::enhance::Alpha, pixels::mask::{foreground_mask, Cleanup, Polarity, Threshold}, Frame};
 /// // A 3×3 bright block on a 7×7 platform.
 /// let bg_px = [50u8; 49];
 /// let mut frame_px = [50u8; 49];
@@ -191,10 +228,13 @@ impl RowSpans {
 /// bg.set_from_frame(&Frame::new_checked(&bg_px[..], 7, 7).unwrap(), a).unwrap();
 /// let mut labels = [0u8; 49];
 /// let frame = Frame::new_checked(&frame_px[..], 7, 7).unwrap();
-/// let stats = foreground_mask(&frame, &bg, a, Threshold::Fixed(30), Cleanup::OpenClose, &mut labels).unwrap();
+/// let stats = foreground_mask(&frame, &bg, a, Threshold::Fixed(30), Polarity::Either, Cleanup::OpenClose, &mut labels).unwrap();
 /// assert_eq!(stats.foreground, 9);
 /// assert_eq!(labels[3 * 7 + 3], 1);
 /// assert_eq!(labels[0], 0);
+/// // The block is brighter than the platform: not foreground for parts darker than it.
+/// let stats = foreground_mask(&frame, &bg, a, Threshold::Fixed(30), Polarity::Darker, Cleanup::OpenClose, &mut labels).unwrap();
+/// assert_eq!(stats.foreground, 0);
 /// ```
 ///
 /// # Errors
@@ -205,18 +245,21 @@ pub fn foreground_mask<B: AsRef<[u8]>, S: AsRef<[u8]> + AsMut<[u8]>>(
     background: &Background<S>,
     alpha: Alpha,
     threshold: Threshold,
+    polarity: Polarity,
     cleanup: Cleanup,
     labels: &mut [u8],
 ) -> Result<MaskStats> {
     let mut spans = RowSpans::new();
-    foreground_mask_spans(frame, background, alpha, threshold, cleanup, labels, &mut spans)
+    foreground_mask_spans(
+        frame, background, alpha, threshold, polarity, cleanup, labels, &mut spans,
+    )
 }
 
 /// [`foreground_mask`], also writing where each row holds foreground into `spans` (see
 /// [`RowSpans`]; unchanged on an error).
 ///
 /// ```
-/// use vorl_core::{pixels::background::Background, pixels::enhance::Alpha, pixels::mask::{foreground_mask_spans, Cleanup, RowSpans, Threshold}, Frame};
+/// use vorl_core::{pixels::background::Background, pixels::enhance::Alpha, pixels::mask::{foreground_mask_spans, Cleanup, Polarity, RowSpans, Threshold}, Frame};
 /// // A 4×3 bright block at x = 40..44 on a 100×6 platform.
 /// let bg_px = [50u8; 600];
 /// let mut frame_px = [50u8; 600];
@@ -225,7 +268,7 @@ pub fn foreground_mask<B: AsRef<[u8]>, S: AsRef<[u8]> + AsMut<[u8]>>(
 /// bg.set_from_frame(&Frame::new_checked(&bg_px[..], 100, 6).unwrap(), Alpha::ONE).unwrap();
 /// let (mut labels, mut spans) = ([0u8; 600], RowSpans::new());
 /// let frame = Frame::new_checked(&frame_px[..], 100, 6).unwrap();
-/// foreground_mask_spans(&frame, &bg, Alpha::ONE, Threshold::Fixed(30), Cleanup::Open, &mut labels, &mut spans).unwrap();
+/// foreground_mask_spans(&frame, &bg, Alpha::ONE, Threshold::Fixed(30), Polarity::Either, Cleanup::Open, &mut labels, &mut spans).unwrap();
 /// assert_eq!(spans.row(2), 32..64);
 /// assert!(spans.row(0).is_empty());
 /// ```
@@ -237,19 +280,22 @@ pub fn foreground_mask_spans<B: AsRef<[u8]>, S: AsRef<[u8]> + AsMut<[u8]>>(
     background: &Background<S>,
     alpha: Alpha,
     threshold: Threshold,
+    polarity: Polarity,
     cleanup: Cleanup,
     labels: &mut [u8],
     spans: &mut RowSpans,
 ) -> Result<MaskStats> {
-    mask_with::<WIDE, B, S>(frame, background, alpha, threshold, cleanup, labels, spans)
+    mask_with::<WIDE, B, S>(frame, background, alpha, threshold, polarity, cleanup, labels, spans)
 }
 
 /// [`foreground_mask_spans`] with 64-bit words where they fit (`WIDE64`) or 32-bit ones.
+#[allow(clippy::too_many_arguments)]
 fn mask_with<const WIDE64: bool, B: AsRef<[u8]>, S: AsRef<[u8]> + AsMut<[u8]>>(
     frame: &Frame<B>,
     background: &Background<S>,
     alpha: Alpha,
     threshold: Threshold,
+    polarity: Polarity,
     cleanup: Cleanup,
     labels: &mut [u8],
     spans: &mut RowSpans,
@@ -284,9 +330,10 @@ fn mask_with<const WIDE64: bool, B: AsRef<[u8]>, S: AsRef<[u8]> + AsMut<[u8]>>(
         });
     }
     let bg = background.plane();
-    // With α = 1, I' = I: every pass reads the frame itself and D is never stored. Otherwise
-    // D = |I' − B| goes into the plane first (one Sobel per pixel dominates then).
-    let direct = alpha.get() >= 1.0;
+    // With α = 1 and either polarity, I' = I: every pass reads the frame itself and D is never
+    // stored. Otherwise D (`|I' − B|`, or its one side: [`Polarity::difference`]) goes into the
+    // plane first (one Sobel per pixel dominates then; a one-sided D costs one more pass).
+    let direct = alpha.get() >= 1.0 && polarity == Polarity::Either;
     let mut hist = [0u32; 256];
     if direct {
         if otsu {
@@ -304,7 +351,7 @@ fn mask_with<const WIDE64: bool, B: AsRef<[u8]>, S: AsRef<[u8]> + AsMut<[u8]>>(
         {
             enhance_row(frame, y, alpha, row);
             for (d, &b) in row.iter_mut().zip(brow) {
-                *d = d.abs_diff(b);
+                *d = polarity.difference(*d, b);
             }
             if otsu {
                 for &d in row.iter() {
@@ -509,6 +556,7 @@ mod tests {
         background: &Background<S>,
         alpha: Alpha,
         threshold: Threshold,
+        polarity: Polarity,
         cleanup: Cleanup,
         labels: &mut [u8],
     ) -> Result<MaskStats> {
@@ -537,7 +585,12 @@ mod tests {
         for (y, (row, brow)) in labels.chunks_exact_mut(w).zip(bg.chunks_exact(w)).enumerate() {
             enhance_row(frame, y, alpha, row);
             for (d, &b) in row.iter_mut().zip(brow) {
-                *d = d.abs_diff(b);
+                // Written out rather than through `Polarity::difference`: the oracle's own.
+                *d = match polarity {
+                    Polarity::Either => d.abs_diff(b),
+                    Polarity::Darker => (b as i16 - *d as i16).max(0) as u8,
+                    Polarity::Brighter => (*d as i16 - b as i16).max(0) as u8,
+                };
             }
             if threshold == Threshold::Otsu {
                 for &d in row.iter() {
@@ -591,36 +644,38 @@ mod tests {
         let mut bg = Background::new([0u8; MAX_PX], w, h).unwrap();
         bg.set_from_frame(&Frame::new_checked(bg_px, w, h).unwrap(), a).unwrap();
         let n = w * h;
-        let mut want = [garbage; MAX_PX + 8];
-        let want_stats = reference_mask(&frame, &bg, a, threshold, cleanup, &mut want[..n + 8]).unwrap();
-        // The public entry, and each word size forced (32-bit words are the Cortex-M4's).
-        for form in 0..3 {
-            let mut got = [garbage; MAX_PX + 8];
-            let mut spans = RowSpans::full(3, 3);
-            let labels = &mut got[..n + 8];
-            let got_stats = match form {
-                0 => foreground_mask_spans(&frame, &bg, a, threshold, cleanup, labels, &mut spans),
-                1 => mask_with::<false, _, _>(&frame, &bg, a, threshold, cleanup, labels, &mut spans),
-                _ => mask_with::<true, _, _>(&frame, &bg, a, threshold, cleanup, labels, &mut spans),
-            }
-            .unwrap();
-            assert_eq!(
-                got_stats, want_stats,
-                "{w}×{h} α={alpha} {threshold:?} {cleanup:?} form {form}"
-            );
-            if got[..n + 8] != want[..n + 8] {
-                let i = got.iter().zip(&want).position(|(g, w)| g != w).unwrap();
-                panic!(
-                    "{w}×{h} α={alpha} {threshold:?} {cleanup:?} form {form}: first difference at ({}, {}): {} vs {}",
+        for polarity in [Polarity::Either, Polarity::Darker, Polarity::Brighter] {
+            let mut want = [garbage; MAX_PX + 8];
+            let want_stats = reference_mask(&frame, &bg, a, threshold, polarity, cleanup, &mut want[..n + 8]).unwrap();
+            // The public entry, and each word size forced (32-bit words are the Cortex-M4's).
+            for form in 0..3 {
+                let mut got = [garbage; MAX_PX + 8];
+                let mut spans = RowSpans::full(3, 3);
+                let labels = &mut got[..n + 8];
+                let got_stats = match form {
+                    0 => foreground_mask_spans(&frame, &bg, a, threshold, polarity, cleanup, labels, &mut spans),
+                    1 => mask_with::<false, _, _>(&frame, &bg, a, threshold, polarity, cleanup, labels, &mut spans),
+                    _ => mask_with::<true, _, _>(&frame, &bg, a, threshold, polarity, cleanup, labels, &mut spans),
+                }
+                .unwrap();
+                assert_eq!(
+                    got_stats, want_stats,
+                    "{w}×{h} α={alpha} {threshold:?} {polarity:?} {cleanup:?} form {form}"
+                );
+                if got[..n + 8] != want[..n + 8] {
+                    let i = got.iter().zip(&want).position(|(g, w)| g != w).unwrap();
+                    panic!(
+                    "{w}×{h} α={alpha} {threshold:?} {polarity:?} {cleanup:?} form {form}: first difference at ({}, {}): {} vs {}",
                     i % w,
                     i / w,
                     got[i],
                     want[i]
                 );
-            }
-            assert_spans(&want[..n], w, h, &spans);
-            if form == 0 {
-                assert_spans_serve_borders(&want[..n], w, h, &spans);
+                }
+                assert_spans(&want[..n], w, h, &spans);
+                if form == 0 {
+                    assert_spans_serve_borders(&want[..n], w, h, &spans);
+                }
             }
         }
     }
@@ -805,18 +860,42 @@ mod tests {
         let bg = Background::new([0u8; 40], 10, 4).unwrap();
         let mut labels = [0u8; 40];
         assert_eq!(
-            foreground_mask(&frame, &bg, a, Threshold::Otsu, Cleanup::Open, &mut labels),
+            foreground_mask(
+                &frame,
+                &bg,
+                a,
+                Threshold::Otsu,
+                Polarity::Either,
+                Cleanup::Open,
+                &mut labels
+            ),
             Err(Error::NoBackground)
         );
         let mut bg = bg;
         bg.set_from_frame(&frame, a).unwrap();
         assert!(matches!(
-            foreground_mask(&frame, &bg, a, Threshold::Otsu, Cleanup::Open, &mut labels[..39]),
+            foreground_mask(
+                &frame,
+                &bg,
+                a,
+                Threshold::Otsu,
+                Polarity::Either,
+                Cleanup::Open,
+                &mut labels[..39]
+            ),
             Err(Error::BufferTooSmall { needed: 40, got: 39 })
         ));
         let small = Frame::new_checked(&frame_px[..], 8, 4).unwrap();
         assert!(matches!(
-            foreground_mask(&small, &bg, a, Threshold::Otsu, Cleanup::Open, &mut labels),
+            foreground_mask(
+                &small,
+                &bg,
+                a,
+                Threshold::Otsu,
+                Polarity::Either,
+                Cleanup::Open,
+                &mut labels
+            ),
             Err(Error::FrameSize { .. })
         ));
         assert!(Frame::new_checked(&frame_px[..], 0, 4).is_err());
@@ -840,8 +919,8 @@ mod tests {
                 for cleanup in [Cleanup::Off, Cleanup::Open, Cleanup::OpenClose] {
                     let a = Alpha::new(alpha).unwrap();
                     let (mut got, mut want) = ([3u8; 240], [3u8; 240]);
-                    let g = foreground_mask(&frame, &bg, a, threshold, cleanup, &mut got).unwrap();
-                    let r = reference_mask(&frame, &bg, a, threshold, cleanup, &mut want).unwrap();
+                    let g = foreground_mask(&frame, &bg, a, threshold, Polarity::Either, cleanup, &mut got).unwrap();
+                    let r = reference_mask(&frame, &bg, a, threshold, Polarity::Either, cleanup, &mut want).unwrap();
                     assert_eq!((g, got), (r, want));
                 }
             }
@@ -1165,11 +1244,20 @@ mod tests {
                 &bg,
                 Alpha::ONE,
                 Threshold::Fixed(50),
+                Polarity::Either,
                 cleanup,
                 &mut got,
                 &mut spans,
             );
-            let r = reference_mask(&frame, &bg, Alpha::ONE, Threshold::Fixed(50), cleanup, &mut want);
+            let r = reference_mask(
+                &frame,
+                &bg,
+                Alpha::ONE,
+                Threshold::Fixed(50),
+                Polarity::Either,
+                cleanup,
+                &mut want,
+            );
             assert_eq!(g, r);
             assert!(
                 got == want,

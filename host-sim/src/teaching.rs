@@ -1,0 +1,227 @@
+//! What `vorl teach` measures from the taught part and its surroundings, so that a set taught
+//! from one photo a class runs with no hand tuning (the role of HALCON's automatic model
+//! parameters): the part's polarity against the platform, and whether a shadow lies beside it.
+//!
+//! **Polarity.** A part front-lit on a mat is brighter than the platform and throws a shadow,
+//! darker than the platform, beside itself. `|I − B| > τ` takes both as one blob, so the
+//! taught silhouette carries the shadow, whose side changes across the frame. The rule: within
+//! the taught blob, the pixels of the sign that holds most of the blob's contrast form the
+//! part; their outer outline with every hole filled is its extent; pixels of the other sign
+//! *outside* that extent lie beside the part, not on it. Where they cover more than a one-pixel
+//! band along the extent's outline (more than the mask's own edge noise can make), they are a
+//! shadow (or a halo), and the part's polarity is that majority sign: the other sign is not
+//! part. Pixels of the other sign *inside* the extent (a nut's dark bore, a bolt's dark facet,
+//! dark print on a bright part) are not evidence of a shadow. With no such evidence the polarity
+//! stays "either": a part without a shadow loses nothing by it.
+
+use std::collections::VecDeque;
+
+use vorl_core::pixels::mask::Polarity;
+
+/// What [`measure_polarity`] found in a taught blob.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PolarityEvidence {
+    /// Share of the blob's contrast `Σ|I − B|` above the platform, 0..1.
+    pub brighter_share: f64,
+    /// Pixels of the minority sign outside the majority sign's filled extent.
+    pub beside: usize,
+    /// Outline length of the majority sign's filled extent, px (its boundary pixels).
+    pub outline: usize,
+    /// The polarity that follows: one-sided only where a shadow (or halo) was found.
+    pub polarity: Polarity,
+}
+
+impl PolarityEvidence {
+    /// One line for the integrator: what was measured and what follows.
+    pub fn describe(&self) -> String {
+        let side = if self.brighter_share >= 0.5 {
+            "brighter"
+        } else {
+            "darker"
+        };
+        let share = self.brighter_share.max(1.0 - self.brighter_share) * 100.0;
+        match self.polarity {
+            Polarity::Either => format!(
+                "polarity: either (the part is {side} than the platform, {share:.0} % of its contrast; \
+                 {} px of the other sign beside it, within the edge band of its {} px outline: no shadow)",
+                self.beside, self.outline
+            ),
+            _ => format!(
+                "polarity: {side} (the part is {side} than the platform, {share:.0} % of its contrast; \
+                 {} px of the other sign beside it, more than the edge band of its {} px outline: a shadow, not part)",
+                self.beside, self.outline
+            ),
+        }
+    }
+}
+
+/// The polarity evidence of the blob `pixels` (indices into a `w`-wide plane) of `frame`
+/// against the platform `platform`, at foreground threshold `tau`.
+///
+/// Returns `None` when the blob holds no pixel beyond `tau` (no contrast to measure).
+pub fn measure_polarity(
+    frame: &[u8],
+    platform: &[u8],
+    w: usize,
+    h: usize,
+    pixels: &[usize],
+    tau: u8,
+) -> Option<PolarityEvidence> {
+    let (mut up, mut down) = (0f64, 0f64);
+    for &i in pixels {
+        let d = f64::from(*frame.get(i)?) - f64::from(*platform.get(i)?);
+        if d > 0.0 {
+            up += d;
+        } else {
+            down -= d;
+        }
+    }
+    if up + down <= 0.0 || w == 0 || h == 0 {
+        return None;
+    }
+    let brighter_share = up / (up + down);
+    let brighter = brighter_share >= 0.5;
+    // The majority sign's pixels, and the minority's, within the blob's bounding box (plus a
+    // one-pixel margin of "outside" for the fill).
+    let (x0, y0, x1, y1) = pixels.iter().fold((usize::MAX, usize::MAX, 0, 0), |(a, b, c, d), &i| {
+        (a.min(i % w), b.min(i / w), c.max(i % w), d.max(i / w))
+    });
+    let (bw, bh) = (x1 - x0 + 3, y1 - y0 + 3);
+    let mut major = vec![false; bw * bh];
+    let mut minor = Vec::new();
+    let t = f64::from(tau);
+    for &i in pixels {
+        let d = f64::from(frame[i]) - f64::from(platform[i]);
+        let j = (i / w - y0 + 1) * bw + (i % w - x0 + 1);
+        let signed = if brighter { d } else { -d };
+        if signed > t {
+            major[j] = true;
+        } else if signed < -t {
+            minor.push(j);
+        }
+    }
+    // Everything the outside reaches without crossing the majority sign; the rest is its
+    // filled extent.
+    let mut outside = vec![false; bw * bh];
+    let mut queue = VecDeque::from([0usize]);
+    outside[0] = true;
+    while let Some(j) = queue.pop_front() {
+        let (x, y) = (j % bw, j / bw);
+        let mut visit = |nx: usize, ny: usize| {
+            let k = ny * bw + nx;
+            if !outside[k] && !major[k] {
+                outside[k] = true;
+                queue.push_back(k);
+            }
+        };
+        if x > 0 {
+            visit(x - 1, y);
+        }
+        if x + 1 < bw {
+            visit(x + 1, y);
+        }
+        if y > 0 {
+            visit(x, y - 1);
+        }
+        if y + 1 < bh {
+            visit(x, y + 1);
+        }
+    }
+    let beside = minor.iter().filter(|&&j| outside[j]).count();
+    // The extent's boundary pixels: inside, with a 4-neighbour outside.
+    let outline = (0..bw * bh)
+        .filter(|&j| !outside[j])
+        .filter(|&j| {
+            let (x, y) = (j % bw, j / bw);
+            (x > 0 && outside[j - 1])
+                || (x + 1 < bw && outside[j + 1])
+                || (y > 0 && outside[j - bw])
+                || (y + 1 < bh && outside[j + bw])
+        })
+        .count();
+    let polarity = if beside > outline {
+        if brighter {
+            Polarity::Brighter
+        } else {
+            Polarity::Darker
+        }
+    } else {
+        Polarity::Either
+    };
+    Some(PolarityEvidence {
+        brighter_share,
+        beside,
+        outline,
+        polarity,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A `w×h` platform at 100 with a bright 20×10 bar, optionally a dark shadow band below
+    /// it (`shadow` rows) and a dark 4×4 bore inside it; the blob is every pixel beyond τ.
+    fn scene(shadow: usize, bore: bool) -> (Vec<u8>, Vec<u8>, Vec<usize>, usize, usize) {
+        let (w, h) = (40, 30);
+        let platform = vec![100u8; w * h];
+        let mut frame = platform.clone();
+        for y in 10..20 {
+            for x in 10..30 {
+                frame[y * w + x] = 190;
+            }
+        }
+        for y in 20..20 + shadow {
+            for x in 12..32 {
+                frame[y * w + x] = 60;
+            }
+        }
+        if bore {
+            for y in 13..17 {
+                for x in 18..22 {
+                    frame[y * w + x] = 40;
+                }
+            }
+        }
+        let pixels: Vec<usize> = (0..w * h).filter(|&i| frame[i].abs_diff(platform[i]) > 15).collect();
+        (frame, platform, pixels, w, h)
+    }
+
+    #[test]
+    fn a_shadow_beside_a_bright_part_makes_it_brighter() {
+        let (f, p, px, w, h) = scene(4, true);
+        let e = measure_polarity(&f, &p, w, h, &px, 15).unwrap();
+        assert_eq!(e.polarity, Polarity::Brighter, "{e:?}");
+        assert!(e.beside >= 80 && e.brighter_share > 0.5, "{e:?}");
+        assert!(e.describe().starts_with("polarity: brighter"));
+    }
+
+    #[test]
+    fn a_dark_bore_inside_is_no_shadow_and_a_clean_part_stays_either() {
+        let (f, p, px, w, h) = scene(0, true);
+        let e = measure_polarity(&f, &p, w, h, &px, 15).unwrap();
+        assert_eq!(e.polarity, Polarity::Either, "{e:?}");
+        assert_eq!(e.beside, 0);
+        // A one-pixel dark seam along the outline is edge noise, not a shadow.
+        let (f, p, px, w, h) = scene(1, false);
+        let e = measure_polarity(&f, &p, w, h, &px, 15).unwrap();
+        assert_eq!(e.polarity, Polarity::Either, "{e:?}");
+    }
+
+    #[test]
+    fn a_dark_part_with_a_bright_halo_is_darker_and_no_contrast_is_none() {
+        let (w, h) = (30, 30);
+        let platform = vec![150u8; w * h];
+        let mut frame = platform.clone();
+        for y in 5..25 {
+            for x in 5..25 {
+                let halo = !(8..22).contains(&x) || !(8..22).contains(&y);
+                frame[y * w + x] = if halo { 200 } else { 20 };
+            }
+        }
+        let px: Vec<usize> = (0..w * h).filter(|&i| frame[i].abs_diff(platform[i]) > 15).collect();
+        let e = measure_polarity(&frame, &platform, w, h, &px, 15).unwrap();
+        assert_eq!(e.polarity, Polarity::Darker, "{e:?}");
+        assert!(measure_polarity(&platform, &platform, w, h, &px, 15).is_none());
+    }
+}
