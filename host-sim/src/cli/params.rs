@@ -5,8 +5,8 @@ use std::path::PathBuf;
 use vorl_core::Params;
 
 use crate::config::{
-    AngleSetting, CleanupSetting, Config, ExposureSetting, PositionSetting, RefineSetting, ThresholdName,
-    ThresholdSetting,
+    AngleSetting, CleanupSetting, Config, ExposureSetting, PolaritySetting, PositionSetting, RefineSetting,
+    ThresholdName, ThresholdSetting,
 };
 
 /// Pipeline parameters: a config file, then single flags on top.
@@ -18,6 +18,10 @@ pub struct ParamArgs {
     /// Foreground threshold τ on |I' − B| (0..255) or "otsu".
     #[arg(long, value_name = "TAU|otsu")]
     pub threshold: Option<String>,
+    /// Which parts are foreground: darker or brighter than the platform, or either (`vorl
+    /// teach` measures it: a shadow beside a brighter part is not part of it).
+    #[arg(long, value_enum)]
+    pub polarity: Option<PolaritySetting>,
     /// 3×3 clean-up of the mask.
     #[arg(long, value_enum)]
     pub cleanup: Option<CleanupSetting>,
@@ -126,6 +130,7 @@ impl ParamArgs {
         }
         set!(
             cleanup,
+            polarity,
             alpha,
             n,
             m,
@@ -191,6 +196,7 @@ mod tests {
         ("config", "", |c| c.min_points == 7),
         ("threshold", "42", |c| c.threshold == ThresholdSetting::Fixed(42)),
         ("cleanup", "open-close", |c| c.cleanup == CleanupSetting::OpenClose),
+        ("polarity", "brighter", |c| c.polarity == PolaritySetting::Brighter),
         ("alpha", "0.75", |c| c.alpha == 0.75),
         ("n", "48", |c| c.n == 48),
         ("m", "80", |c| c.m == 80),

@@ -275,6 +275,7 @@ pub fn foreground_mask<B: AsRef<[u8]>, S: AsRef<[u8]> + AsMut<[u8]>>(
 ///
 /// # Errors
 /// As [`foreground_mask`].
+#[allow(clippy::too_many_arguments)]
 pub fn foreground_mask_spans<B: AsRef<[u8]>, S: AsRef<[u8]> + AsMut<[u8]>>(
     frame: &Frame<B>,
     background: &Background<S>,
