@@ -199,7 +199,23 @@ pub fn run(args: TeachArgs) -> Result<ExitCode, String> {
     let Some(&(sx, sy)) = part.border.first() else {
         return Err("the part has no border".into());
     };
-    let mut silhouette = component(engine.labels(), w, h, sx as usize, sy as usize);
+    // Cut at half the part's contrast along its outline, where detection puts a part's border
+    // (crate::teaching), rather than where the blurred edge first rises above τ.
+    let mut silhouette = match engine.background().map(|b| b.plane()) {
+        Some(platform) => {
+            let blob = component_pixels(engine.labels(), w, h, sx as usize, sy as usize);
+            let cut = crate::teaching::half_contrast_silhouette(
+                frame.image.as_raw(),
+                platform,
+                w,
+                h,
+                &blob,
+                engine.params().polarity,
+            );
+            largest_component(&cut, w, h).unwrap_or_else(|| component(engine.labels(), w, h, sx as usize, sy as usize))
+        }
+        None => component(engine.labels(), w, h, sx as usize, sy as usize),
+    };
     if args.add {
         // Turned to the class's reference pose: the pose of its first example.
         let first = match &move_first {
@@ -446,16 +462,20 @@ pub fn to_reference_pose(
         imageproc::geometric_transformations::Border::Constant(Luma([0u8])),
     );
     let labels: Vec<u8> = turned.as_raw().iter().map(|&v| (v > 127) as u8).collect();
-    let (w, h) = (side as usize, side as usize);
-    let Some(seed) = labels.iter().position(|&l| l != 0) else {
-        return Err("the turned example holds no part".into());
-    };
     // The largest component only (a turn may leave a stray pixel at the edge).
+    let turned = largest_component(&labels, side as usize, side as usize).ok_or("the turned example holds no part")?;
+    Ok((turned, angle))
+}
+
+/// The largest 8-connected component of a 0/1 plane, cropped as [`component`] crops; `None`
+/// when the plane is empty.
+fn largest_component(labels: &[u8], w: usize, h: usize) -> Option<GrayImage> {
+    let seed = labels.iter().position(|&l| l != 0)?;
     let mut best = (0usize, seed);
     let mut seen = vec![false; w * h];
     for i in 0..w * h {
         if labels[i] != 0 && !seen[i] {
-            let pixels = component_pixels(&labels, w, h, i % w, i / w);
+            let pixels = component_pixels(labels, w, h, i % w, i / w);
             for &j in &pixels {
                 seen[j] = true;
             }
@@ -464,7 +484,7 @@ pub fn to_reference_pose(
             }
         }
     }
-    Ok((component(&labels, w, h, best.1 % w, best.1 / w), angle))
+    Some(component(labels, w, h, best.1 % w, best.1 / w))
 }
 
 /// Where `--add` writes the next example of a class, `folder/<k>.png` for the first free `k`
