@@ -3,8 +3,8 @@
 # runs `vorl eval` on each with each option. Takes a few minutes on 2 cores.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-cargo build --release -q -p vorl-host-sim --bin vorl
-VORL=target/release/vorl
+[ -n "${VORL:-}" ] || cargo build --release -q -p vorl-host-sim --bin vorl
+VORL=${VORL:-target/release/vorl}
 OUT=${OUT:-out/accuracy}
 mkdir -p "$OUT"
 "$VORL" gen "$OUT/default" --seed 1 --frames 60 >/dev/null

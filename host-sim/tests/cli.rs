@@ -1414,6 +1414,94 @@ fn teach_lists_and_takes_one_part_without_an_empty_shot() {
     assert!(err.errors().join(" ").contains("X,Y"), "{}", err.dump());
 }
 
+/// Front light: a bright bar throwing a dark shadow down and to the right, and a bright open
+/// ring (a C, its centre off its silhouette) with none, on a flat platform. `vorl teach --at`
+/// the bar measures its polarity (brighter: the shadow beside it is not part), keeps it in the
+/// set's `vorl.toml` and takes the bar without its shadow; the C is taken at its listed centre;
+/// `vorl detect` of the set then finds the bar as the taught class.
+#[test]
+fn teach_leaves_the_shadow_out_keeps_the_polarity_and_takes_an_open_part_at_its_centre() {
+    let scratch = Scratch::new("teachshadow");
+    let set = scratch.join("set");
+    std::fs::create_dir_all(set.join("frames")).expect("mkdir");
+    let mut img = GrayImage::from_pixel(320, 240, Luma([110]));
+    // The shadow: the bar's 100×24 rectangle 6 px right and 6 px down, drawn first.
+    for y in 56..80u32 {
+        for x in 66..166u32 {
+            img.put_pixel(x, y, Luma([60]));
+        }
+    }
+    for y in 50..74u32 {
+        for x in 60..160u32 {
+            img.put_pixel(x, y, Luma([200]));
+        }
+    }
+    // The C: a ring of radii 18 and 30 about (240, 170), open over 60° to the right.
+    for y in 130..212u32 {
+        for x in 200..282u32 {
+            let (dx, dy) = (x as f64 - 240.0, y as f64 - 170.0);
+            let r = dx.hypot(dy);
+            if (18.0..=30.0).contains(&r) && dy.atan2(dx).abs() > 30f64.to_radians() {
+                img.put_pixel(x, y, Luma([190]));
+            }
+        }
+    }
+    let frame = set.join("frames/f0.png");
+    img.save(&frame).expect("save");
+    let templates = set.join("templates");
+    let out = vorl([
+        OsStr::new("teach"),
+        frame.as_os_str(),
+        OsStr::new("--at"),
+        OsStr::new("110,62"),
+        OsStr::new("--name"),
+        OsStr::new("bar"),
+        OsStr::new("--out"),
+        templates.as_os_str(),
+    ])
+    .success();
+    assert!(out.stdout.contains("polarity: brighter"), "{}", out.dump());
+    let toml = std::fs::read_to_string(set.join("vorl.toml")).expect("vorl.toml written");
+    assert!(toml.contains("polarity = \"brighter\""), "{toml}");
+    let bar = gray(&templates.join("bar.png"));
+    let area = bar.pixels().filter(|p| p.0[0] > 127).count();
+    assert!(
+        (2200..=2500).contains(&area),
+        "the bar without its shadow is 2400 px: {area}"
+    );
+    // The C, at its centre (off its silhouette: it lies in the ring's hole).
+    let c: Vec<(f64, f64)> = img
+        .enumerate_pixels()
+        .filter(|p| p.2 .0[0] == 190)
+        .map(|(x, y, _)| (x as f64, y as f64))
+        .collect();
+    let (cx, cy) = (
+        c.iter().map(|p| p.0).sum::<f64>() / c.len() as f64,
+        c.iter().map(|p| p.1).sum::<f64>() / c.len() as f64,
+    );
+    assert!((cx - 240.0).hypot(cy - 170.0) < 17.0, "the centre lies in the hole");
+    vorl([
+        OsStr::new("teach"),
+        frame.as_os_str(),
+        OsStr::new("--at"),
+        OsStr::new(&format!("{cx:.1},{cy:.1}")),
+        OsStr::new("--name"),
+        OsStr::new("clip"),
+        OsStr::new("--out"),
+        templates.as_os_str(),
+    ])
+    .success();
+    assert_eq!(blobs(&gray(&templates.join("clip.png"))), 1);
+    let out = vorl([OsStr::new("detect"), set.as_os_str(), OsStr::new("--json")]).success();
+    let json: Value = serde_json::from_str(&out.stdout).expect("json");
+    let parts = json["frames"]["f0.png"].as_array().expect("parts").clone();
+    assert_eq!(parts.len(), 2, "{}", out.dump());
+    let bar = parts.iter().find(|p| p["class"] == "bar").expect("the bar named");
+    let (x, y) = (bar["x"].as_f64().unwrap(), bar["y"].as_f64().unwrap());
+    assert!((x - 109.5).abs() < 0.5 && (y - 61.5).abs() < 0.5, "{x},{y}");
+    assert!(parts.iter().any(|p| p["class"] == "clip"), "{}", out.dump());
+}
+
 /// A 64×20 bar (with `long` more columns) centred at (`cx`, `cy`), along x or, `upright`, along
 /// y, drawn with `value`.
 fn draw_bar(img: &mut GrayImage, cx: i64, cy: i64, long: i64, upright: bool, value: u8) {

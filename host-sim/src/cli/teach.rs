@@ -551,7 +551,8 @@ fn parse_point(text: &str) -> Result<(f64, f64), String> {
 }
 
 /// The part whose silhouette holds pixel (x, y), or whose outer border encloses it or passes
-/// within 3 px of it.
+/// within 3 px of it, or whose centre (as `--list` prints it) lies within 3 px of it: the centre
+/// of an open part, an e-clip or a C, lies off its silhouette.
 fn part_at<'a>(
     result: &'a crate::engine::FrameResult,
     labels: &[u8],
@@ -590,6 +591,7 @@ fn part_at<'a>(
         .filter(|(_, dist)| *dist <= 3.0)
         .min_by(|a, b| a.1.total_cmp(&b.1))
         .map(|(d, _)| d)
+        .or_else(|| nearest(result, x, y).filter(|d| (f64::from(d.core.x) - x).hypot(f64::from(d.core.y) - y) <= 3.0))
 }
 
 /// Whether (x, y) lies inside the closed polygon through the border's pixel centres (even-odd).
