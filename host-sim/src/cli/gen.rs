@@ -39,7 +39,12 @@ use crate::gen::{generate, GenOptions, Variant};
               background.png unless --with-background; writes vorl.toml (scale_min 0.8,\n            \
               scale_max 1.4); truth adds level, stretch and the rods' head and eye factors\n  \
     rods-touching  as rods, with the rods against and over one another as in touching; its\n            \
-              vorl.toml adds touching_parts = true\n\
+              vorl.toml adds touching_parts = true\n  \
+    frontlit  metal parts on a grey textured mat, diffuse light from one side (about the upper\n            \
+              left): parts brighter than the mat, shaded, a dark facet near the mat's level and\n            \
+              highlights, each with a soft shadow 4–10 px away from the light; background.png is\n            \
+              the empty mat; writes teach.json (each class's first whole part); truth adds\n            \
+              light_from_deg, shadow_dx, shadow_dy, shadow_sigma, shadow_depth, facet, facet_share\n\
     The same seed and options give byte-identical sets.\n\n\
     Examples:\n  vorl gen out/plant --seed 7 --frames 60\n  vorl gen out/noisy --variant noisy --frames 20\n  \
     vorl gen out/stereo --variant stereo --frames 10\n  vorl gen out/lens --variant lens --frames 20 --no-background")]
@@ -54,7 +59,7 @@ pub struct GenArgs {
     #[arg(long, default_value_t = 60)]
     pub frames: usize,
     /// Kind of set: default, noisy, small, border, stereo, flipped, touching, sharp, lens,
-    /// thick, exposure, paper, printed, backlit, rods or rods-touching (see below).
+    /// thick, exposure, paper, printed, backlit, rods, rods-touching or frontlit (see below).
     #[arg(long, default_value = "default")]
     pub variant: Variant,
     /// Frame width, px.

@@ -16,6 +16,10 @@
 //! variant.json                the real-camera variants only: the variant and its set-wide
 //!                             parameters (lens, camera height, texture, vignette, …)
 //! vorl.toml                   `rods` only: the set's own parameters (the scale range its parts need)
+//! teach.json                  `frontlit` only: for each class, the first frame where a part of it
+//!                             lies whole, and its truth centroid, or where that lies off the part
+//!                             (an L bracket's) the nearest point 3 px inside it (DESIGN.md's
+//!                             `teach.json`, the point `vorl teach --at` takes)
 //! ```
 //!
 //! Stereo sets write `frames/left_f000.png` and `frames/right_f000.png`, `background_left.png`
@@ -42,6 +46,7 @@
 //! | `paper`    | a textured paper or belt platform: speckle correlated over about 2 px plus fibres, standard deviation 3–5 levels, part of the platform (in `background*.png` and every frame alike, hidden under the parts), plus the usual sensor noise | as `default` |
 //! | `printed`  | 70 % of the parts carry print: rows of dark text-like glyph blobs and a logo ring (on a dark part darker still, on a light part darker than the platform), and on dark parts light patches within 8 levels of the platform that a mask may cut as holes; templates plain | the part's own centroid (print ignored); `texture` `"print"`, adds `print_marks` and `print_patches` |
 //! | `backlit`  | dark opaque parts (gray 8–35) on a bright backlight with cos⁴ vignetting: 246–252 at the optical centre, 145–155 at the farthest corner; no `background.png` unless asked for | as `default`; `contrast` = level − backlight at the centroid, adds `level` |
+//! | `frontlit` | metal parts on a grey textured mat (level 105–125, texture σ 3–5) under diffuse light from one direction per set (`light_from_deg`, 110–160°: about the upper left): each part 55–105 levels above the lit mat, shaded ±5–15 levels towards the light, with one dark facet at −15…+5 levels from the mat over 5–15 % of its area (its edge away from the light, or a band across it) and 1–2 specular highlights; each part's silhouette moved 4–10 px away from the light, blurred by σ 2–4 px, darkens the mat by 20–50 levels under it (the part hides its own shadow); `background.png` is the empty mat; a `teach.json` | the part's own silhouette (never the shadow); `texture` `"metal"`, adds `light_from_deg`, `shadow_dx`, `shadow_dy`, `shadow_sigma`, `shadow_depth`, `facet` (`"edge"` or `"band"`), `facet_share`, `facet_level`, `highlights` |
 //! | `rods`     | its own catalogue ([`rods_catalogue`]) on the `backlit` backlight: connecting rods `rod_a` (one eye, in the big end) and `rod_b` (the same outline, a larger eye in the big end and a smaller one in the small end, both with thin rims like the real rods': 8 and 5.5 mm), each rod made with its own proportions (shaft length ×0.85–1.15, each head's radius ×0.92–1.08, each eye's ×0.9–1.1) and drawn at 0.9–1.3× the template's size; washers and screws (shank ×0.85–1.15) as distractors; templates the nominal rods; no `background.png` unless asked for; a `vorl.toml` with `scale_min = 0.8` (0.9× drawn, a shaft 15 % short), `scale_max = 1.4` | as `backlit`: the drawn part's centroid and rotation (the template's reference pose: axis along x, big end at −x); `scale` the drawn size over the template's, adds `stretch` and the rods' `head_big_scale`, `head_small_scale`, `eye_big_scale`, `eye_small_scale` (`rod_b`) |
 //!
 //! # Truth
@@ -63,6 +68,7 @@
 //! the same files as before they existed.
 
 mod effects;
+mod frontlit;
 mod output;
 mod print;
 mod raster;
@@ -87,6 +93,7 @@ use serde_json::json;
 
 use crate::truth::{FramesJson, PartJson};
 use effects::{paper_texture, Backlight, CloseCamera, Lens, PAPER_STD};
+use frontlit::FrontLight;
 use raster::{bounds, coverage_union};
 use render::{
     add_drift, blur, capture, draw_part, draw_part_through, silhouette, template, Appearance, Lighting, Texture,
@@ -203,11 +210,15 @@ pub enum Variant {
     /// rods lying against each other, each off its template's outline, as in the real photos'
     /// `TESI50`); a `vorl.toml` with the scale range and `touching_parts = true`.
     RodsTouching,
+    /// Metal parts on a grey textured mat under diffuse light from one side (about the upper
+    /// left): parts brighter than the mat, shaded, with a dark facet and highlights, each
+    /// throwing a soft shadow away from the light; writes a `teach.json`.
+    Frontlit,
 }
 
 impl Variant {
     /// All variants, in the order of their names.
-    pub const ALL: [Variant; 16] = [
+    pub const ALL: [Variant; 17] = [
         Variant::Default,
         Variant::Noisy,
         Variant::Small,
@@ -224,6 +235,7 @@ impl Variant {
         Variant::Flipped,
         Variant::Touching,
         Variant::RodsTouching,
+        Variant::Frontlit,
     ];
 
     /// The command-line name.
@@ -245,6 +257,7 @@ impl Variant {
             Variant::Flipped => "flipped",
             Variant::Touching => "touching",
             Variant::RodsTouching => "rods-touching",
+            Variant::Frontlit => "frontlit",
         }
     }
 
@@ -296,6 +309,13 @@ impl Variant {
             Variant::RodsTouching => Some(RODS_TOUCHING_CONFIG),
             _ => None,
         }
+    }
+
+    /// Whether the set gets a `teach.json` (`frontlit`): for each class, the first frame where a
+    /// part of it lies whole and its truth centroid (or, where that lies off the part, the
+    /// nearest point 3 px inside it).
+    pub fn writes_teach(self) -> bool {
+        self == Variant::Frontlit
     }
 
     /// One of the variants that model a real camera's failure modes (they write `variant.json`).
@@ -464,6 +484,8 @@ enum Effect {
     Flipped(Vec<bool>),
     /// `touching`: parts moved against and over one another.
     Touching,
+    /// `frontlit`: this light and mat (its texture part of the platform).
+    Frontlit(FrontLight),
 }
 
 /// Everything a frame needs that is fixed for the set.
@@ -530,6 +552,7 @@ impl SetPlan {
             Variant::Printed => Effect::Printed,
             Variant::Flipped => Effect::Flipped(v.catalogue().iter().map(|p| p.is_template && p.is_chiral()).collect()),
             Variant::Touching => Effect::Touching,
+            Variant::Frontlit => Effect::Frontlit(FrontLight::random(&mut fx, w, h)),
             _ => Effect::Ideal,
         };
         let light = match &effect {
@@ -547,6 +570,7 @@ impl SetPlan {
                 .map(|(l, t)| l + t)
                 .collect(),
             Effect::Backlit(b) => b.field(w, h),
+            Effect::Frontlit(f) => f.mat(),
             _ => lighting.field(w, h, 0.0),
         };
         let close = match &effect {
@@ -631,6 +655,23 @@ impl SetPlan {
                 "overlap_max": touching::OVERLAP_MAX,
                 "just_touching": touching::JUST_TOUCHING,
             }),
+            Effect::Frontlit(f) => json!({
+                "model": "mat = smooth lighting + texture; part = lit mat + contrast + shading * (q . toward) / radius + highlights, or lit mat + facet_level on its facet; shadow = silhouette moved by offset, blurred by sigma, times depth, under the parts",
+                "light_from_deg": f.from_deg,
+                "light_toward": f.toward(),
+                "mat_level": f.mat_level,
+                "mat_lighting": f.mat_lighting,
+                "texture_std": f.texture_std,
+                "contrast": [frontlit::METAL_CONTRAST.0, frontlit::METAL_CONTRAST.1],
+                "shading": [frontlit::METAL_SHADING.0, frontlit::METAL_SHADING.1],
+                "facet_share": [frontlit::FACET_SHARE.0, frontlit::FACET_SHARE.1],
+                "facet_level": [frontlit::FACET_LEVEL.0, frontlit::FACET_LEVEL.1],
+                "edge_facet_share": frontlit::EDGE_FACET_SHARE,
+                "highlight_level": [frontlit::HIGHLIGHT_LEVEL.0, frontlit::HIGHLIGHT_LEVEL.1],
+                "shadow_offset_px": [frontlit::SHADOW_OFFSET_PX.0, frontlit::SHADOW_OFFSET_PX.1],
+                "shadow_sigma_px": [frontlit::SHADOW_SIGMA_PX.0, frontlit::SHADOW_SIGMA_PX.1],
+                "shadow_depth": [frontlit::SHADOW_DEPTH.0, frontlit::SHADOW_DEPTH.1],
+            }),
             Effect::Ideal => json!({}),
         };
         if let (Some(o), Some(p)) = (v.as_object_mut(), params.as_object()) {
@@ -672,6 +713,23 @@ impl SetPlan {
             self.light.clone()
         };
         add_drift(&mut img, w, h, drift, self.drift_max);
+        // Front-lit: the lit mat without its texture (what the parts are lit by), then the
+        // shadows on the mat, under every part.
+        let lit = match &self.effect {
+            Effect::Frontlit(f) => {
+                let lit: Vec<f64> = img.iter().zip(&f.texture).map(|(v, t)| v - t).collect();
+                let shadows: Vec<(&PartSpec, &raster::Pose, frontlit::Shadow)> = parts
+                    .iter()
+                    .filter_map(|p| match p.body {
+                        Body::Frontlit(s) => Some((p.drawn(&self.cat), &p.pose, s)),
+                        _ => None,
+                    })
+                    .collect();
+                frontlit::cast_shadows(&mut img, w, h, &shadows);
+                Some(lit)
+            }
+            _ => None,
+        };
         // A part over another hides it: what lies beneath goes back to the platform first.
         let platform = self.touching.then(|| img.clone());
         for p in parts {
@@ -706,6 +764,11 @@ impl SetPlan {
                         let i = y as usize * w + x as usize;
                         img[i] -= c * texture[i];
                     });
+                }
+                (_, Body::Frontlit(_)) => {
+                    if let Some(lit) = &lit {
+                        frontlit::draw_metal(&mut img, lit, w, h, spec, &pose, &p.look);
+                    }
                 }
                 (_, Body::Opaque { level }) => silhouette(spec, &pose, w, h).for_each(|x, y, c| {
                     let i = y as usize * w + x as usize;
@@ -787,6 +850,11 @@ impl SetPlan {
                         texture: Texture::Plain,
                     };
                     p.body = Body::Opaque { level };
+                }
+                Effect::Frontlit(light) => {
+                    let (look, body) = frontlit::dress(&mut rng, spec, &p.pose, light);
+                    p.look = look;
+                    p.body = body;
                 }
                 Effect::Flipped(chiral)
                     if chiral.get(p.spec).copied().unwrap_or(false) && rng.chance(FLIPPED_SHARE) =>
@@ -880,6 +948,19 @@ impl SetPlan {
                 t.y = top.cy;
             }
             (_, Body::Opaque { level }) => put("level", json!(level)),
+            (Effect::Frontlit(light), Body::Frontlit(s)) => {
+                put("light_from_deg", json!(light.from_deg));
+                put("shadow_dx", json!(s.offset[0]));
+                put("shadow_dy", json!(s.offset[1]));
+                put("shadow_sigma", json!(s.sigma));
+                put("shadow_depth", json!(s.depth));
+                if let Texture::Metal(m) = &p.look.texture {
+                    put("facet", json!(if m.facet.edge { "edge" } else { "band" }));
+                    put("facet_share", json!(m.facet.share));
+                    put("facet_level", json!(m.facet.level));
+                    put("highlights", json!(m.highlights.len()));
+                }
+            }
             _ => {}
         }
         if let Effect::Flipped(chiral) = &self.effect {
@@ -1056,6 +1137,21 @@ pub fn generate(out: &Path, opts: &GenOptions) -> Result<GenSummary, GenError> {
         truth.frames.insert(frame_name(i, opts.frames), parts);
     }
     output::write_json(&out.join("truth.json"), &truth)?;
+    if opts.variant.writes_teach() {
+        // The part as drawn: its catalogue shape at its truth pose.
+        let point = |p: &PartJson| {
+            let shape = p.extra.get("shape").and_then(|v| v.as_str());
+            let scale = p.extra.get("scale").and_then(serde_json::Value::as_f64).unwrap_or(1.0);
+            match cat.iter().find(|s| Some(s.name) == shape) {
+                Some(spec) => output::teach_point(
+                    spec,
+                    &raster::Pose::new(p.x, p.y, p.angle_deg, set.scene.px_per_mm * scale),
+                ),
+                None => [p.x, p.y],
+            }
+        };
+        output::write_teach(&out.join("teach.json"), &summary.classes, &truth, point)?;
+    }
     if stereo {
         output::write_json(
             &out.join("camera.json"),
@@ -1164,7 +1260,7 @@ mod tests {
     /// backgrounds and templates, and the truth.
     #[test]
     fn memory_set_is_what_generate_writes() {
-        for variant in [Variant::Exposure, Variant::Stereo, Variant::Backlit] {
+        for variant in [Variant::Exposure, Variant::Stereo, Variant::Backlit, Variant::Frontlit] {
             let opts = GenOptions {
                 seed: 5,
                 frames: 3,

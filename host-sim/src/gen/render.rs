@@ -8,6 +8,7 @@
 use image::GrayImage;
 
 use super::effects::Lens;
+use super::frontlit::Metal;
 use super::raster::{coverage, fill_centres, Coverage, Pose};
 use super::rng::Rng;
 use super::shapes::{dot, norm, sub, PartSpec, P};
@@ -169,6 +170,9 @@ pub(crate) enum Texture {
     /// Print on the face (`printed` variant): disjoint marks, each rings (part frame, mm,
     /// even–odd) of its own level (levels above the platform, like the contrast).
     Print { marks: Vec<Mark> },
+    /// A front-lit metal face (`frontlit` variant): shading towards the light, a dark facet and
+    /// specular highlights ([`Metal`]; drawn by `frontlit::draw_metal`).
+    Metal(Metal),
 }
 
 /// One mark of a part's print.
@@ -209,6 +213,7 @@ impl Texture {
                     })
                     .collect(),
             },
+            Texture::Metal(m) => Texture::Metal(m.mirrored()),
         }
     }
 
@@ -220,6 +225,7 @@ impl Texture {
             Texture::Label { bars, .. } if bars.len() > 1 => "stripes",
             Texture::Label { .. } => "label",
             Texture::Print { .. } => "print",
+            Texture::Metal(_) => "metal",
         }
     }
 }

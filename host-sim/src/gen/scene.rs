@@ -9,6 +9,7 @@ use std::f64::consts::TAU;
 use std::sync::Arc;
 
 use super::effects::CloseCamera;
+use super::frontlit::Shadow;
 use super::raster::{bounds, clipped_area, Pose};
 use super::render::{Appearance, Texture};
 use super::rng::Rng;
@@ -69,13 +70,15 @@ pub(crate) struct CloseFit {
 /// What a part is besides a flat silhouette of one look.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(crate) enum Body {
-    /// A flat part (every variant but `thick` and `backlit`).
+    /// A flat part (every variant but `thick`, `backlit`, `rods` and `frontlit`).
     #[default]
     Flat,
     /// A prism of this height under a close camera; its walls at `wall` levels above the platform.
     Thick { thickness_mm: f64, wall: f64 },
     /// Opaque in front of a backlight: the silhouette at this gray level.
     Opaque { level: f64 },
+    /// A front-lit metal part (`frontlit`): opaque over the mat, throwing this shadow on it.
+    Frontlit(Shadow),
 }
 
 /// One part placed in a frame.

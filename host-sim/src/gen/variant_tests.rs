@@ -70,7 +70,7 @@ fn variant_json(dir: &Path) -> serde_json::Value {
 
 #[test]
 fn gen_real_variants_are_deterministic_and_write_their_fields() {
-    let fields: [(Variant, &[&str]); 9] = [
+    let fields: [(Variant, &[&str]); 10] = [
         (Variant::Sharp, &[]),
         (
             Variant::Lens,
@@ -94,6 +94,20 @@ fn gen_real_variants_are_deterministic_and_write_their_fields() {
         (Variant::Backlit, &["level"]),
         (Variant::Rods, &["level", "stretch"]),
         (Variant::RodsTouching, &["level", "stretch"]),
+        (
+            Variant::Frontlit,
+            &[
+                "light_from_deg",
+                "shadow_dx",
+                "shadow_dy",
+                "shadow_sigma",
+                "shadow_depth",
+                "facet",
+                "facet_share",
+                "facet_level",
+                "highlights",
+            ],
+        ),
     ];
     for (v, want) in fields {
         let opts = small_opts(v, 4, 3);
@@ -124,6 +138,7 @@ fn gen_real_variants_are_deterministic_and_write_their_fields() {
         assert_eq!(variant_json(&a)["variant"], json!(v.name()));
         assert_eq!(a.join("background.png").is_file(), v.writes_background(), "{v}");
         assert_eq!(a.join("vorl.toml").is_file(), v.set_config().is_some(), "{v}");
+        assert_eq!(a.join("teach.json").is_file(), v.writes_teach(), "{v}");
         let classes: Vec<String> = v
             .catalogue()
             .iter()
@@ -365,6 +380,24 @@ fn gen_exposure_pairs_show_one_scene_at_two_exposures() {
     let _ = std::fs::remove_dir_all(dir);
 }
 
+/// Fine detail of an image: each pixel less the mean of the 7×7 pixels about it.
+fn detail(img: &image::GrayImage) -> Vec<f64> {
+    let (w, h) = (i64::from(img.width()), i64::from(img.height()));
+    let at = |x: i64, y: i64| f64::from(img.get_pixel(x.clamp(0, w - 1) as u32, y.clamp(0, h - 1) as u32).0[0]);
+    (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            let mut s = 0.0;
+            for dy in -3..=3 {
+                for dx in -3..=3 {
+                    s += at(x + dx, y + dy);
+                }
+            }
+            at(x, y) - s / 49.0
+        })
+        .collect()
+}
+
 #[test]
 fn gen_paper_texture_is_part_of_the_platform() {
     let dir = scratch("paper");
@@ -376,24 +409,7 @@ fn gen_paper_texture_is_part_of_the_platform() {
     );
     let std = variant_json(&dir)["texture_std"].as_f64().expect("std");
     assert!((PAPER_STD.0..PAPER_STD.1).contains(&std));
-    // Fine detail (less a 7×7 local mean) of two captures of the platform: the same texture
-    // under fresh noise.
-    let detail = |img: &image::GrayImage| -> Vec<f64> {
-        let (w, h) = (img.width() as i64, img.height() as i64);
-        let at = |x: i64, y: i64| f64::from(img.get_pixel(x.clamp(0, w - 1) as u32, y.clamp(0, h - 1) as u32).0[0]);
-        (0..h)
-            .flat_map(|y| (0..w).map(move |x| (x, y)))
-            .map(|(x, y)| {
-                let mut s = 0.0;
-                for dy in -3..=3 {
-                    for dx in -3..=3 {
-                        s += at(x + dx, y + dy);
-                    }
-                }
-                at(x, y) - s / 49.0
-            })
-            .collect()
-    };
+    // Fine detail of two captures of the platform: the same texture under fresh noise.
     let (a, b) = (detail(&bg), detail(&bg0));
     let (sa, sb) = (effects::spread(&a).1, effects::spread(&b).1);
     let corr = a.iter().zip(&b).map(|(x, y)| x * y).sum::<f64>() / a.len() as f64 / (sa * sb);
@@ -539,7 +555,7 @@ fn gen_backlit_parts_are_dark_on_a_vignetted_backlight() {
 
 #[test]
 fn gen_no_background_leaves_out_only_the_platform() {
-    for v in [Variant::Default, Variant::Stereo, Variant::Lens] {
+    for v in [Variant::Default, Variant::Stereo, Variant::Lens, Variant::Frontlit] {
         let (with, without) = (scratch(&format!("bg-{v}")), scratch(&format!("nobg-{v}")));
         generate(&with, &small_opts(v, 3, 2)).expect("generate");
         generate(
@@ -924,4 +940,350 @@ fn gen_touching_parts_share_pixels_and_the_upper_hides_the_lower() {
         deep_pixels > 100,
         "{deep_pixels} pixels of overlap deep inside an upper part"
     );
+}
+
+/// Whether a part (`on`: whether it covers an image pixel) lies between image point `q` and the
+/// light, within 25 px of `q` towards it (`toward`: the unit vector to the light): `q` is on the
+/// part's far side.
+fn casts_on(on: impl Fn(i64, i64) -> bool, toward: P, q: P) -> bool {
+    (1..=25).any(|s| {
+        let s = f64::from(s);
+        on(
+            (q[0] + s * toward[0]).round() as i64,
+            (q[1] + s * toward[1]).round() as i64,
+        )
+    })
+}
+
+/// The outer borders of `spec` (its rings of positive area: holes left out).
+fn outer_rings(spec: &PartSpec) -> Vec<Vec<P>> {
+    spec.rings()
+        .iter()
+        .filter(|r| shapes::ring_moments(r).0 > 0.0)
+        .cloned()
+        .collect()
+}
+
+/// Whether image point `q` lies inside the outer border (holes filled) of `spec` at `pose`.
+fn within_outer(spec: &PartSpec, pose: &raster::Pose, q: P) -> bool {
+    let m = pose.invert(q);
+    outer_rings(spec)
+        .iter()
+        .any(|r| shapes::inside(std::slice::from_ref(r), m[0], m[1]))
+}
+
+/// The pixels of a `w`×`h` image whose centres lie within `margin` px (a square) of a part's
+/// outer border (`parts`: shape and pose; holes filled), row-major.
+fn near_parts(parts: &[(&PartSpec, raster::Pose)], w: usize, h: usize, margin: i64) -> Vec<bool> {
+    let mut near = vec![false; w * h];
+    for (spec, pose) in parts {
+        raster::coverage(&pose.rings(&outer_rings(spec)), Some((w, h)), 4).for_each(|x, y, _| {
+            for yy in (y - margin).max(0)..=(y + margin).min(h as i64 - 1) {
+                for xx in (x - margin).max(0)..=(x + margin).min(w as i64 - 1) {
+                    near[yy as usize * w + xx as usize] = true;
+                }
+            }
+        });
+    }
+    near
+}
+
+/// `frontlit` on clean frames (no noise, no drift): each part is brighter than the lit mat on
+/// average and its dark facet covers the share truth states; truth is the silhouette's own
+/// centroid; the mat away from the parts is the mat or darker (never by more than a shadow's
+/// depth), and the darkening about each part lies on its far side from the light, where
+/// truth's shadow offset points.
+#[test]
+fn gen_frontlit_parts_are_bright_metal_and_shadows_fall_away_from_the_light() {
+    let opts = GenOptions {
+        seed: 5,
+        frames: 8,
+        variant: Variant::Frontlit,
+        ..GenOptions::default()
+    };
+    let (mut checked, mut edges, mut bands) = (0, 0, 0);
+    for index in 0..8 {
+        let (set, parts, img, light) = clean_frame(&opts, index);
+        let Effect::Frontlit(f) = &set.effect else {
+            panic!("frontlit variant without its light");
+        };
+        let (w, h) = (set.w, set.h);
+        let toward = f.toward();
+        let mut lit = f.field.clone();
+        blur(&mut lit, w, h, BLUR_SIGMA);
+        let covers: Vec<raster::Coverage> = parts
+            .iter()
+            .map(|p| silhouette(p.drawn(&set.cat), &p.pose, w, h))
+            .collect();
+        // Within 3 px of a part (the optical blur's reach).
+        let mut near = vec![false; w * h];
+        for cov in &covers {
+            cov.for_each(|x, y, _| {
+                for dy in -3..=3_i64 {
+                    for dx in -3..=3_i64 {
+                        let (xx, yy) = (x + dx, y + dy);
+                        if xx >= 0 && yy >= 0 && (xx as usize) < w && (yy as usize) < h {
+                            near[yy as usize * w + xx as usize] = true;
+                        }
+                    }
+                }
+            });
+        }
+        let shapes: Vec<(&PartSpec, raster::Pose)> = parts.iter().map(|p| (p.drawn(&set.cat), p.pose)).collect();
+        let holes = near_parts(&shapes, w, h, 0);
+        // Away from the parts: the mat, or darker by at most a shadow's depth.
+        let mut dark = vec![0.0; w * h];
+        for i in (0..w * h).filter(|&i| !near[i]) {
+            let d = light[i] - img[i];
+            assert!(
+                d > -1e-9 && d <= SHADOW_DEPTH_MAX + 1e-9,
+                "{index}: pixel {i} darkened by {d}"
+            );
+            dark[i] = d;
+        }
+        for (k, (p, cov)) in parts.iter().zip(&covers).enumerate() {
+            let t = set.truth(p, index);
+            let spec = p.drawn(&set.cat);
+            let c = [t.x, t.y];
+            assert!(dist(cov.moments().1, c) < 0.02, "{}", spec.name);
+            assert_eq!(t.extra["texture"], json!("metal"));
+            let Texture::Metal(metal) = &p.look.texture else {
+                panic!("a frontlit part that is not metal");
+            };
+            // The facet covers the share of the part truth states.
+            let (mut area, mut on_facet) = (0.0, 0.0);
+            cov.for_each(|x, y, a| {
+                area += a;
+                if metal.in_facet(p.pose.invert([x as f64, y as f64])) {
+                    on_facet += a;
+                }
+            });
+            let want = t.extra["facet_share"].as_f64().expect("facet_share");
+            assert!((0.04..0.16).contains(&want), "{want}");
+            assert!(
+                (on_facet / area - want).abs() < 0.02,
+                "{}: {} vs {want}",
+                spec.name,
+                on_facet / area
+            );
+            // The pixels 2 px or more inside the part: brighter than the lit mat on average;
+            // those near the mat's level (metal is 40 or more above it, a facet 5 or less) are
+            // those of the facet.
+            let (mut sum, mut n, mut low, mut facet) = (0.0, 0usize, 0usize, 0usize);
+            cov.for_each(|x, y, _| {
+                if (-2..=2).all(|dy: i64| (-2..=2).all(|dx: i64| cov.at(x + dx, y + dy) == 1.0)) {
+                    let v = img[y as usize * w + x as usize] - lit[y as usize * w + x as usize];
+                    sum += v;
+                    n += 1;
+                    low += usize::from(v < 22.5);
+                    facet += usize::from(metal.in_facet(p.pose.invert([x as f64, y as f64])));
+                }
+            });
+            assert!(n > 100, "{}: {n} deep pixels", spec.name);
+            let mean = sum / n as f64;
+            assert!((30.0..150.0).contains(&mean), "{}: {mean} above the mat", spec.name);
+            assert!(facet > 0, "{}: no facet inside", spec.name);
+            let (low, facet) = (low as f64 / n as f64, facet as f64 / n as f64);
+            assert!(
+                (low - facet).abs() < 0.02,
+                "{}: {low} near the mat, facet {facet}",
+                spec.name
+            );
+            match t.extra["facet"].as_str() {
+                Some("edge") => edges += 1,
+                Some("band") => bands += 1,
+                other => panic!("facet {other:?}"),
+            }
+            // The shadow's offset: away from the light, 4–10 px.
+            let off = [
+                t.extra["shadow_dx"].as_f64().expect("dx"),
+                t.extra["shadow_dy"].as_f64().expect("dy"),
+            ];
+            let len = off[0].hypot(off[1]);
+            assert!((4.0..10.0).contains(&len), "{len}");
+            assert!(((off[0] * toward[0] + off[1] * toward[1]) + len).abs() < 1e-9);
+            // The mat's darkening about this part (the pixels nearer its bounding circle than any
+            // other's), outside its outer border.
+            let r = spec.radius_mm() * p.pose.k;
+            let gap = |q: P, j: usize| {
+                let o = &parts[j];
+                dist(q, [o.pose.cx, o.pose.cy]) - o.drawn(&set.cat).radius_mm() * o.pose.k
+            };
+            let (mut far, mut lit_side, mut s, mut sx, mut sy, mut peak) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0_f64);
+            for y in (c[1] - r - 25.0).max(0.0) as usize..((c[1] + r + 25.0) as usize + 1).min(h) {
+                for x in (c[0] - r - 25.0).max(0.0) as usize..((c[0] + r + 25.0) as usize + 1).min(w) {
+                    let (i, q) = (y * w + x, [x as f64, y as f64]);
+                    if near[i] || holes[i] || (0..parts.len()).any(|j| j != k && gap(q, j) < gap(q, k)) {
+                        continue;
+                    }
+                    let d = dark[i];
+                    if d <= 0.0 {
+                        continue;
+                    }
+                    let v = [q[0] - c[0], q[1] - c[1]];
+                    if casts_on(|x, y| cov.at(x, y) > 0.5, toward, q) {
+                        far += d;
+                    } else {
+                        lit_side += d;
+                    }
+                    s += d;
+                    sx += d * v[0];
+                    sy += d * v[1];
+                    peak = peak.max(d);
+                }
+            }
+            assert!(far > 3.0 * lit_side, "{}: far {far}, lit side {lit_side}", spec.name);
+            let m = [sx / s, sy / s];
+            let along = (m[0] * off[0] + m[1] * off[1]) / (m[0].hypot(m[1]) * len);
+            assert!(along > 0.5, "{}: shadow at {m:?}, offset {off:?}", spec.name);
+            let depth = t.extra["shadow_depth"].as_f64().expect("depth");
+            assert!(
+                peak > 0.15 * depth && peak <= depth + 1e-9,
+                "{}: {peak} of {depth}",
+                spec.name
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked >= 15 && edges >= 3 && bands >= 1, "{checked} {edges} {bands}");
+}
+
+/// The most a `frontlit` shadow darkens the mat.
+const SHADOW_DEPTH_MAX: f64 = frontlit::SHADOW_DEPTH.1;
+
+/// A `frontlit` set as written: `background.png` is the textured mat without shadows; in every
+/// frame the mat darker than the background lies on the parts' far side from the light (the
+/// direction `variant.json` states); `teach.json` names, for each class, the first frame where
+/// a part of it lies whole and that part's centroid: inside its outer border, on a part brighter
+/// than the background, and no class that lies whole somewhere is left out.
+#[test]
+fn gen_frontlit_set_has_its_mat_shadows_and_teach_points() {
+    let dir = scratch("frontlit");
+    let opts = GenOptions {
+        seed: 4,
+        frames: 10,
+        variant: Variant::Frontlit,
+        ..GenOptions::default()
+    };
+    let summary = generate(&dir, &opts).expect("generate");
+    let bg = gray(&dir.join("background.png"));
+    let (w, h) = (bg.width() as usize, bg.height() as usize);
+    let mean = bg.pixels().map(|p| f64::from(p.0[0])).sum::<f64>() / (w * h) as f64;
+    assert!((100.0..=130.0).contains(&mean), "mat at {mean}");
+    // σ = 2 sensor noise alone gives fine detail of about 2 levels; the mat's texture more.
+    let fine = effects::spread(&detail(&bg)).1;
+    assert!(fine > 3.0, "texture: {fine}");
+    let toward = variant_json(&dir)["light_toward"].clone();
+    let toward = [
+        toward[0].as_f64().expect("toward x"),
+        toward[1].as_f64().expect("toward y"),
+    ];
+    let cat = catalogue();
+    let spec_of = |p: &PartJson| {
+        let shape = p.extra["shape"].as_str().expect("shape");
+        cat.iter().find(|s| s.name == shape).expect("shape in catalogue")
+    };
+    let pose_of = |p: &PartJson| raster::Pose::new(p.x, p.y, p.angle_deg, p.extra["scale"].as_f64().expect("scale"));
+    let truth = truth_of(&dir);
+    let (mut far, mut lit_side) = (0usize, 0usize);
+    for (name, parts) in &truth.frames {
+        let frame = gray(&dir.join("frames").join(name));
+        // The parts with 3 px around them (their outer borders, holes filled).
+        let shapes: Vec<(&PartSpec, raster::Pose)> = parts.iter().map(|p| (spec_of(p), pose_of(p))).collect();
+        let near = near_parts(&shapes, w, h, 3);
+        let covers: Vec<raster::Coverage> = shapes.iter().map(|(spec, pose)| silhouette(spec, pose, w, h)).collect();
+        for (i, (f, b)) in frame.pixels().zip(bg.pixels()).enumerate() {
+            if near[i] || f64::from(f.0[0]) > f64::from(b.0[0]) - 20.0 {
+                continue;
+            }
+            // A shadow pixel: is a part between it and the light?
+            let q = [(i % w) as f64, (i / w) as f64];
+            if casts_on(|x, y| covers.iter().any(|c| c.at(x, y) > 0.5), toward, q) {
+                far += 1;
+            } else {
+                lit_side += 1;
+            }
+        }
+    }
+    assert!(far > 500 && far > 20 * lit_side, "far {far}, lit side {lit_side}");
+    // teach.json.
+    let teach: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("teach.json")).expect("teach.json")).expect("json");
+    let teach = teach.as_object().expect("an object");
+    let mut moved = 0;
+    assert!(teach.keys().all(|k| summary.classes.contains(k)), "{teach:?}");
+    for class in &summary.classes {
+        let whole =
+            |p: &&PartJson| p.class.as_deref() == Some(class.as_str()) && p.partial.is_none() && p.touching.is_none();
+        let first = truth
+            .frames
+            .iter()
+            .find_map(|(name, parts)| parts.iter().find(whole).map(|p| (name, p)));
+        let Some(entry) = teach.get(class) else {
+            assert!(
+                first.is_none(),
+                "{class} lies whole in {first:?} but is not in teach.json"
+            );
+            continue;
+        };
+        let (name, p) = first.expect("a class in teach.json lies whole somewhere");
+        let file = entry["frame"].as_str().expect("frame");
+        assert_eq!(file, format!("frames/{name}"), "{class}");
+        assert!(dir.join(file).is_file(), "{file}");
+        let at = [entry["x"].as_f64().expect("x"), entry["y"].as_f64().expect("y")];
+        let (spec, pose) = (spec_of(p), pose_of(p));
+        // The centroid, or where that lies off the part (an L bracket's), a point of the part
+        // 3 px or more inside it, near the centroid.
+        if within_outer(spec, &pose, [p.x, p.y]) {
+            assert!(dist(at, [p.x, p.y]) < 1e-9, "{class}: {at:?} vs {} {}", p.x, p.y);
+        } else {
+            moved += 1;
+            assert!(
+                dist(at, [p.x, p.y]) < spec.radius_mm() * pose.k / 2.0,
+                "{class}: {at:?}"
+            );
+            let m = pose.invert(at);
+            assert!(
+                scene::clearance(spec.rings(), m) * pose.k >= 2.99 && spec.coverage(m[0], m[1]),
+                "{class}"
+            );
+        }
+        assert_eq!(spec.name, class.as_str());
+        // Whole: inside the frame.
+        let b = raster::bounds(&pose.rings(spec.rings()));
+        assert!(
+            b[0] > 0.0 && b[1] > 0.0 && b[2] < w as f64 - 1.0 && b[3] < h as f64 - 1.0,
+            "{class}: {b:?}"
+        );
+        assert!(within_outer(spec, &pose, at), "{class}: {at:?} outside the part");
+        // The part is there, brighter than the mat: its pixels 3 px inside it.
+        let frame = gray(&dir.join(file));
+        let r = spec.radius_mm() * pose.k;
+        let (mut sum, mut n) = (0.0, 0.0);
+        for y in (at[1] - r) as u32..(at[1] + r) as u32 + 1 {
+            for x in (at[0] - r) as u32..(at[0] + r) as u32 + 1 {
+                let deep = [(0.0, 0.0), (3.0, 0.0), (-3.0, 0.0), (0.0, 3.0), (0.0, -3.0)]
+                    .iter()
+                    .all(|&(dx, dy)| {
+                        let m = pose.invert([f64::from(x) + dx, f64::from(y) + dy]);
+                        spec.coverage(m[0], m[1])
+                    });
+                if deep {
+                    sum += f64::from(frame.get_pixel(x, y).0[0]) - f64::from(bg.get_pixel(x, y).0[0]);
+                    n += 1.0;
+                }
+            }
+        }
+        assert!(
+            n > 100.0 && sum / n > 30.0,
+            "{class}: {} above the mat over {n} px",
+            sum / n
+        );
+    }
+    assert!(
+        teach.len() >= 8 && moved >= 1,
+        "{} classes taught, {moved} off the centroid",
+        teach.len()
+    );
+    let _ = std::fs::remove_dir_all(dir);
 }
