@@ -60,6 +60,19 @@ use crate::pose::refine::Pose;
 /// Most holes a [`Holes`] keeps (the largest).
 pub const MAX_HOLES: usize = 8;
 
+/// Whether a hole of `area` px² (at the part's scale) can show in the mask: its edge there may
+/// lie [`HOLE_EDGE`] px inside the true one (blur, the threshold), and what is left must still
+/// be a hole of [`MIN_HOLE_PIXELS`], which border following traces.
+///
+/// ```
+/// use vorl_core::pose::holes::resolvable;
+/// assert!(resolvable(200.0)); // radius 8 px
+/// assert!(!resolvable(12.0)); // radius 2 px: it may close
+/// ```
+pub fn resolvable(area: f32) -> bool {
+    radius(area) - HOLE_EDGE >= radius(MIN_HOLE_PIXELS)
+}
+
 /// Fewest pixels of a hole that counts (smaller ones are noise of the mask).
 pub const MIN_HOLE_PIXELS: f32 = 4.0;
 
@@ -314,6 +327,94 @@ pub fn agreement(template: &Holes, pose: &Pose, part: &Holes) -> HoleAgreement {
         matched,
         off_centre,
     }
+}
+
+/// Fraction of the part's face contrast that the difference at a template hole's place must
+/// keep for the place to count as solid ([`solid_where_a_hole_is`]): a quarter of the contrast
+/// gone is the least dip a hole that the blur nearly closes still shows at its centre, for the
+/// hole sizes [`resolvable`] admits (a radius of 2.6 px under a blur of 1 px σ keeps 0.5 of it).
+pub const SOLID_KEEPS: f32 = 0.75;
+
+/// Whether `template` has a hole that the part, at `pose`, shows no trace of: resolvable at
+/// the pose's scale ([`resolvable`]) and of a radius above `hidden` px (the widest wall a thick
+/// part's side may show inside a hole: the caller's bound), its disc and the ring of face around it inside the frame
+/// (`inside`), no part hole of any size within reach of where the pose puts it (see the
+/// module doc), and the difference `d` (a sampler of `|D|` at a sub-pixel position) at its
+/// centre and halfway to its edge still [`SOLID_KEEPS`] of the part's face around it (sampled
+/// on a ring at 1.6 radii, where that ring lies on the part). A part without the template's
+/// bore is not the part with it, however well its outline fits (a smooth blob fitted a cam or
+/// a hex nut); a hole that blur nearly closed, or that shows a wall, still leaves a dip.
+///
+/// ```
+/// use vorl_core::pose::holes::{solid_where_a_hole_is, Hole, Holes};
+/// use vorl_core::pose::refine::Pose;
+/// let mut template = Holes::new();
+/// template.insert(Hole { centre: [0.0, 0.0], area: 300.0 }); // a bore, radius 9.8 px
+/// let pose = Pose { x: 50.0, y: 50.0, angle: 0.0, scale: 1.0 };
+/// let inside = |_x: f32, _y: f32| true;
+/// // A solid disc of contrast 80: no trace of the bore.
+/// assert!(solid_where_a_hole_is(&template, &pose, &Holes::new(), 0.0, |_, _| 80.0, inside));
+/// // The bore there (the platform shows: D = 0 within 9.8 px of the centre).
+/// let d = |x: f32, y: f32| if (x - 50.0).hypot(y - 50.0) < 9.8 { 0.0 } else { 80.0 };
+/// assert!(!solid_where_a_hole_is(&template, &pose, &Holes::new(), 0.0, d, inside));
+/// ```
+pub fn solid_where_a_hole_is(
+    template: &Holes,
+    pose: &Pose,
+    part: &Holes,
+    hidden: f32,
+    d: impl Fn(f32, f32) -> f32,
+    inside: impl Fn(f32, f32) -> bool,
+) -> bool {
+    let scale = pose.scale;
+    template.as_slice().iter().any(|h| {
+        let area = h.area * scale * scale;
+        if !resolvable(area) || radius(area) <= hidden {
+            return false;
+        }
+        let at = pose.apply(h.centre);
+        let r = radius(area);
+        let from_centre = crate::math::sqrt(h.centre[0] * h.centre[0] + h.centre[1] * h.centre[1]) * scale;
+        let reach = HOLE_REACH * r + HOLE_STRETCH * from_centre + 1.0;
+        let near = part.as_slice().iter().any(|q| {
+            let (dx, dy) = (q.centre[0] - at[0], q.centre[1] - at[1]);
+            dx * dx + dy * dy <= reach * reach
+        });
+        if near {
+            return false;
+        }
+        // Eight directions, 45° apart.
+        const D: f32 = core::f32::consts::FRAC_1_SQRT_2;
+        const DIRS: [[f32; 2]; 8] = [
+            [1.0, 0.0],
+            [D, D],
+            [0.0, 1.0],
+            [-D, D],
+            [-1.0, 0.0],
+            [-D, -D],
+            [0.0, -1.0],
+            [D, -D],
+        ];
+        let ring = 1.6 * r;
+        if !DIRS.iter().all(|u| inside(at[0] + ring * u[0], at[1] + ring * u[1])) {
+            return false;
+        }
+        let centre = DIRS.iter().step_by(2).fold(d(at[0], at[1]), |acc, u| {
+            acc + d(at[0] + 0.5 * r * u[0], at[1] + 0.5 * r * u[1])
+        }) / 5.0;
+        // The face around it: the ring's samples that lie on the part (at least half the
+        // largest, so the platform beside a hole near the outline does not count).
+        let samples = DIRS.map(|u| d(at[0] + ring * u[0], at[1] + ring * u[1]));
+        let top = samples.iter().fold(0.0f32, |m, &v| m.max(v));
+        let (sum, count) = samples
+            .iter()
+            .filter(|&&v| v >= 0.5 * top)
+            .fold((0.0f32, 0u32), |(s, c), &v| (s + v, c + 1));
+        if count < 4 || !(top > 0.0) {
+            return false;
+        }
+        centre >= SOLID_KEEPS * (sum / count as f32)
+    })
 }
 
 /// The pose that puts `template`'s two largest holes (centres as offsets from its area

@@ -28,7 +28,7 @@
 use crate::library::template::Template;
 use crate::math;
 use crate::params::Params;
-use crate::pose::holes::{agreement, pose_from_holes, HoleAgreement, Holes};
+use crate::pose::holes::{agreement, pose_from_holes, solid_where_a_hole_is, HoleAgreement, Holes};
 use crate::pose::refine::{
     align_recording, edge_distances_walled, wall_facing, Alignment, Difference, Outline, Pose, RefineParams,
     VERIFY_KEPT,
@@ -108,6 +108,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             ALIGNMENTS.with(|a| a.set(a.get() + 1));
             let aligned = align_recording(diff, t.edge(), t.normals(), s, &rp, &mut distances);
             let (verify, full) = verify_score(&aligned, &mut distances, t, part_edges, diff, &rp, params);
+            let (w, h) = (diff.width() as f32, diff.height() as f32);
             let fit = |pose: Pose, (verify, full): (f32, f32), wall: f32| Fit {
                 pose,
                 verify,
@@ -116,6 +117,18 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 holes: agreement(t.holes(), &pose, part_holes),
                 family,
                 wall,
+                // (A fit with a wall: the walls may hide a hole; its veto is left out.)
+                solid_hole: wall == 0.0
+                    && solid_where_a_hole_is(
+                        t.holes(),
+                        &pose,
+                        part_holes,
+                        // The widest wall the alignment admits (WALL_FACTOR times the offset's
+                        // limit) may hide a hole of up to that radius.
+                        WALL_FACTOR * params.offset_relative * t.size() * pose.scale,
+                        |x, y| diff.bilinear(x, y).abs(),
+                        |x, y| x >= 0.0 && y >= 0.0 && x <= w - 1.0 && y <= h - 1.0,
+                    ),
             };
             let first = fit(aligned.pose, (verify, full), 0.0);
             let near_miss = verify < NEAR_MISS * first.limit;
@@ -243,6 +256,8 @@ pub(super) struct Fit {
     pub(super) family: bool,
     /// The wall the alignment fitted, px (0 without one).
     pub(super) wall: f32,
+    /// A template hole the part shows no trace of ([`solid_where_a_hole_is`]): a veto.
+    pub(super) solid_hole: bool,
 }
 
 impl Fit {
@@ -320,10 +335,18 @@ impl Fit {
 /// DP's family are two cues the rigid
 /// outline fit lacks: a part of one type may depart from its template's outline over a shaft
 /// or a head (real rods), and a distractor that fits the outline that loosely does not also
-/// have the template's descriptor profile and its holes in place. Holes never veto an outline
-/// that verifies (the holes of small parts close in the mask, and a close lens's walls shrink
-/// and move them); they rank the candidates ([`Fit::better_than`]).
+/// have the template's descriptor profile and its holes in place.
+///
+/// A template hole that the part shows no trace of ([`Fit::solid_hole`]: resolvable at the
+/// part's scale, wider than the widest wall the alignment admits, no part hole near where it
+/// should be, and the difference there as high as on the face around it) vetoes the fit, however well the outline verifies: a smooth blob is not
+/// a cam without its bore. A hole that is merely not found (it closed in the mask under blur,
+/// or a close lens's walls shrink and move it) still leaves a dip in the difference and does
+/// not veto; it ranks the candidates ([`Fit::better_than`]).
 pub(super) fn accepted(fit: Fit) -> bool {
+    if fit.solid_hole {
+        return false;
+    }
     let r = fit.ratio();
     // A fit that took a wall to get there has used its freedom: the outline alone decides.
     r < 1.0 || (fit.wall == 0.0 && fit.family && fit.holes.off_centre > 0 && fit.holes.all_found() && r < NEAR_MISS)

@@ -44,7 +44,9 @@ use crate::gen::{generate, GenOptions, Variant};
               left): parts brighter than the mat, shaded, a dark facet near the mat's level and\n            \
               highlights, each with a soft shadow 4–10 px away from the light; background.png is\n            \
               the empty mat; writes teach.json (each class's first whole part); truth adds\n            \
-              light_from_deg, shadow_dx, shadow_dy, shadow_sigma, shadow_depth, facet, facet_share\n\
+              light_from_deg, shadow_dx, shadow_dy, shadow_sigma, shadow_depth, facet, facet_share\n  \
+    lookalike as default, with untaught look-alikes among the distractors: a cam, hex nut,\n            \
+              12-tooth gear, washer-sized disc and oval flange drawn without their holes\n\
     The same seed and options give byte-identical sets.\n\n\
     Examples:\n  vorl gen out/plant --seed 7 --frames 60\n  vorl gen out/noisy --variant noisy --frames 20\n  \
     vorl gen out/stereo --variant stereo --frames 10\n  vorl gen out/lens --variant lens --frames 20 --no-background")]
@@ -59,7 +61,7 @@ pub struct GenArgs {
     #[arg(long, default_value_t = 60)]
     pub frames: usize,
     /// Kind of set: default, noisy, small, border, stereo, flipped, touching, sharp, lens,
-    /// thick, exposure, paper, printed, backlit, rods, rods-touching or frontlit (see below).
+    /// thick, exposure, paper, printed, backlit, rods, rods-touching, frontlit or lookalike (see below).
     #[arg(long, default_value = "default")]
     pub variant: Variant,
     /// Frame width, px.

@@ -80,7 +80,7 @@ mod touching;
 #[cfg(test)]
 mod variant_tests;
 
-pub use shapes::{catalogue, rods_catalogue, sharp_catalogue, PartSpec};
+pub use shapes::{catalogue, lookalike_catalogue, rods_catalogue, sharp_catalogue, PartSpec};
 
 use std::collections::BTreeMap;
 use std::fmt;
@@ -214,11 +214,15 @@ pub enum Variant {
     /// left): parts brighter than the mat, shaded, with a dark facet and highlights, each
     /// throwing a soft shadow away from the light; writes a `teach.json`.
     Frontlit,
+    /// As `default`, with untaught parts that look like templates but lack their bore or holes
+    /// ([`lookalike_catalogue`]: a solid cam, hex nut, 12-tooth gear, disc and oval flange) among
+    /// the distractors: their outline verifies against the template, their holes do not.
+    Lookalike,
 }
 
 impl Variant {
-    /// All variants, in the order of their names.
-    pub const ALL: [Variant; 17] = [
+    /// All variants.
+    pub const ALL: [Variant; 18] = [
         Variant::Default,
         Variant::Noisy,
         Variant::Small,
@@ -236,6 +240,7 @@ impl Variant {
         Variant::Touching,
         Variant::RodsTouching,
         Variant::Frontlit,
+        Variant::Lookalike,
     ];
 
     /// The command-line name.
@@ -258,6 +263,7 @@ impl Variant {
             Variant::Touching => "touching",
             Variant::RodsTouching => "rods-touching",
             Variant::Frontlit => "frontlit",
+            Variant::Lookalike => "lookalike",
         }
     }
 
@@ -267,6 +273,7 @@ impl Variant {
         match self {
             Variant::Sharp => sharp_catalogue(),
             Variant::Rods | Variant::RodsTouching => rods_catalogue(),
+            Variant::Lookalike => lookalike_catalogue(),
             _ => catalogue(),
         }
     }
@@ -289,6 +296,7 @@ impl Variant {
         match self {
             Variant::Sharp => "sharp",
             Variant::Rods | Variant::RodsTouching => "rods",
+            Variant::Lookalike => "lookalike",
             _ => "standard",
         }
     }
@@ -329,6 +337,7 @@ impl Variant {
                 | Variant::Stereo
                 | Variant::Flipped
                 | Variant::Touching
+                | Variant::Lookalike
         )
     }
 }

@@ -965,6 +965,29 @@ pub fn catalogue() -> Vec<PartSpec> {
     ]
 }
 
+/// The standard [`catalogue`] with untaught look-alikes among its distractors: templates with
+/// a bore or holes drawn solid (their outer outline only, so a template fits their outline and
+/// not their holes): a cam, a hex nut, a 12-tooth gear, a disc the washer's size and an oval
+/// flange, each without a hole.
+pub fn lookalike_catalogue() -> Vec<PartSpec> {
+    let solid = |rings: Vec<Vec<P>>| {
+        let outer = rings
+            .into_iter()
+            .max_by(|a, b| ring_moments(a).0.abs().total_cmp(&ring_moments(b).0.abs()))
+            .unwrap_or_default();
+        vec![outer]
+    };
+    let mut cat = catalogue();
+    cat.extend([
+        part("cam_solid", false, 1, solid(cam())),
+        part("hex_solid", false, 6, solid(hex_nut())),
+        part("gear_z12_solid", false, 12, solid(gear(12))),
+        part("disc", false, 0, solid(washer())),
+        part("flange_oval_solid", false, 2, solid(flange_oval())),
+    ]);
+    cat
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
