@@ -10,8 +10,8 @@
 //! - Every part is metal, brighter than the lit mat under it ([`Metal`]): a base level
 //!   [`METAL_CONTRAST`] above it, shaded by up to ±[`METAL_SHADING`] levels (brighter towards
 //!   the light), so [`METAL_CONTRAST`] ± [`METAL_SHADING`] spans 40–120 levels; one darker
-//!   facet ([`Facet`]: [`FACET_SHARE`] of the part's area at [`FACET_LEVEL`] from the mat, the
-//!   edge away from the light or a band across the part); 1–2 specular highlights
+//!   facet ([`Facet`]: [`FACET_SHARE`] of the part's area, the edge away from the light at
+//!   [`FACET_LEVEL`] from the mat, or a band across the part at [`BAND_LEVEL`] of its contrast); 1–2 specular highlights
 //!   ([`HIGHLIGHT_LEVEL`] more, clipping at 255 where they reach it).
 //! - Every part throws a soft shadow ([`Shadow`]): its silhouette moved [`SHADOW_OFFSET_PX`]
 //!   away from the light, blurred by σ [`SHADOW_SIGMA_PX`], darkening the mat by up to
@@ -48,6 +48,8 @@ pub(crate) const METAL_SHADING: (f64, f64) = (5.0, 15.0);
 pub(crate) const FACET_SHARE: (f64, f64) = (0.05, 0.15);
 /// Level of a dark facet, levels from the lit mat (about the mat's level, or a bit below).
 pub(crate) const FACET_LEVEL: (f64, f64) = (-15.0, 5.0);
+/// Level of a band facet across a part, as a fraction of the part's contrast over the mat.
+pub(crate) const BAND_LEVEL: (f64, f64) = (0.4, 0.7);
 /// Share of the facets that are the part's edge away from the light (the others are bands
 /// across the part).
 pub(crate) const EDGE_FACET_SHARE: f64 = 0.75;
@@ -268,7 +270,14 @@ pub(crate) fn dress(rng: &mut Rng, spec: &PartSpec, pose: &Pose, light: &FrontLi
         let u = rng.range(0.25, 0.75 - share);
         (quantile(&along, u), quantile(&along, u + share))
     };
-    let level = rng.range(FACET_LEVEL.0, FACET_LEVEL.1);
+    // An edge facet turned away from the light falls to about the mat's level (the real hex
+    // bolt's head); a band across a flat face is a duller stripe of the metal (BAND_LEVEL of its
+    // contrast), never at the mat's level: diffuse light lights a flat face alike across.
+    let level = if edge {
+        rng.range(FACET_LEVEL.0, FACET_LEVEL.1)
+    } else {
+        contrast * rng.range(BAND_LEVEL.0, BAND_LEVEL.1)
+    };
     let on = |q: &P| (lo..hi).contains(&dot(*q, dir));
     let measured = points.iter().filter(|q| on(q)).count() as f64 / points.len().max(1) as f64;
     let facet = Facet {
