@@ -477,9 +477,10 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             // Every STRIDE-th template point, the border at the same step.
             let m = t.len();
             let coarse = m / STRIDE;
-            // At the middle of the scale range (1 for the default 0.9–1.1).
+            // At the middle of the scale range, the geometric one (scale is a factor: 1 for the
+            // default 1/1.4–1.4).
             let (lo_s, hi_s) = t.tolerance().scale_range(params.scale_min, params.scale_max);
-            let step = 0.5 * (lo_s + hi_s) * STRIDE as f32 * perimeter(t.points().iter().copied()) / m.max(1) as f32;
+            let step = math::sqrt(lo_s * hi_s) * STRIDE as f32 * perimeter(t.points().iter().copied()) / m.max(1) as f32;
             let count = if step > 0.0 { math::round(chain / step) } else { 0.0 };
             if !(count >= 8.0) || coarse < 8 {
                 continue;
