@@ -1786,11 +1786,31 @@ fn gen_touching_rods_are_found_by_their_holes() {
 /// thick, whose DP cost came 4 % above the hex nut's and 40–75 % below two gears' that the scan
 /// tried first. Both are named now (the size filter reaches as far as the wall model, and near
 /// ties are tried before the wider fallback); before, 84 of the 86 known parts.
+///
+/// The wall model is tried where an outline grew beyond the scale range, so this holds with the
+/// range of a camera at a fixed height (0.9–1.1). With the default range (1/1.4–1.4, which a
+/// camera moved between shifts needs) a grown outline fits within the range at scale 1.2–1.3
+/// and the wall is not tried: two of the thickest parts are unknown (84 of 86, as before the
+/// wall model; `docs/accuracy.md`).
 #[test]
 fn gen_thick_walls_keep_their_classes() {
     let scratch = Scratch::new("thick");
-    let (_, v, out) = gen_and_eval(&scratch, "thick", 3, 34);
+    let (set, v, out) = gen_and_eval(&scratch, "thick", 3, 34);
     assert_eq!(v["known"].as_u64(), Some(86), "{}", out.dump());
+    let correct = (v["classification"].as_f64().unwrap() * 86.0).round();
+    assert!(correct >= 84.0, "defaults: {correct} of 86: {}", out.dump());
+    assert_eq!(v["unknown_rejection"].as_f64(), Some(1.0), "{}", out.dump());
+    let out = vorl([
+        OsStr::new("eval"),
+        set.as_os_str(),
+        OsStr::new("--json"),
+        OsStr::new("--scale-min"),
+        OsStr::new("0.9"),
+        OsStr::new("--scale-max"),
+        OsStr::new("1.1"),
+    ])
+    .success();
+    let v: Value = serde_json::from_str(&out.stdout).unwrap_or_else(|e| panic!("{e}: {}", out.dump()));
     assert_eq!(v["classification"].as_f64(), Some(1.0), "{}", out.dump());
     assert_eq!(v["unknown_rejection"].as_f64(), Some(1.0), "{}", out.dump());
 }
