@@ -99,7 +99,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let mut ratio = params.candidate_ratio;
         let mut limit = k;
         loop {
-            let Some((slot, m)) = self.next_candidate(&mut scan, n, limit, ratio) else {
+            let Some((mut slot, mut m)) = self.next_candidate(&mut scan, n, limit, ratio) else {
                 let near_miss = detection.verify < NEAR_MISS * detection.verify_limit;
                 let confident = confident(detection);
                 // The near ties' pass first; the wider one when that found none (it stopped
@@ -126,10 +126,36 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 }
                 break;
             };
+            // A first candidate at `f′ ≥ 2ε` (UNVERIFIED_FAMILY) that is a chiral template: its
+            // mirror image shares its bounds and comes after it, so a part upside down whose
+            // template's turns all lie that far (a hook) would end the scan before the mirror
+            // image was searched. It is searched now, within the family's cap, and a match takes
+            // the template's place.
+            let twin = slot ^ 1;
+            // The template's own angles, taken before the mirror's search overwrites the
+            // correspondence.
+            let mut noted = None;
+            if self.far_first(&scan, slot, m, ratio)
+                && slot % 2 == 0
+                && scan.listing(twin) != Listing::Out
+                && !scan.tried.as_flattened().get(twin).copied().unwrap_or(true)
+            {
+                noted = self.angles(n, centroid, slot);
+                scan.set(twin, Listing::Out);
+                let cap = self.family_cap(&scan, twin);
+                if let Some(mm) = self.search_slot(&mut scan, n, twin, cap) {
+                    if let Some(c) = scan.cost.as_flattened_mut().get_mut(twin) {
+                        *c = mm.cost;
+                    }
+                    scan.lowest = scan.lowest.min(mm.cost);
+                    (slot, m) = (twin, mm);
+                    noted = None;
+                }
+            }
             // A first candidate at `f′ ≥ 2ε` (UNVERIFIED_FAMILY): the part is of no template's
             // family and unknown; the DP's nearest template is reported, not aligned.
-            if scan.found == 1 && ratio != f32::INFINITY && m.cost >= self.family_cap(&scan, slot) {
-                if let Some(angles) = self.angles(n, centroid, slot) {
+            if self.far_first(&scan, slot, m, ratio) {
+                if let Some(angles) = noted.or_else(|| self.angles(n, centroid, slot)) {
                     note_dp(detection, slot, m, angles);
                 }
                 break;
@@ -346,6 +372,13 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             }
         }
         scan
+    }
+
+    /// Whether `m`, the match of slot `slot` and the scan's first candidate, lies at `f′ ≥ 2ε`
+    /// from the part ([`UNVERIFIED_FAMILY`], [`Self::family_cap`]; never with an infinite
+    /// `ratio`).
+    fn far_first(&self, scan: &CandidateScan<T, M>, slot: usize, m: Match, ratio: f32) -> bool {
+        scan.found == 1 && ratio != f32::INFINITY && m.cost >= self.family_cap(scan, slot)
     }
 
     /// The DP cost that slot `slot` must stay below to be a candidate once a first search has
