@@ -80,7 +80,7 @@ mod touching;
 #[cfg(test)]
 mod variant_tests;
 
-pub use shapes::{catalogue, lookalike_catalogue, rods_catalogue, sharp_catalogue, PartSpec};
+pub use shapes::{catalogue, flipped_catalogue, lookalike_catalogue, rods_catalogue, sharp_catalogue, PartSpec};
 
 use std::collections::BTreeMap;
 use std::fmt;
@@ -274,6 +274,7 @@ impl Variant {
             Variant::Sharp => sharp_catalogue(),
             Variant::Rods | Variant::RodsTouching => rods_catalogue(),
             Variant::Lookalike => lookalike_catalogue(),
+            Variant::Flipped => flipped_catalogue(),
             _ => catalogue(),
         }
     }
@@ -297,6 +298,7 @@ impl Variant {
             Variant::Sharp => "sharp",
             Variant::Rods | Variant::RodsTouching => "rods",
             Variant::Lookalike => "lookalike",
+            Variant::Flipped => "flipped",
             _ => "standard",
         }
     }

@@ -437,6 +437,35 @@ fn l_bracket() -> Vec<Vec<P>> {
     vec![outline, circle([90.0, 17.0], 6.0), circle([17.0, 80.0], 6.0)]
 }
 
+/// A J hook (chiral: its mirror image lies far from every turn of it): a shank 18 × 96, a foot
+/// 54 × 18 under it and a tip 18 × 34 up from the foot's far end, rounded corners.
+fn hook() -> Vec<Vec<P>> {
+    vec![rounded_polygon(&[
+        ([0.0, 0.0], 4.0),
+        ([18.0, 0.0], 4.0),
+        ([18.0, 78.0], 4.0),
+        ([36.0, 78.0], 4.0),
+        ([36.0, 44.0], 4.0),
+        ([54.0, 44.0], 4.0),
+        ([54.0, 96.0], 4.0),
+        ([0.0, 96.0], 4.0),
+    ])]
+}
+
+/// A long L bracket (chiral, its mirror image nearer its turns than the hook's): an arm of
+/// 130 × 22 and a foot 22 × 52 at one end, one hole in the arm's far end.
+fn l_long() -> Vec<Vec<P>> {
+    let outline = rounded_polygon(&[
+        ([0.0, 0.0], 5.0),
+        ([130.0, 0.0], 5.0),
+        ([130.0, 22.0], 5.0),
+        ([22.0, 22.0], 5.0),
+        ([22.0, 52.0], 5.0),
+        ([0.0, 52.0], 5.0),
+    ]);
+    vec![outline, circle([115.0, 11.0], 5.0)]
+}
+
 fn t_bracket() -> Vec<Vec<P>> {
     let outline = rounded_polygon(&[
         ([-65.0, 0.0], 5.0),
@@ -939,6 +968,17 @@ pub fn sharp_catalogue() -> Vec<PartSpec> {
         part("triangle", false, 3, triangle()),
         part("crescent", false, 1, crescent()),
     ]
+}
+
+/// The `flipped` variant's parts: the standard [`catalogue`] and two more chiral templates whose
+/// mirror images lie far from every turn of them, a J hook and a long L bracket (a part upside
+/// down whose template's own turns are all at `f′ ≥ 2ε` from it).
+pub fn flipped_catalogue() -> Vec<PartSpec> {
+    let mut cat = catalogue();
+    let at = cat.iter().position(|p| !p.is_template).unwrap_or(cat.len());
+    cat.insert(at, part("l_long", true, 1, l_long()));
+    cat.insert(at, part("hook", true, 1, hook()));
+    cat
 }
 
 /// The parts: templates first (in a fixed order), then the distractors.

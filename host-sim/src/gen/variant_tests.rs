@@ -811,8 +811,9 @@ fn gen_rods_set_has_its_scale_range_and_no_background() {
     let _ = std::fs::remove_dir_all(dir);
 }
 
-/// The catalogue's chiral templates are the parts without a mirror axis (`l_bracket`,
-/// `shaft_key`, `wrench`); the others' mirror gap is nothing but sampling. A part of the
+/// The `flipped` catalogue's chiral templates are the parts without a mirror axis
+/// (`l_bracket`, `shaft_key`, `wrench`, and the `hook` and `l_long` it adds); the others' mirror
+/// gap is nothing but sampling. A part of the
 /// `flipped` set lying upside down is drawn as its template mirrored left-right about its
 /// centroid, then turned by its truth angle (DESIGN.md), keeps its own centroid, and says so in
 /// its truth; only chiral parts lie upside down, about half of them.
@@ -825,7 +826,7 @@ fn gen_flipped_parts_are_mirror_images_and_truth_says_so() {
         .collect();
     let is_chiral = |i: usize| gaps[i] >= shapes::CHIRAL_GAP;
     let chiral: Vec<&str> = (0..cat.len()).filter(|&i| is_chiral(i)).map(|i| cat[i].name).collect();
-    assert_eq!(chiral, ["l_bracket", "shaft_key", "wrench"]);
+    assert_eq!(chiral, ["l_bracket", "shaft_key", "wrench", "hook", "l_long"]);
     for (s, gap) in cat.iter().zip(&gaps).filter(|(s, _)| s.is_template) {
         assert!(*gap < 0.002 || *gap > 0.02, "{}: {gap}", s.name);
         // Mirrored twice: the same rings.
@@ -835,9 +836,9 @@ fn gen_flipped_parts_are_mirror_images_and_truth_says_so() {
             assert!(dist(*a, *b) < 1e-9, "{}", s.name);
         }
     }
-    let opts = small_opts(Variant::Flipped, 3, 10);
+    let opts = small_opts(Variant::Flipped, 3, 20);
     let (mut flipped, mut upright) = (0, 0);
-    for index in 0..10 {
+    for index in 0..20 {
         let (set, parts, _, _) = clean_frame(&opts, index);
         for p in &parts {
             let t = set.truth(p, index);
