@@ -480,7 +480,8 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             // At the middle of the scale range, the geometric one (scale is a factor: 1 for the
             // default 1/1.4–1.4).
             let (lo_s, hi_s) = t.tolerance().scale_range(params.scale_min, params.scale_max);
-            let step = math::sqrt(lo_s * hi_s) * STRIDE as f32 * perimeter(t.points().iter().copied()) / m.max(1) as f32;
+            let step =
+                math::sqrt(lo_s * hi_s) * STRIDE as f32 * perimeter(t.points().iter().copied()) / m.max(1) as f32;
             let count = if step > 0.0 { math::round(chain / step) } else { 0.0 };
             if !(count >= 8.0) || coarse < 8 {
                 continue;
