@@ -191,7 +191,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let ruled_out = |best: &Fit| settled(best) && dp.is_some_and(|m| self.half_turn_ruled_out(n, t, m));
         if t.half_turn() < HALF_TURN_AMBIGUOUS && (!symmetric || !best.holes.all_found()) && !ruled_out(&best) {
             let second = once(seed_pose(position, signed + 180.0, area, t), !settled(&best));
-            if second.better_than(&best) {
+            if second.beats_half_turn(&best, t.holes().is_empty()) {
                 best = second;
             }
         }
@@ -307,6 +307,22 @@ impl Fit {
 }
 
 impl Fit {
+    /// Whether this fit beats `other`, the same template's fit half a turn away:
+    /// [`Self::better_than`] — except, for a template without holes (`holeless`), that of two
+    /// accepted fits the lower mean distance over every point ([`Fit::full`]) wins. A nearly
+    /// 2-fold outline (a bolt, a screw) differs from its half turn only over a stretch (the
+    /// head), which the verification's trimmed score leaves out, as between a template and its
+    /// mirror image ([`Self::beats`]). Where the template has holes (a connecting rod's eyes)
+    /// they tell the ends apart, and the trimmed score keeps a part of one type that departs
+    /// from its template over a head from losing to its own half turn.
+    fn beats_half_turn(&self, other: &Fit, holeless: bool) -> bool {
+        if holeless && accepted(*self) && accepted(*other) {
+            // (NaN never wins.)
+            return self.full < other.full;
+        }
+        self.better_than(other)
+    }
+
     /// Whether this fit, of candidate slot `slot`, beats `other`, of slot `other_slot`
     /// (the candidate scan's slots): [`Self::better_than`] — except between a template and its
     /// own mirror image: then the upside-down reading needs clear evidence, a mean distance
