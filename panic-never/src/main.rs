@@ -26,24 +26,24 @@
 use core::hint::black_box;
 use core::ptr::{addr_of, addr_of_mut, read_volatile};
 
-use vorl_core::pixels::background::Background;
-use vorl_core::location::calibrate::{Homography, RigidTransform};
 use vorl_core::borders::contour::{self, BorderFilter, ContourStore, Point};
-use vorl_core::shape::descriptor::{self, DescriptorParams};
+use vorl_core::borders::resample;
+use vorl_core::library::template::Template;
+use vorl_core::library::{self, Library};
+use vorl_core::location::calibrate::{Homography, RigidTransform};
+use vorl_core::location::stereo::{self, DisparityParams, PairOutcome, PairParams, StereoPart, StereoRig};
+use vorl_core::params::{AngleEstimator, Params, Position, Refine};
+use vorl_core::pixels::background::Background;
 use vorl_core::pixels::enhance::{self, Alpha};
 use vorl_core::pixels::frame::{Frame, FrameBuffer};
-use vorl_core::pose::holes;
-use vorl_core::library::{self, Library};
-use vorl_core::pixels::mask::{self, Cleanup, RowSpans, Threshold};
-use vorl_core::shape::matching;
-use vorl_core::params::{AngleEstimator, Params, Position, Refine};
-use vorl_core::pose::partial_volume::{partial_volume_centroid, partial_volume_moments, print_deficit, Rect};
+use vorl_core::pixels::mask::{self, Cleanup, Polarity, RowSpans, Threshold};
 use vorl_core::pose;
-use vorl_core::recognizer::{Recognizer, Stage};
+use vorl_core::pose::holes;
+use vorl_core::pose::partial_volume::{partial_volume_centroid, partial_volume_moments, print_deficit, Rect};
 use vorl_core::pose::refine::{self, Difference, Outline, Pose, ProfileRay, RefineParams};
-use vorl_core::borders::resample;
-use vorl_core::location::stereo::{self, DisparityParams, PairOutcome, PairParams, StereoPart, StereoRig};
-use vorl_core::library::template::Template;
+use vorl_core::recognizer::{Recognizer, Stage};
+use vorl_core::shape::descriptor::{self, DescriptorParams};
+use vorl_core::shape::matching;
 
 #[cfg(not(feature = "diagnose"))]
 extern "Rust" {
@@ -142,10 +142,19 @@ fn cleanup() -> Cleanup {
     }
 }
 
+fn polarity() -> Polarity {
+    match u8_() % 3 {
+        0 => Polarity::Either,
+        1 => Polarity::Darker,
+        _ => Polarity::Brighter,
+    }
+}
+
 fn params() -> Params {
     Params {
         alpha: f(),
         threshold: threshold(),
+        polarity: polarity(),
         cleanup: cleanup(),
         min_points: u(),
         min_area: f(),
@@ -355,9 +364,19 @@ fn pixels() {
         black_box(enhance::enhance(&fr, alpha(), out));
         let plane = buffer!(u8, 4096, 0);
         let mut grid = vorl_core::pixels::platform::PlatformGrid::<32>::new();
-        let _ = black_box(vorl_core::pixels::platform::estimate_platform(&fr, alpha(), plane, &mut grid));
+        let _ = black_box(vorl_core::pixels::platform::estimate_platform(
+            &fr,
+            alpha(),
+            plane,
+            &mut grid,
+        ));
         let _ = black_box(vorl_core::pixels::platform::cell_size(u(), u(), u()));
-        let _ = black_box(vorl_core::pixels::exposure::fit_exposure_rounds(&fr, alpha(), plane, u()));
+        let _ = black_box(vorl_core::pixels::exposure::fit_exposure_rounds(
+            &fr,
+            alpha(),
+            plane,
+            u(),
+        ));
         if let Ok(e) = black_box(vorl_core::pixels::exposure::fit_exposure(&fr, alpha(), plane)) {
             let undone = buffer!(u8, 4096, 0);
             e.undo(undone);
@@ -371,13 +390,22 @@ fn pixels() {
         if let Ok(mut bg) = Background::new(bg_plane, u(), u()) {
             let _ = black_box(bg.set_from_frame(&fr, alpha()));
             let labels = buffer!(u8, 4096, 0);
-            let _ = black_box(mask::foreground_mask(&fr, &bg, alpha(), threshold(), cleanup(), labels));
+            let _ = black_box(mask::foreground_mask(
+                &fr,
+                &bg,
+                alpha(),
+                threshold(),
+                polarity(),
+                cleanup(),
+                labels,
+            ));
             let mut spans = RowSpans::new();
             let _ = black_box(mask::foreground_mask_spans(
                 &fr,
                 &bg,
                 alpha(),
                 threshold(),
+                polarity(),
                 cleanup(),
                 labels,
                 &mut spans,
@@ -479,10 +507,23 @@ fn borders() {
     // Holes: measured from any border, matched through any pose.
     black_box(holes::Hole::from_border(hole));
     let mut part_holes = holes::Holes::from_borders(core::iter::once(&*hole), f());
-    part_holes.insert(holes::Hole { centre: p2(), area: f() });
+    part_holes.insert(holes::Hole {
+        centre: p2(),
+        area: f(),
+    });
     let moved = part_holes.relative_to(p2());
     black_box(holes::agreement(&moved, &pose_(), &part_holes).missing());
     black_box(holes::pose_from_holes(&moved, &part_holes));
+    black_box(holes::resolvable(f()));
+    black_box(holes::solid_where_a_hole_is(
+        &moved,
+        &pose_(),
+        &part_holes,
+        f(),
+        |_, _| f(),
+        |_, _| flag(),
+    ));
+    black_box(polarity().difference(u8_(), u8_()));
     let agreed = holes::agreement(&moved, &pose_(), &part_holes);
     black_box(&agreed);
     black_box((part_holes.as_slice(), part_holes.len(), part_holes.is_empty()));
