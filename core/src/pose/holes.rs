@@ -60,6 +60,14 @@ use crate::pose::refine::Pose;
 /// Most holes a [`Holes`] keeps (the largest).
 pub const MAX_HOLES: usize = 8;
 
+/// How far from where the pose puts template hole `h` (at `scale`) a part hole may lie and be
+/// it: [`HOLE_REACH`] of its radius, plus [`HOLE_STRETCH`] of its distance from the centre,
+/// plus one pixel for blur.
+fn reach(h: &Hole, scale: f32) -> f32 {
+    let from_centre = crate::math::sqrt(h.centre[0] * h.centre[0] + h.centre[1] * h.centre[1]) * scale;
+    HOLE_REACH * radius(h.area * scale * scale) + HOLE_STRETCH * from_centre + 1.0
+}
+
 /// Whether a hole of `area` px² (at the part's scale) can show in the mask: its edge there may
 /// lie [`HOLE_EDGE`] px inside the true one (blur, the threshold), and what is left must still
 /// be a hole of [`MIN_HOLE_PIXELS`], which border following traces.
@@ -292,8 +300,7 @@ pub fn agreement(template: &Holes, pose: &Pose, part: &Holes) -> HoleAgreement {
     for h in expected {
         let at = pose.apply(h.centre);
         let area = h.area * scale * scale;
-        let from_centre = crate::math::sqrt(h.centre[0] * h.centre[0] + h.centre[1] * h.centre[1]) * scale;
-        let reach = HOLE_REACH * radius(area) + HOLE_STRETCH * from_centre + 1.0;
+        let reach = reach(h, scale);
         let mut best: Option<(f32, usize)> = None;
         for (j, (q, u)) in part.as_slice().iter().zip(used.iter()).enumerate() {
             if *u {
@@ -374,8 +381,7 @@ pub fn solid_where_a_hole_is(
         }
         let at = pose.apply(h.centre);
         let r = radius(area);
-        let from_centre = crate::math::sqrt(h.centre[0] * h.centre[0] + h.centre[1] * h.centre[1]) * scale;
-        let reach = HOLE_REACH * r + HOLE_STRETCH * from_centre + 1.0;
+        let reach = reach(h, scale);
         let near = part.as_slice().iter().any(|q| {
             let (dx, dy) = (q.centre[0] - at[0], q.centre[1] - at[1]);
             dx * dx + dy * dy <= reach * reach
