@@ -46,7 +46,12 @@ use crate::gen::{generate, GenOptions, Variant};
               the empty mat; writes teach.json (each class's first whole part); truth adds\n            \
               light_from_deg, shadow_dx, shadow_dy, shadow_sigma, shadow_depth, facet, facet_share\n  \
     lookalike as default, with untaught look-alikes among the distractors: a cam, hex nut,\n            \
-              12-tooth gear, washer-sized disc and oval flange drawn without their holes\n\
+              12-tooth gear, washer-sized disc and oval flange drawn without their holes\n  \
+    large     one large part per frame (a guitar pick or a standard part scaled to 26–45 % of\n            \
+              the frame; the pick and a gear taught, at its scale), dark or bright, and up to two small ones, on\n            \
+              white paper printed with text-like lines and ruled lines (print in background.png\n            \
+              too); truth adds level. Without background.png (--no-background) the platform\n            \
+              is estimated from frames whose large part covers up to half of them\n\
     The same seed and options give byte-identical sets.\n\n\
     Examples:\n  vorl gen out/plant --seed 7 --frames 60\n  vorl gen out/noisy --variant noisy --frames 20\n  \
     vorl gen out/stereo --variant stereo --frames 10\n  vorl gen out/lens --variant lens --frames 20 --no-background")]
@@ -61,7 +66,8 @@ pub struct GenArgs {
     #[arg(long, default_value_t = 60)]
     pub frames: usize,
     /// Kind of set: default, noisy, small, border, stereo, flipped, touching, sharp, lens,
-    /// thick, exposure, paper, printed, backlit, rods, rods-touching, frontlit or lookalike (see below).
+    /// thick, exposure, paper, printed, backlit, rods, rods-touching, frontlit, lookalike or large
+    /// (see below).
     #[arg(long, default_value = "default")]
     pub variant: Variant,
     /// Frame width, px.

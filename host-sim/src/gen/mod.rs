@@ -47,6 +47,7 @@
 //! | `printed`  | 70 % of the parts carry print: rows of dark text-like glyph blobs and a logo ring (on a dark part darker still, on a light part darker than the platform), and on dark parts light patches within 8 levels of the platform that a mask may cut as holes; templates plain | the part's own centroid (print ignored); `texture` `"print"`, adds `print_marks` and `print_patches` |
 //! | `backlit`  | dark opaque parts (gray 8–35) on a bright backlight with cos⁴ vignetting: 246–252 at the optical centre, 145–155 at the farthest corner; no `background.png` unless asked for | as `default`; `contrast` = level − backlight at the centroid, adds `level` |
 //! | `frontlit` | metal parts on a grey textured mat (level 105–125, texture σ 3–5) under diffuse light from one direction per set (`light_from_deg`, 110–160°: about the upper left): each part 55–105 levels above the lit mat, shaded ±5–15 levels towards the light, with one darker facet over 5–15 % of its area (its edge away from the light at −15…+5 levels from the mat, or a band across it at 40–70 % of its contrast) and 1–2 specular highlights; each part's silhouette moved 4–10 px away from the light, blurred by σ 2–4 px, darkens the mat by 20–50 levels under it (the part hides its own shadow); `background.png` is the empty mat; a `teach.json` | the part's own silhouette (never the shadow); `texture` `"metal"`, adds `light_from_deg`, `shadow_dx`, `shadow_dy`, `shadow_sigma`, `shadow_depth`, `facet` (`"edge"` or `"band"`), `facet_share`, `facet_level`, `highlights` |
+//! | `large`    | its own catalogue ([`large_catalogue`]): one large part per frame, a guitar pick or a standard part scaled to cover 26–45 % of the frame ([`LARGE_SHARES`]; templates at the same scale), opaque, dark (20–120) or bright (238–250), the pick and the gear taught, the others (a hex nut, a washer, a square flange, a cam, a blob) not, in 60 % of the frames a taught one; and up to two small distractors (a star, a crescent) where they fit; on white paper (200–225, smooth lighting ±6–14, texture σ 1.5–3) printed with lines of dark text-like glyphs (80–150 levels below the paper) on ruled lines (30–70 below) in one or two columns, the page turned ±8°; the print is part of the platform (in `background*.png` too) and hidden under the parts | as `default`, adds `level`; `contrast` = level − the paper's level at the centroid |
 //! | `rods`     | its own catalogue ([`rods_catalogue`]) on the `backlit` backlight: connecting rods `rod_a` (one eye, in the big end) and `rod_b` (the same outline, a larger eye in the big end and a smaller one in the small end, both with thin rims like the real rods': 8 and 5.5 mm), each rod made with its own proportions (shaft length ×0.85–1.15, each head's radius ×0.92–1.08, each eye's ×0.9–1.1) and drawn at 0.9–1.3× the template's size; washers and screws (shank ×0.85–1.15) as distractors; templates the nominal rods; no `background.png` unless asked for; a `vorl.toml` with `scale_min = 0.8` (0.9× drawn, a shaft 15 % short), `scale_max = 1.4` | as `backlit`: the drawn part's centroid and rotation (the template's reference pose: axis along x, big end at −x); `scale` the drawn size over the template's, adds `stretch` and the rods' `head_big_scale`, `head_small_scale`, `eye_big_scale`, `eye_small_scale` (`rod_b`) |
 //!
 //! # Truth
@@ -69,6 +70,7 @@
 
 mod effects;
 mod frontlit;
+mod large;
 mod output;
 mod print;
 mod raster;
@@ -80,7 +82,10 @@ mod touching;
 #[cfg(test)]
 mod variant_tests;
 
-pub use shapes::{catalogue, flipped_catalogue, lookalike_catalogue, rods_catalogue, sharp_catalogue, PartSpec};
+pub use shapes::{
+    catalogue, flipped_catalogue, large_catalogue, lookalike_catalogue, rods_catalogue, sharp_catalogue, PartSpec,
+    LARGE_REFERENCE_PX, LARGE_SHARES,
+};
 
 use std::collections::BTreeMap;
 use std::fmt;
@@ -218,11 +223,15 @@ pub enum Variant {
     /// ([`lookalike_catalogue`]: a solid cam, hex nut, 12-tooth gear, disc and oval flange) among
     /// the distractors: their outline verifies against the template, their holes do not.
     Lookalike,
+    /// One large part (a quarter to a half of the frame, dark or bright; [`large_catalogue`]: a
+    /// guitar pick and standard parts scaled up; the pick and a gear taught) and up to two small ones on white paper printed
+    /// with text and ruled lines (in the background too, hidden under the parts).
+    Large,
 }
 
 impl Variant {
     /// All variants.
-    pub const ALL: [Variant; 18] = [
+    pub const ALL: [Variant; 19] = [
         Variant::Default,
         Variant::Noisy,
         Variant::Small,
@@ -241,6 +250,7 @@ impl Variant {
         Variant::RodsTouching,
         Variant::Frontlit,
         Variant::Lookalike,
+        Variant::Large,
     ];
 
     /// The command-line name.
@@ -264,6 +274,7 @@ impl Variant {
             Variant::RodsTouching => "rods-touching",
             Variant::Frontlit => "frontlit",
             Variant::Lookalike => "lookalike",
+            Variant::Large => "large",
         }
     }
 
@@ -275,6 +286,7 @@ impl Variant {
             Variant::Rods | Variant::RodsTouching => rods_catalogue(),
             Variant::Lookalike => lookalike_catalogue(),
             Variant::Flipped => flipped_catalogue(),
+            Variant::Large => large_catalogue(),
             _ => catalogue(),
         }
     }
@@ -299,6 +311,7 @@ impl Variant {
             Variant::Rods | Variant::RodsTouching => "rods",
             Variant::Lookalike => "lookalike",
             Variant::Flipped => "flipped",
+            Variant::Large => "large",
             _ => "standard",
         }
     }
@@ -497,6 +510,8 @@ enum Effect {
     Touching,
     /// `frontlit`: this light and mat (its texture part of the platform).
     Frontlit(FrontLight),
+    /// `large`: this printed paper is the platform.
+    Large(large::Paper),
 }
 
 /// Everything a frame needs that is fixed for the set.
@@ -534,6 +549,8 @@ impl SetPlan {
         let px_per_mm = match v {
             Variant::Small => SMALL_PX_PER_MM,
             Variant::Stereo => STEREO_F_PX / STEREO_PLATFORM_Z_MM,
+            // The large parts' shares hold for any frame size.
+            Variant::Large => (w as f64 / LARGE_REFERENCE_PX.0).min(h as f64 / LARGE_REFERENCE_PX.1),
             _ => PX_PER_MM,
         };
         let (contrast, min_contrast) = if v == Variant::Noisy {
@@ -564,6 +581,7 @@ impl SetPlan {
             Variant::Flipped => Effect::Flipped(v.catalogue().iter().map(|p| p.is_template && p.is_chiral()).collect()),
             Variant::Touching => Effect::Touching,
             Variant::Frontlit => Effect::Frontlit(FrontLight::random(&mut fx, w, h)),
+            Variant::Large => Effect::Large(large::Paper::random(&mut fx, w, h, px_per_mm)),
             _ => Effect::Ideal,
         };
         let light = match &effect {
@@ -582,6 +600,7 @@ impl SetPlan {
                 .collect(),
             Effect::Backlit(b) => b.field(w, h),
             Effect::Frontlit(f) => f.mat(),
+            Effect::Large(p) => p.field().to_vec(),
             _ => lighting.field(w, h, 0.0),
         };
         let close = match &effect {
@@ -683,6 +702,22 @@ impl SetPlan {
                 "shadow_offset_px": [frontlit::SHADOW_OFFSET_PX.0, frontlit::SHADOW_OFFSET_PX.1],
                 "shadow_sigma_px": [frontlit::SHADOW_SIGMA_PX.0, frontlit::SHADOW_SIGMA_PX.1],
                 "shadow_depth": [frontlit::SHADOW_DEPTH.0, frontlit::SHADOW_DEPTH.1],
+            }),
+            Effect::Large(p) => json!({
+                "model": "paper = smooth lighting + texture - ink_depth * text - rule_depth * rules (lines of glyphs on ruled lines, the page turned by page_turn_deg); parts opaque at their level",
+                "paper_level": p.level,
+                "paper_lighting": p.lighting_amplitude,
+                "texture_std": p.texture_std,
+                "page_turn_deg": p.page_turn_deg,
+                "glyph_px": p.glyph_px,
+                "line_pitch_px": p.line_pitch_px,
+                "ink_depth": p.ink_depth,
+                "rule_depth": p.rule_depth,
+                "ink_share": p.ink_share,
+                "large_shares": LARGE_SHARES.iter().map(|(n, s)| json!({"class": n, "share": s})).collect::<Vec<_>>(),
+                "dark_level": [large::DARK_LEVEL.0, large::DARK_LEVEL.1],
+                "bright_level": [large::BRIGHT_LEVEL.0, large::BRIGHT_LEVEL.1],
+                "dark_share": large::DARK_SHARE,
             }),
             Effect::Ideal => json!({}),
         };
@@ -899,11 +934,19 @@ impl SetPlan {
         }
     }
 
+    /// The parts of a scene, from the scene's layout stream (`large`: its own planner).
+    fn plan(&self, rng: &mut Rng) -> Vec<Placed> {
+        match &self.effect {
+            Effect::Large(paper) => large::plan(rng, &self.cat, &self.scene, paper),
+            _ => plan(rng, &self.cat, &self.scene),
+        }
+    }
+
     /// Plans, renders and writes frame `index`; its truth.
     fn frame(&self, frames_dir: &Path, index: usize, name: &str) -> Result<Vec<PartJson>, GenError> {
         let scene = self.scene_of(index);
         let mut rng = Rng::stream(self.seed, purpose::LAYOUT, scene as u64);
-        let mut parts = plan(&mut rng, &self.cat, &self.scene);
+        let mut parts = self.plan(&mut rng);
         if self.touching {
             let mut fx = Rng::stream(self.seed, purpose::EFFECT_SCENE, scene as u64);
             touching::bring_together(&mut fx, &self.cat, &mut parts, self.w, self.h);
@@ -1230,7 +1273,7 @@ impl MemorySet {
         let set = &self.plan;
         let scene = set.scene_of(index);
         let mut rng = Rng::stream(set.seed, purpose::LAYOUT, scene as u64);
-        let mut parts = plan(&mut rng, &set.cat, &set.scene);
+        let mut parts = set.plan(&mut rng);
         set.finish_parts(&mut parts, scene);
         let img = set.view(&parts, false, index as u64, &mut rng);
         let truth = parts.iter().map(|p| set.truth(p, index)).collect();

@@ -1028,6 +1028,67 @@ pub fn lookalike_catalogue() -> Vec<PartSpec> {
     cat
 }
 
+/// A guitar pick: the convex hull of a 12 mm tip circle and two 24 mm shoulder circles (a
+/// rounded triangle 100 mm across, mirror-symmetric about its axis, no rotational symmetry).
+fn pick() -> Vec<Vec<P>> {
+    let mut pts = circle([0.0, 44.0], 12.0);
+    pts.extend(circle([-30.0, -20.0], 24.0));
+    pts.extend(circle([30.0, -20.0], 24.0));
+    vec![convex_hull(pts)]
+}
+
+/// The `large` variant's frame, px, that [`large_catalogue`]'s sizes are measured against at
+/// 1 px/mm (another frame size scales the set's px per mm by the smaller ratio of sides).
+pub const LARGE_REFERENCE_PX: (f64, f64) = (640.0, 480.0);
+
+/// The large parts of the `large` variant and the share of the [`LARGE_REFERENCE_PX`] frame each
+/// covers: a pick (a third, as the user's photos) and a 12-tooth gear (the templates), then a
+/// hex nut, a washer (the paper shows through its bore), a square flange, a cam and a blob (not
+/// taught: `vorl soak` holds every variant's templates in one recognizer of 64, two to spare).
+pub const LARGE_SHARES: [(&str, f64); 7] = [
+    ("pick", 0.33),
+    ("gear_z12", 0.40),
+    ("hex_nut", 0.30),
+    ("washer", 0.26),
+    ("flange_square", 0.45),
+    ("cam", 0.28),
+    ("blob", 0.36),
+];
+
+/// The `large` variant's parts: the parts of [`LARGE_SHARES`] (a guitar pick and standard parts,
+/// each scaled so that it covers its share of the reference frame at 1 px/mm), the pick and the
+/// gear as templates, the others as distractors, then the standard star and crescent (small
+/// distractors).
+pub fn large_catalogue() -> Vec<PartSpec> {
+    let reference = LARGE_REFERENCE_PX.0 * LARGE_REFERENCE_PX.1;
+    let standard = catalogue();
+    let find = |name: &str| -> Option<PartSpec> {
+        if name == "pick" {
+            return Some(part("pick", true, 1, pick()));
+        }
+        standard.iter().find(|p| p.name == name).cloned()
+    };
+    let scaled = |spec: PartSpec, share: f64| {
+        let s = (share * reference / spec.area_mm2()).sqrt();
+        let rings = spec
+            .rings()
+            .iter()
+            .map(|r| r.iter().map(|&p| mul(p, s)).collect())
+            .collect();
+        PartSpec {
+            shape: Shape::new(rings),
+            is_template: matches!(spec.name, "pick" | "gear_z12"),
+            ..spec
+        }
+    };
+    let mut cat: Vec<PartSpec> = LARGE_SHARES
+        .iter()
+        .filter_map(|&(name, share)| find(name).map(|p| scaled(p, share)))
+        .collect();
+    cat.extend(["star", "crescent"].iter().filter_map(|n| find(n)));
+    cat
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

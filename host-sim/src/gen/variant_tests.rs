@@ -22,7 +22,7 @@ fn clean_frame(opts: &GenOptions, index: usize) -> (SetPlan, Vec<Placed>, Vec<f6
     set.drift_max = 0.0;
     let scene = set.scene_of(index);
     let mut rng = Rng::stream(opts.seed, purpose::LAYOUT, scene as u64);
-    let mut parts = plan(&mut rng, &set.cat, &set.scene);
+    let mut parts = set.plan(&mut rng);
     set.finish_parts(&mut parts, scene);
     let img = set.compose(&parts, false, &mut rng);
     let mut light = set.light.clone();
@@ -70,7 +70,7 @@ fn variant_json(dir: &Path) -> serde_json::Value {
 
 #[test]
 fn gen_real_variants_are_deterministic_and_write_their_fields() {
-    let fields: [(Variant, &[&str]); 10] = [
+    let fields: [(Variant, &[&str]); 11] = [
         (Variant::Sharp, &[]),
         (
             Variant::Lens,
@@ -93,6 +93,7 @@ fn gen_real_variants_are_deterministic_and_write_their_fields() {
         (Variant::Printed, &[]),
         (Variant::Backlit, &["level"]),
         (Variant::Rods, &["level", "stretch"]),
+        (Variant::Large, &["level"]),
         (Variant::RodsTouching, &["level", "stretch"]),
         (
             Variant::Frontlit,
@@ -555,7 +556,13 @@ fn gen_backlit_parts_are_dark_on_a_vignetted_backlight() {
 
 #[test]
 fn gen_no_background_leaves_out_only_the_platform() {
-    for v in [Variant::Default, Variant::Stereo, Variant::Lens, Variant::Frontlit] {
+    for v in [
+        Variant::Default,
+        Variant::Stereo,
+        Variant::Lens,
+        Variant::Frontlit,
+        Variant::Large,
+    ] {
         let (with, without) = (scratch(&format!("bg-{v}")), scratch(&format!("nobg-{v}")));
         generate(&with, &small_opts(v, 3, 2)).expect("generate");
         generate(
@@ -1290,5 +1297,84 @@ fn gen_frontlit_set_has_its_mat_shadows_and_teach_points() {
         "{} classes taught, {moved} off the centroid",
         teach.len()
     );
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn gen_large_parts_cover_a_quarter_to_half_of_the_frame_on_printed_paper() {
+    // The catalogue's large parts cover their share of the reference frame.
+    let cat = large_catalogue();
+    let reference = LARGE_REFERENCE_PX.0 * LARGE_REFERENCE_PX.1;
+    for (name, share) in LARGE_SHARES {
+        let spec = cat.iter().find(|p| p.name == name).expect("a large part");
+        assert!((spec.area_mm2() / reference - share).abs() < 1e-9, "{name}");
+        assert!((0.25..=0.5).contains(&share), "{name}");
+    }
+    let opts = GenOptions {
+        seed: 6,
+        frames: 12,
+        variant: Variant::Large,
+        width: 320,
+        height: 240,
+        background: None,
+    };
+    let (mut dark, mut bright, mut small) = (0, 0, 0);
+    for index in 0..opts.frames {
+        let (set, parts, img, light) = clean_frame(&opts, index);
+        let Effect::Large(paper) = &set.effect else {
+            panic!("large variant without its paper");
+        };
+        let frame = (set.w * set.h) as f64;
+        // One large part, its template at the frame's scale.
+        let shares: Vec<f64> = parts
+            .iter()
+            .map(|p| set.cat[p.spec].area_mm2() * p.pose.k * p.pose.k / frame)
+            .collect();
+        let large: Vec<usize> = (0..parts.len()).filter(|&i| shares[i] >= 0.2).collect();
+        assert_eq!(large.len(), 1, "frame {index}: {shares:?}");
+        assert!((0.24..=0.52).contains(&shares[large[0]]), "{shares:?}");
+        small += parts.len() - 1;
+        for (i, p) in parts.iter().enumerate() {
+            let t = set.truth(p, index);
+            assert!((t.extra["scale"].as_f64().expect("scale") - 1.0).abs() <= 0.03);
+            let Body::Opaque { level } = p.body else {
+                panic!("a large-set part that is not opaque");
+            };
+            assert_eq!(t.extra["level"], json!(level));
+            if level < 128.0 {
+                dark += 1;
+            } else {
+                bright += 1;
+            }
+            // Opaque: the print is hidden, the part's pixels 3 px inside it (beyond the blur) are
+            // its level.
+            let spec = &set.cat[p.spec];
+            let cov = silhouette(spec, &p.pose, set.w, set.h);
+            let mut deep = 0;
+            cov.for_each(|x, y, _| {
+                if (-3..=3).all(|dy: i64| (-3..=3).all(|dx: i64| cov.at(x + dx, y + dy) == 1.0)) {
+                    deep += 1;
+                    assert!((img[y as usize * set.w + x as usize] - level).abs() < 1e-6);
+                }
+            });
+            assert!(i != large[0] || deep > 1000, "{}: {deep}", spec.name);
+        }
+        // The paper: white, printed (a share of dark ink), the print part of the platform.
+        assert!((large::PAPER_LEVEL.0..large::PAPER_LEVEL.1).contains(&paper.level));
+        assert!(paper.ink_share > 0.05 && paper.ink_share < 0.5, "{}", paper.ink_share);
+        let inked = light.iter().filter(|&&v| v < paper.level - 40.0).count() as f64 / frame;
+        assert!(inked > 0.03, "{inked}");
+    }
+    assert!(
+        dark >= 2 && bright >= 2 && small >= 2,
+        "{dark} dark, {bright} bright, {small} small"
+    );
+    // background.png is the printed paper.
+    let dir = scratch("large");
+    generate(&dir, &small_opts(Variant::Large, 6, 1)).expect("generate");
+    let bg = gray(&dir.join("background.png"));
+    let level = variant_json(&dir)["paper_level"].as_f64().expect("paper_level");
+    let inked = bg.pixels().filter(|p| f64::from(p.0[0]) < level - 40.0).count();
+    assert!(inked as f64 > 0.03 * f64::from(bg.width() * bg.height()), "{inked}");
     let _ = std::fs::remove_dir_all(dir);
 }
