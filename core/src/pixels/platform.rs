@@ -17,24 +17,36 @@
 //! 2. **A smooth surface through the platform's cells.** Parts cover cells too, and their levels
 //!    lie far from the platform's (a part of either polarity: dark on a backlight, bright or
 //!    dark on a belt). A low-order 2-D polynomial (products of Chebyshev polynomials `T_i(u)·T_j(v)`,
-//!    `i + j ≤ 4`, over the frame scaled to `[−1, 1]²`; degree 0 and 2 first) is fitted to the
-//!    cells' levels by least squares, keeping only the cells within a threshold of the last
-//!    fit: `max(`[`MIN_OUTLIER`]`, 4 × 1.4826 × MAD)` of the kept cells' residuals. Vignetting
-//!    and fall-off are smooth, so they are in the surface; the parts are not.
+//!    `i + j ≤ 4`, over the frame scaled to `[−1, 1]²`; degree 2 first) is fitted to the
+//!    cells' levels by least squares. The first fit is to the cells reached from the frame's
+//!    edge: the edge cells within `max(`[`MIN_OUTLIER`]`, 4 × 1.4826 × MAD)` of the edge's
+//!    median level, then every cell within that of a reached neighbour's level. The platform
+//!    surrounds the parts and meets the frame's edge nearly all the way round, and changes
+//!    smoothly from cell to cell, while a part's edge is a step of its contrast; so a part over
+//!    half of the frame (more than half of the cells: the median of all cells is then the
+//!    part's level, or falls between the two and every cell is kept) is not taken for the
+//!    platform. Each later fit keeps the cells within `max(`[`MIN_OUTLIER`]`, 4 × 1.4826 × MAD)`
+//!    of the last one, the MAD of all cells' residuals while the last round kept most cells
+//!    (the median is then a platform cell's), of the kept cells' otherwise. Vignetting and
+//!    fall-off are smooth, so they are in the surface; the parts are not. (Without a level on
+//!    the frame's edge, the first cut is the median level's, within `4 ×` [`MIN_OUTLIER`] or
+//!    the MAD's threshold.)
 //! 3. **Fill and spread.** The kept cells keep their own level (so the platform may deviate from
 //!    the polynomial where it really does); the others take the surface plus their kept
 //!    neighbours' mean residual, spread cell by cell from the kept ones.
 //! 4. **Plane.** Each pixel of the model is the bilinear interpolation of the cell levels at
 //!    the cell centres, rounded to `u8` (clamped at the frame's edge).
 //!
-//! The estimate holds while the platform shows in more than half of the cells around a covered
-//! area; a part larger than the frame, or a frame that is all part, is taken as the platform
+//! The estimate holds while the platform shows in more than half of the cells along the frame's
+//! edge and around a covered area; a part larger than the frame, or a frame that is all part, is
+//! taken as the platform
 //! (no part is found, and [`PlatformStats::kept`] says how many cells looked alike). A uniform
 //! frame gives a flat plane.
 //!
 //! Time: the cell levels read at most 64 pixels a cell; the fit is per cell (the normal
 //! equations summed a grid row at a time, 30 products a cell, up to [`FIT_ROUNDS`] rounds with a
-//! 15×15 solve each; the surface evaluated from each row's coefficients, 5 products a cell);
+//! 15×15 solve each; the surface evaluated from each row's coefficients, 5 products a cell;
+//! the growth from the edge a few sweeps over the cells, 8 neighbours a cell);
 //! the plane is written once, a multiply-add and a shift a pixel. Memory: the caller's
 //! [`PlatformGrid`] (`9·G` bytes), a 512-byte histogram and a table of the plane's segments on
 //! the stack.
@@ -435,8 +447,9 @@ fn cell_u(g: usize, n: usize) -> f32 {
     }
 }
 
-/// Rounds of least squares on the cells with a level, each keeping the cells within the
-/// threshold of the previous fit (the first: of the median level). Marks the kept cells.
+/// Rounds of least squares on the cells with a level: the first on the cells reached from the
+/// frame's edge ([`grow_from_edge`]), each later one on the cells within the threshold of the
+/// previous fit. Marks the kept cells.
 fn fit_surface<const G: usize>(
     grid: &mut PlatformGrid<G>,
     cx: usize,
@@ -444,8 +457,10 @@ fn fit_surface<const G: usize>(
     cells: usize,
     stats: &mut PlatformStats,
 ) -> Surface {
-    // Round 0: a constant, the median level (the platform covers most cells).
-    let median = median_of(grid, cells, |_, l| Some(l)).unwrap_or(0.0);
+    // Round 0: the platform's cells connected to the frame's edge, or (a frame whose edge has
+    // no level) a constant at the median level with a generous cut.
+    let seeded = grow_from_edge(grid, cx, cy, cells);
+    let median = median_of(grid, cells, |_, l, _| Some(l)).unwrap_or(0.0);
     let mut surface = Surface {
         coef: [0.0; TERMS],
         degree: 0,
@@ -454,17 +469,24 @@ fn fit_surface<const G: usize>(
         *c = median;
     }
     for round in 0..FIT_ROUNDS {
-        // The threshold from the residuals of the cells within reach of this surface.
-        let mut eval = Eval::new(&surface, cx, cy);
-        let mad = median_of(grid, cells, |c, l| Some((l - eval.at(c)).abs())).unwrap_or(0.0);
-        let outlier = (4.0 * 1.4826 * mad).max(MIN_OUTLIER);
-        // A generous first cut: the median alone does not follow vignetting.
-        let outlier = if round == 0 {
-            outlier.max(4.0 * MIN_OUTLIER)
-        } else {
-            outlier
+        let (kept, outlier) = match seeded {
+            Some(seed) if round == 0 => seed,
+            _ => {
+                // The threshold from the median residual of all cells while the last round kept
+                // most of them (the median is then a platform cell's), else from the kept cells'
+                // own: a part that covers half the frame, far from the platform, must not widen
+                // it (the median of all would be a part cell's residual, and every cell kept).
+                let first = seeded.is_none() && round == 0;
+                let all = first || 2 * stats.kept > stats.with_level;
+                let mut eval = Eval::new(&surface, cx, cy);
+                let mad =
+                    median_of(grid, cells, |c, l, kept| (all || kept).then(|| (l - eval.at(c)).abs())).unwrap_or(0.0);
+                let outlier = (4.0 * 1.4826 * mad).max(MIN_OUTLIER);
+                // A generous first cut: the median alone does not follow vignetting.
+                let outlier = if first { outlier.max(4.0 * MIN_OUTLIER) } else { outlier };
+                (mark_kept(grid, &surface, outlier, cx, cy, cells), outlier)
+            }
         };
-        let kept = mark_kept(grid, &surface, outlier, cx, cy, cells);
         stats.kept = kept;
         stats.outlier = outlier;
         let degree = match round {
@@ -488,6 +510,82 @@ fn fit_surface<const G: usize>(
     // Final membership against the last surface.
     stats.kept = mark_kept(grid, &surface, stats.outlier, cx, cy, cells);
     surface
+}
+
+/// Whether cell `(gx, gy)` lies on the edge of a `cx`×`cy` grid.
+fn on_edge(gx: usize, gy: usize, cx: usize, cy: usize) -> bool {
+    gx == 0 || gy == 0 || gx + 1 >= cx || gy + 1 >= cy
+}
+
+/// The first round's platform: the cells reached from the frame's edge. The platform surrounds
+/// the parts: a part lies inside the frame or is cut by its edge over a short stretch, so the
+/// cells along the edge are mostly platform even where a part covers half of the frame, or
+/// more than half of its cells (the median of all cells is then the part's, or falls between
+/// the two). The edge cells within `cut = max(`[`MIN_OUTLIER`]`, 4 × 1.4826 × MAD)` of their
+/// median level are kept, then every cell whose level lies within `cut` of a kept
+/// neighbour's (8-connected): the platform changes smoothly from cell to cell (vignetting,
+/// fall-off; the edge's own spread sets `cut`, so a steep backlight widens it), a part's edge
+/// is a step of its contrast. Marks the kept cells; `(kept, cut)`, or `None` (nothing marked)
+/// when no edge cell has a level.
+fn grow_from_edge<const G: usize>(
+    grid: &mut PlatformGrid<G>,
+    cx: usize,
+    cy: usize,
+    cells: usize,
+) -> Option<(usize, f32)> {
+    let edge = |c: usize| on_edge(cell_x(c, cx), cell_y(c, cx), cx, cy);
+    let seed = median_of(grid, cells, |c, l, _| edge(c).then_some(l))?;
+    let mad = median_of(grid, cells, |c, l, _| edge(c).then(|| (l - seed).abs())).unwrap_or(0.0);
+    let cut = (4.0 * 1.4826 * mad).max(MIN_OUTLIER);
+    let mut kept = 0;
+    for c in 0..cells {
+        if let (Some(st), Some(&l)) = (grid.state.get_mut(c), grid.level.get(c)) {
+            if *st == LEVEL || *st == KEPT {
+                *st = if edge(c) && (l - seed).abs() <= cut {
+                    KEPT
+                } else {
+                    LEVEL
+                };
+                kept += (*st == KEPT) as usize;
+            }
+        }
+    }
+    // Sweeps down and up the grid until one adds nothing (a sweep carries the platform along
+    // its direction at once; a few suffice but for winding gaps between parts).
+    for pass in 0..cells {
+        let mut added = 0;
+        for i in 0..cells {
+            let c = if pass % 2 == 0 { i } else { cells - 1 - i };
+            if grid.state.get(c) != Some(&LEVEL) {
+                continue;
+            }
+            let l = grid.level.get(c).copied().unwrap_or(0.0);
+            let (gx, gy) = (cell_x(c, cx), cell_y(c, cx));
+            let mut reached = false;
+            for ny in gy.saturating_sub(1)..=(gy + 1).min(cy.saturating_sub(1)) {
+                for nx in gx.saturating_sub(1)..=(gx + 1).min(cx.saturating_sub(1)) {
+                    let k = ny * cx + nx;
+                    if k < cells
+                        && grid.state.get(k) == Some(&KEPT)
+                        && grid.level.get(k).is_some_and(|&m| (m - l).abs() <= cut)
+                    {
+                        reached = true;
+                    }
+                }
+            }
+            if reached {
+                if let Some(st) = grid.state.get_mut(c) {
+                    *st = KEPT;
+                    added += 1;
+                }
+            }
+        }
+        kept += added;
+        if added == 0 {
+            break;
+        }
+    }
+    Some((kept, cut))
 }
 
 /// Marks every cell with a level as kept when it lies within `outlier` of `surface` (else as
@@ -514,11 +612,11 @@ fn mark_kept<const G: usize>(
     kept
 }
 
-/// The median of `f(cell, level)` over the cells with a level (`value` is scratch).
+/// The median of `f(cell, level, kept)` over the cells with a level (`value` is scratch).
 fn median_of<const G: usize>(
     grid: &mut PlatformGrid<G>,
     cells: usize,
-    mut f: impl FnMut(usize, f32) -> Option<f32>,
+    mut f: impl FnMut(usize, f32, bool) -> Option<f32>,
 ) -> Option<f32> {
     let mut n = 0;
     for c in 0..cells {
@@ -528,7 +626,7 @@ fn median_of<const G: usize>(
         if st == NO_LEVEL {
             continue;
         }
-        if let Some(v) = f(c, l).filter(|v| v.is_finite()) {
+        if let Some(v) = f(c, l, st == KEPT).filter(|v| v.is_finite()) {
             if let Some(slot) = grid.value.get_mut(n) {
                 *slot = v;
                 n += 1;
@@ -887,6 +985,51 @@ mod tests {
             }
         }
         assert!(worst <= 4.0, "worst {worst} {st:?}");
+    }
+
+    /// Printed paper (about 205, a gentle slope, rows of dark glyph strokes 120 levels below it
+    /// and a ruled line under each row) under one uniform part over 40 % of the frame, dark or
+    /// bright, and the paper itself: the plane stays within a few levels of the paper everywhere
+    /// (under the part too). The median of the cells was the part's, or fell between the part and
+    /// the paper and every cell was kept.
+    #[test]
+    fn a_part_over_much_of_printed_paper_is_not_platform() {
+        let (w, h) = (320usize, 240usize);
+        let paper = |x: usize, y: usize| 203.0 + 8.0 * x as f32 / w as f32 - 5.0 * y as f32 / h as f32;
+        for (level, a, b) in [(60.0f32, 128.0f32, 92.0f32), (245.0, 128.0, 92.0), (60.0, 112.0, 80.0)] {
+            let mut px = vec![0u8; w * h];
+            let mut part = 0usize;
+            for y in 0..h {
+                for x in 0..w {
+                    let mut v = paper(x, y);
+                    let (row, col) = (y % 12, x % 6);
+                    let written = (y / 12) % 5 != 4 && (x / 6 + 3 * (y / 12)) % 7 != 0;
+                    if written && (2..9).contains(&row) && col < 2 {
+                        v -= 120.0;
+                    }
+                    if row == 10 {
+                        v -= 50.0;
+                    }
+                    let (u, t) = ((x as f32 - 170.0) / a, (y as f32 - 118.0) / b);
+                    if u * u + t * t <= 1.0 {
+                        v = level;
+                        part += 1;
+                    }
+                    v += ((x * 7 + y * 13) % 5) as f32 - 2.0;
+                    px[y * w + x] = v.clamp(0.0, 255.0) as u8;
+                }
+            }
+            let share = part as f32 / (w * h) as f32;
+            assert!((0.33..0.5).contains(&share), "{share}");
+            let (plane, st) = run(&px, w, h);
+            let mut worst = 0.0f32;
+            for y in 0..h {
+                for x in 0..w {
+                    worst = worst.max((plane[y * w + x] as f32 - paper(x, y)).abs());
+                }
+            }
+            assert!(worst <= 4.0, "part {level}, {share}: worst {worst} {st:?}");
+        }
     }
 
     /// Parts of both polarities on a flat belt: both are found as not platform.
