@@ -75,9 +75,6 @@ pub fn prepare(
         None => None,
     };
     let config = params.config_over(base.as_deref())?;
-    let mut engine = Engine::new(config.to_params()?)?;
-    engine.set_exposure_fit(config.exposure == crate::config::ExposureSetting::Fit);
-    engine.set_platform_every(config.platform_every);
     let (bgs, tpls, frames) = match opened {
         Some(s) => (
             s.load_backgrounds().map_err(|e| e.to_string())?,
@@ -96,20 +93,40 @@ pub fn prepare(
             (bgs, tpls, frames.to_vec())
         }
     };
-    if bgs.is_empty() {
-        engine.set_auto_background();
-    } else {
-        engine.learn_background(&bgs)?;
-    }
     for t in &tpls {
         if let Some(n) = &t.note {
             eprintln!("note: {n}");
         }
     }
-    for n in engine.add_silhouettes(&tpls)? {
+    let (engine, notes) = build_engine(&config, &bgs, &tpls)?;
+    for n in notes {
         eprintln!("note: {n}");
     }
     Ok(Inputs { engine, frames })
+}
+
+/// An engine with these parameters, backgrounds (none: the platform is estimated from the
+/// frames) and templates, as `vorl detect` builds it; the notes of
+/// [`Engine::add_silhouettes`] beside it. `vorl serve` builds it again when a parameter
+/// changes or a part is taught.
+///
+/// # Errors
+/// Invalid parameters, backgrounds of different sizes, a template that is not one part.
+pub fn build_engine(
+    config: &crate::config::Config,
+    backgrounds: &[image::GrayImage],
+    templates: &[crate::engine::NamedSilhouette],
+) -> Result<(Engine, Vec<String>), String> {
+    let mut engine = Engine::new(config.to_params()?)?;
+    engine.set_exposure_fit(config.exposure == crate::config::ExposureSetting::Fit);
+    engine.set_platform_every(config.platform_every);
+    if backgrounds.is_empty() {
+        engine.set_auto_background();
+    } else {
+        engine.learn_background(backgrounds)?;
+    }
+    let notes = engine.add_silhouettes(templates)?;
+    Ok((engine, notes))
 }
 
 /// Whether a `--background` argument asks for the platform to be estimated from each frame.
