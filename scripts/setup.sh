@@ -3,6 +3,7 @@
 #   - the Cortex-M4F target (thumbv7em-none-eabihf) and the llvm-tools, clippy and rustfmt
 #     components, via rustup;
 #   - qemu-system-arm (to run the firmware example), via apt-get, when it is missing;
+#   - chromium and chromium-driver (the browser test of `vorl serve`), via apt-get, when missing;
 #   - the nightly toolchain (minimal profile) and cargo-fuzz, for the fuzz targets
 #     (scripts/fuzz.sh), unless VORL_SKIP_FUZZ=1.
 # Safe to run again: each step checks first. Needs the Rust toolchain (rustup) already.
@@ -64,5 +65,26 @@ else
         say "installing cargo-fuzz (cargo install, a few minutes)"
         cargo install cargo-fuzz --locked
     fi
+fi
+# Chromium and chromedriver: the browser test of `vorl serve`'s page (host-sim/tests/serve.rs)
+# drives headless Chromium through chromedriver. Outside CI the test skips, saying so, when
+# they are missing and this user cannot install them (VORL_SKIP_BROWSER=1 skips the install).
+if command -v chromium >/dev/null 2>&1 && command -v chromedriver >/dev/null 2>&1; then
+    say "chromium and chromedriver: present"
+elif [ "${VORL_SKIP_BROWSER:-0}" = "1" ]; then
+    say "chromium, chromedriver: missing, skipped (VORL_SKIP_BROWSER=1); the browser test skips outside CI"
+else
+    BSUDO=""
+    if [ "$(id -u)" != "0" ]; then
+        if command -v sudo >/dev/null 2>&1; then BSUDO="sudo"; else
+            echo "[setup] error: chromium and chromedriver are missing and this user cannot apt-get install them (no root, no sudo); set VORL_SKIP_BROWSER=1 to go on without the browser test" >&2
+            exit 1
+        fi
+    fi
+    say "installing chromium and chromium-driver (apt-get)"
+    export DEBIAN_FRONTEND=noninteractive
+    $BSUDO apt-get update -qq
+    $BSUDO apt-get install -y -qq --no-install-recommends chromium chromium-driver >/dev/null
+    say "chromium: $(chromium --version 2>/dev/null | head -n 1)"
 fi
 say "done"

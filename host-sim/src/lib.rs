@@ -14,6 +14,7 @@ pub mod io;
 pub mod overlay;
 pub mod reference;
 pub mod run;
+pub mod serve;
 pub mod set;
 pub mod similarity;
 pub mod soak;

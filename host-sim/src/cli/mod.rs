@@ -8,6 +8,7 @@ pub mod detect;
 pub mod eval;
 pub mod gen;
 pub mod params;
+pub mod serve;
 pub mod similarity;
 pub mod soak;
 pub mod stereo;
@@ -61,6 +62,8 @@ pub enum Command {
     Calibrate(calibrate::CalibrateArgs),
     /// A long run of generated frames through one recognizer: memory, errors, fresh-recognizer agreement.
     Soak(soak::SoakArgs),
+    /// The live cell: frames in, a page to watch, teach and tune, results out to the robot.
+    Serve(serve::ServeArgs),
 }
 
 /// Runs the parsed command; the exit code.
@@ -77,6 +80,7 @@ pub fn run(cli: Cli) -> std::process::ExitCode {
         Command::Config(a) => config::run(a),
         Command::Calibrate(a) => calibrate::run(a),
         Command::Soak(a) => soak::run(a),
+        Command::Serve(a) => serve::run(a),
     };
     match result {
         Ok(code) => code,

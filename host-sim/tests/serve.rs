@@ -1,0 +1,901 @@
+//! `vorl serve` end to end: the real binary on loopback (ephemeral ports, `--stop-after` so a
+//! server never outlives its test), the robot port over real TCP and the page's API over real
+//! HTTP. Expected values come from `vorl detect --json` on the same frame at test time.
+
+mod common;
+
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::TcpStream;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use common::{vorl, Scratch};
+use serde_json::{json, Value};
+
+/// The bundled example set (8 frames, an empty shot, 13 templates).
+fn plant() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/plant")
+}
+
+/// A running `vorl serve`, stopped (SIGTERM, then killed) when dropped.
+struct Server {
+    child: Child,
+    web: String,
+    robot: String,
+    token: Option<String>,
+}
+
+impl Server {
+    fn start(args: &[&str]) -> Server {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_vorl"))
+            .arg("serve")
+            .args(args)
+            .args(["--http", "127.0.0.1:0", "--robot", "127.0.0.1:0", "--stop-after", "120"])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .expect("start vorl serve");
+        let stdout = child.stdout.take().expect("stdout");
+        let (tx, lines) = mpsc::channel();
+        std::thread::spawn(move || {
+            // Drained to the end, so that the server never blocks on a full pipe.
+            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+                let _ = tx.send(line);
+            }
+        });
+        let (mut web, mut robot, mut token) = (None, None, None);
+        let deadline = Instant::now() + Duration::from_secs(60);
+        // The start-up lines end with "Ctrl-C stops".
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            let line = match lines.recv_timeout(left) {
+                Ok(l) => l,
+                Err(_) => {
+                    let _ = child.kill();
+                    panic!("vorl serve {args:?} printed no addresses (exit {:?})", child.wait());
+                }
+            };
+            if let Some(a) = line.strip_prefix("page       http://") {
+                web = Some(a.trim_end_matches('/').to_string());
+            } else if let Some(a) = line.strip_prefix("robot port ") {
+                robot = Some(a.trim().to_string());
+            } else if let Some(t) = line.strip_prefix("token      ") {
+                token = t.split_whitespace().next().map(String::from);
+            } else if line == "Ctrl-C stops" {
+                break;
+            }
+        }
+        Server {
+            child,
+            web: web.unwrap_or_default(),
+            robot: robot.unwrap_or_default(),
+            token,
+        }
+    }
+
+    fn robot(&self) -> Robot {
+        Robot::connect(&self.robot)
+    }
+
+    fn get(&self, path: &str) -> (u16, Value) {
+        http(&self.web, "GET", path, None, &[])
+    }
+
+    fn post(&self, path: &str, body: Value) -> (u16, Value) {
+        let token: Vec<(&str, &str)> = self.token.iter().map(|t| ("X-Vorl-Token", t.as_str())).collect();
+        http(&self.web, "POST", path, Some(&body.to_string()), &token)
+    }
+
+    /// Waits for `/api/last` to satisfy `ok`.
+    fn last_when(&self, ok: impl Fn(&Value) -> bool) -> Value {
+        let deadline = Instant::now() + Duration::from_secs(60);
+        loop {
+            let (status, v) = self.get("/api/last");
+            if status == 200 && ok(&v) {
+                return v;
+            }
+            assert!(Instant::now() < deadline, "/api/last never became ready: {status} {v}");
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+
+    /// SIGTERM, then the exit status (killed after 30 s).
+    fn terminate(mut self) -> Option<i32> {
+        let _ = Command::new("kill")
+            .args(["-TERM", &self.child.id().to_string()])
+            .status();
+        let deadline = Instant::now() + Duration::from_secs(30);
+        loop {
+            if let Ok(Some(s)) = self.child.try_wait() {
+                return s.code();
+            }
+            if Instant::now() > deadline {
+                let _ = self.child.kill();
+                return None;
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        if let Ok(None) = self.child.try_wait() {
+            let _ = self.child.kill();
+            let _ = self.child.wait();
+        }
+    }
+}
+
+/// A robot client: one connection, line by line.
+struct Robot {
+    stream: TcpStream,
+    reader: BufReader<TcpStream>,
+}
+
+impl Robot {
+    fn connect(addr: &str) -> Robot {
+        let stream = TcpStream::connect(addr).expect("connect to the robot port");
+        stream.set_read_timeout(Some(Duration::from_secs(60))).expect("timeout");
+        let reader = BufReader::new(stream.try_clone().expect("clone"));
+        Robot { stream, reader }
+    }
+
+    fn send(&mut self, bytes: &[u8]) {
+        self.stream.write_all(bytes).expect("send");
+    }
+
+    fn line(&mut self) -> String {
+        let mut l = String::new();
+        self.reader.read_line(&mut l).expect("read a line");
+        assert!(l.ends_with('\n'), "line not ended by \\n: {l:?}");
+        l.trim_end_matches('\n').to_string()
+    }
+
+    /// Sends a command and reads one answer: `(first line, part lines)`.
+    fn ask(&mut self, command: &str) -> (String, Vec<String>) {
+        self.send(format!("{command}\n").as_bytes());
+        self.answer()
+    }
+
+    fn answer(&mut self) -> (String, Vec<String>) {
+        let head = self.line();
+        let mut parts = Vec::new();
+        if head.starts_with("RES ") {
+            loop {
+                let l = self.line();
+                if l == "END" {
+                    break;
+                }
+                parts.push(l);
+            }
+            let n: usize = head
+                .split(' ')
+                .nth(2)
+                .and_then(|n| n.parse().ok())
+                .expect("RES <frame> <n>");
+            assert_eq!(n, parts.len(), "{head}: {parts:?}");
+        }
+        (head, parts)
+    }
+}
+
+/// One HTTP/1.1 request over a fresh connection; the status and the body as JSON (`null`
+/// when it is not JSON).
+fn http(host: &str, method: &str, path: &str, body: Option<&str>, headers: &[(&str, &str)]) -> (u16, Value) {
+    let (status, bytes) = http_raw(host, method, path, body.map(str::as_bytes), headers);
+    (status, serde_json::from_slice(&bytes).unwrap_or(Value::Null))
+}
+
+fn http_raw(host: &str, method: &str, path: &str, body: Option<&[u8]>, headers: &[(&str, &str)]) -> (u16, Vec<u8>) {
+    let mut s = TcpStream::connect(host).expect("connect to the page");
+    s.set_read_timeout(Some(Duration::from_secs(60))).expect("timeout");
+    let body = body.unwrap_or_default();
+    let mut req = format!(
+        "{method} {path} HTTP/1.1\r\nHost: {host}\r\nConnection: close\r\nContent-Type: application/json\r\nContent-Length: {}\r\n",
+        body.len()
+    );
+    for (k, v) in headers {
+        req += &format!("{k}: {v}\r\n");
+    }
+    req += "\r\n";
+    s.write_all(req.as_bytes()).expect("send request");
+    s.write_all(body).expect("send body");
+    // The header block, then Content-Length bytes (or all up to the close).
+    let mut reader = BufReader::new(s);
+    let mut head = String::new();
+    loop {
+        let mut line = String::new();
+        let n = reader.read_line(&mut line).expect("read response");
+        if n == 0 || line == "\r\n" {
+            break;
+        }
+        head += &line;
+    }
+    let status = head
+        .split(' ')
+        .nth(1)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("no status in {head:?}"));
+    let lower = head.to_ascii_lowercase();
+    assert!(
+        !lower.contains("transfer-encoding: chunked"),
+        "a chunked answer: {head}"
+    );
+    let length = lower
+        .lines()
+        .find_map(|l| l.strip_prefix("content-length:"))
+        .and_then(|v| v.trim().parse::<usize>().ok());
+    let mut body = Vec::new();
+    match length {
+        Some(n) => {
+            body.resize(n, 0);
+            reader.read_exact(&mut body).expect("read body");
+        }
+        None => {
+            reader.read_to_end(&mut body).expect("read body");
+        }
+    }
+    (status, body)
+}
+
+/// `vorl detect SET --json [extra]`: parts per frame name.
+fn detect_json(set: &Path, extra: &[&str]) -> Value {
+    let mut args: Vec<String> = vec!["detect".into(), set.display().to_string(), "--json".into()];
+    args.extend(extra.iter().map(|s| s.to_string()));
+    vorl(&args).success().json()["frames"].clone()
+}
+
+/// The robot line of a part of `vorl detect --json`, formatted here from the protocol's
+/// definition: class or "?", x, y, angle (3 decimals), flipped 0/1, score (3 decimals).
+fn expected_line(p: &Value) -> String {
+    let class = p["class"].as_str().unwrap_or("?");
+    let (x, y, a) = match p.get("robot") {
+        Some(r) => (r["x"].as_f64(), r["y"].as_f64(), r["angle_deg"].as_f64()),
+        None => (p["x"].as_f64(), p["y"].as_f64(), p["angle_deg"].as_f64()),
+    };
+    let f3 = |v: Option<f64>| match v {
+        Some(v) => {
+            let s = format!("{v:.3}");
+            if s == "-0.000" {
+                "0.000".to_string()
+            } else {
+                s
+            }
+        }
+        None => "nan".to_string(),
+    };
+    let flipped = u8::from(p["flipped"].as_bool() == Some(true));
+    format!(
+        "{class} {} {} {} {flipped} {}",
+        f3(x),
+        f3(y),
+        f3(a),
+        f3(p["score"].as_f64())
+    )
+}
+
+fn res_frame(head: &str) -> String {
+    assert!(head.starts_with("RES "), "not a result: {head}");
+    head.split(' ').nth(1).unwrap_or_default().to_string()
+}
+
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).expect("mkdir");
+    for e in std::fs::read_dir(from).expect("read dir").flatten() {
+        let p = e.path();
+        if p.is_dir() {
+            copy_dir(&p, &to.join(e.file_name()));
+        } else {
+            std::fs::copy(&p, to.join(e.file_name())).expect("copy");
+        }
+    }
+}
+
+#[test]
+fn robot_port_and_api_answer_what_detect_gives() {
+    let set = plant();
+    let expected = detect_json(&set, &[]);
+    let server = Server::start(&[set.to_str().unwrap_or_default(), "--fps", "20"]);
+    let mut robot = server.robot();
+    assert_eq!(robot.ask("PING"), ("PONG".to_string(), vec![]));
+    for _ in 0..3 {
+        let (head, lines) = robot.ask("TRG");
+        let frame = res_frame(&head);
+        let parts = expected[&frame]
+            .as_array()
+            .unwrap_or_else(|| panic!("no frame {frame}"));
+        let want: Vec<String> = parts.iter().map(expected_line).collect();
+        assert_eq!(lines, want, "{frame}");
+        assert!(!want.is_empty());
+    }
+    // LAST answers the last frame processed, as /api/last does.
+    let (head, lines) = robot.ask("LAST");
+    let frame = res_frame(&head);
+    let parts = expected[&frame].as_array().cloned().unwrap_or_default();
+    assert_eq!(lines, parts.iter().map(expected_line).collect::<Vec<_>>());
+    let last = server.last_when(|_| true);
+    let frame = last["frame"].as_str().unwrap_or_default().to_string();
+    assert_eq!(last["frames"][&frame], expected[&frame], "/api/last {frame}");
+    assert!(last["timing"]["core_ms"].as_f64().is_some_and(|t| t > 0.0), "{last}");
+    // A few frames on, the frame rate is measured, near the asked 20 fps.
+    let later = server.last_when(|v| v["seq"].as_u64() > last["seq"].as_u64().map(|s| s + 10));
+    let fps = later["timing"]["fps"].as_f64().unwrap_or_default();
+    assert!((5.0..=25.0).contains(&fps), "fps {fps}");
+    // POST /api/trigger: the next frame's result, in the same shape.
+    let (status, next) = server.post("/api/trigger", json!({}));
+    assert_eq!(status, 200, "{next}");
+    let f = next["frame"].as_str().unwrap_or_default().to_string();
+    assert_eq!(next["frames"][&f], expected[&f]);
+    assert!(next["seq"].as_u64() > later["seq"].as_u64());
+    // The overlay picture is a PNG of the frame's size.
+    let (status, png) = http_raw(&server.web, "GET", "/api/overlay.png", None, &[]);
+    assert_eq!(status, 200);
+    let img = image::load_from_memory(&png).expect("a PNG");
+    assert_eq!((img.width(), img.height()), (640, 480));
+    assert_eq!(server.terminate(), Some(0));
+}
+
+#[test]
+fn bad_lines_get_errors_and_the_rest_goes_on() {
+    let set = plant();
+    let server = Server::start(&[set.to_str().unwrap_or_default(), "--fps", "20"]);
+    let mut robot = server.robot();
+    let err = |r: &mut Robot, cmd: &[u8]| {
+        r.send(cmd);
+        let (head, _) = r.answer();
+        assert!(head.starts_with("ERR "), "{:?} → {head}", String::from_utf8_lossy(cmd));
+        head
+    };
+    assert!(err(&mut robot, b"FIRE\n").contains("unknown command"));
+    assert!(err(&mut robot, b"\n").contains("empty"));
+    assert!(err(&mut robot, b"PI\xffNG\n").contains("ASCII"));
+    // A line over 256 bytes: one ERR, at once, before its end arrives; the rest of it is skipped.
+    let long = vec![b'A'; 300];
+    robot.send(&long);
+    let (head, _) = robot.answer();
+    assert!(head.contains("longer than 256"), "{head}");
+    robot.send(&[b'B'; 5000]);
+    robot.send(b"\n");
+    // Exactly 256 bytes is taken (and is an unknown command); then PING still answers.
+    assert!(err(&mut robot, &[vec![b'C'; 256], b"\n".to_vec()].concat()).contains("unknown command"));
+    assert_eq!(robot.ask("ping").0, "PONG");
+    // Several clients at once, each asking for triggers and the last result.
+    let addr = server.robot.clone();
+    let clients: Vec<_> = (0..4)
+        .map(|_| {
+            let addr = addr.clone();
+            std::thread::spawn(move || {
+                let mut r = Robot::connect(&addr);
+                let mut frames = Vec::new();
+                for _ in 0..3 {
+                    let (head, _) = r.ask("TRG");
+                    frames.push(res_frame(&head));
+                    assert!(r.ask("LAST").0.starts_with("RES "));
+                }
+                frames
+            })
+        })
+        .collect();
+    // Clients that go away mid-answer or while waiting on a trigger harm nobody.
+    for _ in 0..5 {
+        let mut gone = Robot::connect(&addr);
+        gone.send(b"TRG\nLAST\nTRG\n");
+        let mut one = [0u8; 3];
+        let _ = gone.stream.read(&mut one);
+        drop(gone);
+        let mut gone = Robot::connect(&addr);
+        gone.send(b"TRG\n");
+        drop(gone);
+    }
+    for c in clients {
+        let frames = c.join().expect("a client thread");
+        assert_eq!(frames.len(), 3);
+    }
+    assert_eq!(robot.ask("PING").0, "PONG");
+    let (head, _) = robot.ask("TRG");
+    res_frame(&head);
+    // The page's API: bad requests get JSON errors, the server goes on.
+    assert_eq!(server.get("/nope").0, 404);
+    let (status, v) = http(&server.web, "POST", "/api/params", Some("{not json"), &[]);
+    assert_eq!(status, 400, "{v}");
+    assert!(v["error"].as_str().is_some_and(|e| e.contains("not JSON")), "{v}");
+    let (status, v) = server.post("/api/params", json!({"no_such_key": 1}));
+    assert_eq!(status, 400, "{v}");
+    let (status, v) = server.post("/api/params", json!({"epsilon": "high"}));
+    assert_eq!(status, 400, "{v}");
+    let (status, v) = server.post("/api/params", json!([1, 2]));
+    assert_eq!(status, 400, "{v}");
+    let (status, v) = server.post("/api/teach", json!({"x": 1, "y": 2, "name": "../../escape"}));
+    assert_eq!(status, 400, "{v}");
+    let (status, v) = server.post("/api/teach", json!({"x": "a", "y": 2, "name": "ok"}));
+    assert_eq!(status, 400, "{v}");
+    let (status, v) = server.post("/api/calibrate", json!({"points": [[1, 2, 3]]}));
+    assert_eq!(status, 400, "{v}");
+    let (status, v) = server.post("/api/calibrate", json!({"points": [[1, 2, 3, 4]]}));
+    assert_eq!(status, 400, "{v}");
+    assert!(!set.join("../escape.png").exists() && !set.join("cal.json").exists());
+    assert_eq!(robot.ask("PING").0, "PONG");
+    assert_eq!(server.get("/api/last").0, 200);
+    assert_eq!(server.terminate(), Some(0));
+}
+
+#[test]
+fn trigger_mode_runs_one_frame_per_trigger_and_tuning_reruns_it() {
+    let set = plant();
+    let server = Server::start(&[set.to_str().unwrap_or_default(), "--trigger"]);
+    let mut robot = server.robot();
+    let (head, _) = robot.ask("LAST");
+    assert_eq!(head, "ERR no frame yet");
+    assert_eq!(server.get("/api/last").0, 503);
+    assert_eq!(res_frame(&robot.ask("TRG").0), "f000.png");
+    assert_eq!(res_frame(&robot.ask("TRG").0), "f001.png");
+    std::thread::sleep(Duration::from_millis(300));
+    // Nothing runs between triggers.
+    assert_eq!(res_frame(&robot.ask("LAST").0), "f001.png");
+    let (status, v) = server.post("/api/trigger", json!({}));
+    assert_eq!((status, v["frame"].as_str()), (200, Some("f002.png")));
+    // A parameter changed on the page applies to the frame on screen at once: the same
+    // frame, run again, as `vorl detect --epsilon 0.003 --touching-parts true` gives it.
+    let before = server.last_when(|_| true);
+    let (status, v) = server.post("/api/params", json!({"epsilon": 0.003, "touching_parts": true}));
+    assert_eq!(status, 200, "{v}");
+    let after = server.last_when(|v| v["version"].as_u64() > before["version"].as_u64());
+    assert_eq!(after["frame"], "f002.png");
+    assert_eq!(after["seq"], before["seq"]);
+    let want = detect_json(&set, &["--epsilon", "0.003", "--touching-parts", "true"]);
+    assert_eq!(after["frames"]["f002.png"], want["f002.png"]);
+    assert_ne!(after["frames"]["f002.png"], before["frames"]["f002.png"]);
+    let (_, params) = server.get("/api/params");
+    assert_eq!(params["config"]["touching_parts"], true);
+    assert_eq!(server.terminate(), Some(0));
+}
+
+#[test]
+fn teach_and_save_give_what_detect_then_finds() {
+    let dir = Scratch::new("serve-teach");
+    let set = dir.join("set");
+    copy_dir(&plant(), &set);
+    // The washer is not taught; f000 holds two.
+    std::fs::remove_file(set.join("templates/washer.png")).expect("washer template");
+    let truth: Value =
+        serde_json::from_str(&std::fs::read_to_string(set.join("truth.json")).expect("truth")).expect("json");
+    let washer = truth["frames"]["f000.png"]
+        .as_array()
+        .and_then(|a| a.iter().find(|p| p["class"] == "washer"))
+        .cloned()
+        .expect("a washer in f000");
+    let (wx, wy) = (washer["x"].as_f64().unwrap_or(0.0), washer["y"].as_f64().unwrap_or(0.0));
+    let server = Server::start(&[set.to_str().unwrap_or_default(), "--trigger", "--require-token"]);
+    let token = server.token.clone().expect("a token printed");
+    let mut robot = server.robot();
+    robot.ask("TRG");
+    let before = server.last_when(|_| true);
+    let near = |v: &Value, class: &str| {
+        v["frames"]["f000.png"].as_array().is_some_and(|a| {
+            a.iter().any(|p| {
+                p["class"] == class
+                    && (p["x"].as_f64().unwrap_or(0.0) - wx).hypot(p["y"].as_f64().unwrap_or(0.0) - wy) < 1.0
+            })
+        })
+    };
+    assert!(!near(&before, "ring"));
+    // Without the token: refused, nothing written.
+    let (status, v) = http(
+        &server.web,
+        "POST",
+        "/api/teach",
+        Some(&json!({"x": wx, "y": wy, "name": "ring"}).to_string()),
+        &[("X-Vorl-Token", "wrong")],
+    );
+    assert_eq!(status, 403, "{v}");
+    // With it (as a query, as the page sends it when opened with ?token=).
+    let (status, v) = http(
+        &server.web,
+        "POST",
+        &format!("/api/teach?token={token}"),
+        Some(&json!({"x": wx, "y": wy, "name": "ring"}).to_string()),
+        &[],
+    );
+    assert_eq!(status, 200, "{v}");
+    let taught = server.last_when(|v| v["version"].as_u64() > before["version"].as_u64());
+    assert!(
+        near(&taught, "ring"),
+        "the taught part is named on the frame on screen: {taught}"
+    );
+    // Not in the set until saved.
+    assert!(!set.join("templates/ring.png").exists());
+    let (status, v) = server.post("/api/save", json!({}));
+    assert_eq!(status, 200, "{v}");
+    assert!(set.join("templates/ring.png").is_file());
+    assert!(set.join("vorl.toml").is_file());
+    // `vorl detect SET` now gives what the page showed.
+    let want = detect_json(&set, &[]);
+    assert_eq!(taught["frames"]["f000.png"], want["f000.png"]);
+    // The next frame matches it too.
+    let (head, lines) = robot.ask("TRG");
+    assert_eq!(res_frame(&head), "f001.png");
+    let want_lines: Vec<String> = want["f001.png"]
+        .as_array()
+        .map(|a| a.iter().map(expected_line).collect())
+        .unwrap_or_default();
+    assert_eq!(lines, want_lines);
+    assert_eq!(server.terminate(), Some(0));
+}
+
+#[test]
+fn calibration_from_the_page_is_what_vorl_calibrate_makes() {
+    let dir = Scratch::new("serve-cal");
+    let set = dir.join("set");
+    copy_dir(&plant(), &set);
+    let points = [
+        [40.0, 40.0, -212.085, 223.689],
+        [320.0, 40.0, 42.579, 214.087],
+        [600.0, 40.0, 294.420, 204.590],
+        [40.0, 240.0, -205.314, 47.907],
+        [320.0, 240.0, 50.841, 39.231],
+        [600.0, 240.0, 304.140, 30.653],
+        [40.0, 440.0, -198.461, -130.012],
+        [320.0, 440.0, 59.203, -137.737],
+        [600.0, 440.0, 313.977, -145.374],
+    ];
+    let server = Server::start(&[set.to_str().unwrap_or_default(), "--trigger"]);
+    let mut robot = server.robot();
+    robot.ask("TRG");
+    let (status, v) = server.post("/api/calibrate", json!({ "points": points }));
+    assert_eq!(status, 200, "{v}");
+    let csv = dir.join("points.csv");
+    let mut text = String::from("u,v,x,y\n");
+    for p in points {
+        text += &format!("{},{},{},{}\n", p[0], p[1], p[2], p[3]);
+    }
+    std::fs::write(&csv, text).expect("csv");
+    let cal = dir.join("cal.json");
+    vorl([
+        "calibrate",
+        "--points",
+        csv.to_str().unwrap_or_default(),
+        "--out",
+        cal.to_str().unwrap_or_default(),
+    ])
+    .success();
+    assert_eq!(
+        std::fs::read_to_string(&cal).expect("cal"),
+        std::fs::read_to_string(set.join("cal.json")).expect("the set's cal.json")
+    );
+    // The robot now gets platform coordinates, as detect --calibration gives them.
+    let want = detect_json(&set, &["--calibration", cal.to_str().unwrap_or_default()]);
+    let (head, lines) = robot.ask("LAST");
+    assert_eq!(res_frame(&head), "f000.png");
+    let want_lines: Vec<String> = want["f000.png"]
+        .as_array()
+        .map(|a| a.iter().map(expected_line).collect())
+        .unwrap_or_default();
+    assert!(want["f000.png"][0].get("robot").is_some());
+    assert_eq!(lines, want_lines);
+    assert_eq!(server.terminate(), Some(0));
+}
+
+#[test]
+fn sigterm_stops_cleanly_and_the_recording_replays() {
+    let dir = Scratch::new("serve-record");
+    let rec = dir.join("rec");
+    let demo = dir.join("demo");
+    let server = Server::start(&[
+        demo.to_str().unwrap_or_default(),
+        "--source",
+        "gen",
+        "--seed",
+        "5",
+        "--fps",
+        "20",
+        "--record",
+        rec.to_str().unwrap_or_default(),
+    ]);
+    assert!(demo.join("templates").is_dir(), "the generator's set is written first");
+    let last = server.last_when(|v| v["seq"].as_u64() >= Some(3));
+    assert!(last["frame"].as_str().is_some_and(|f| f.starts_with('g')), "{last}");
+    let code = server.terminate();
+    assert_eq!(code, Some(0));
+    let truth: Value =
+        serde_json::from_str(&std::fs::read_to_string(rec.join("truth.json")).expect("truth.json")).expect("json");
+    let frames = truth["frames"].as_object().cloned().unwrap_or_default();
+    let files = std::fs::read_dir(rec.join("frames")).map(|d| d.count()).unwrap_or(0);
+    assert!(frames.len() >= 3, "{} frames recorded", frames.len());
+    assert_eq!(frames.len(), files, "every frame written has its result");
+    // `vorl detect` on the recording gives what was served, and eval and check run on it.
+    let replay = detect_json(&rec, &[]);
+    for (name, parts) in &frames {
+        assert_eq!(&replay[name], parts, "{name}");
+    }
+    vorl(["eval", rec.to_str().unwrap_or_default()]).success();
+    vorl(["check", rec.to_str().unwrap_or_default()]).success();
+}
+
+#[test]
+fn addresses_off_loopback_need_listen() {
+    let out = vorl(["serve", plant().to_str().unwrap_or_default(), "--http", "0.0.0.0:0"]).failure();
+    assert!(
+        out.stderr.contains("not on loopback") && out.stderr.contains("--listen"),
+        "{}",
+        out.stderr
+    );
+    let out = vorl([
+        "serve",
+        plant().to_str().unwrap_or_default(),
+        "--robot",
+        "10.1.2.3:9000",
+    ])
+    .failure();
+    assert!(out.stderr.contains("not on loopback"), "{}", out.stderr);
+    let out = vorl(["serve", plant().to_str().unwrap_or_default(), "--fps", "0"]).failure();
+    assert!(out.stderr.contains("--fps"), "{}", out.stderr);
+}
+
+/// Headless Chromium driven through chromedriver's WebDriver HTTP API.
+struct Browser {
+    driver: Child,
+    host: String,
+    session: String,
+    _profile: Scratch,
+}
+
+/// The W3C WebDriver key of an element reference.
+const ELEMENT: &str = "element-6066-11e4-a52e-4f735466cecf";
+
+impl Browser {
+    /// A browser, or `None` (the test skipped, saying so) when Chromium or chromedriver is
+    /// absent outside CI; in CI (`CI` set) their absence fails the test: set-up installs them.
+    fn start() -> Option<Browser> {
+        let find = |names: &[&str]| {
+            let path = std::env::var_os("PATH").unwrap_or_default();
+            names
+                .iter()
+                .flat_map(|n| std::env::split_paths(&path).map(move |d| d.join(n)))
+                .find(|p| p.is_file())
+        };
+        let chromium = find(&["chromium", "chromium-browser", "google-chrome"]);
+        let driver = find(&["chromedriver"]);
+        let (Some(chromium), Some(driver)) = (chromium, driver) else {
+            assert!(
+                std::env::var_os("CI").is_none(),
+                "CI: chromium and chromedriver must be installed (scripts/setup.sh installs them)"
+            );
+            eprintln!(
+                "skipped: the browser test needs chromium and chromedriver (bash scripts/setup.sh installs them)"
+            );
+            return None;
+        };
+        let port = std::net::TcpListener::bind("127.0.0.1:0")
+            .and_then(|l| l.local_addr())
+            .map(|a| a.port())
+            .expect("a free port");
+        let child = Command::new(driver)
+            .arg(format!("--port={port}"))
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("start chromedriver");
+        let host = format!("127.0.0.1:{port}");
+        let profile = Scratch::new("chromium-profile");
+        let mut browser = Browser {
+            driver: child,
+            host,
+            session: String::new(),
+            _profile: profile,
+        };
+        let deadline = Instant::now() + Duration::from_secs(30);
+        while TcpStream::connect(&browser.host).is_err() {
+            assert!(Instant::now() < deadline, "chromedriver did not start");
+            std::thread::sleep(Duration::from_millis(100));
+        }
+        let args = [
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-quic",
+            "--no-first-run",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--disable-dev-shm-usage",
+            "--window-size=1400,1000",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .chain([format!("--user-data-dir={}", browser._profile.join("p").display())])
+        .collect::<Vec<_>>();
+        let caps = json!({"capabilities": {"alwaysMatch": {
+            "browserName": "chrome",
+            "goog:chromeOptions": {"binary": chromium.display().to_string(), "args": args}
+        }}});
+        let (status, v) = http(&browser.host, "POST", "/session", Some(&caps.to_string()), &[]);
+        assert_eq!(status, 200, "new session: {v}");
+        browser.session = v["value"]["sessionId"].as_str().expect("a session id").to_string();
+        Some(browser)
+    }
+
+    fn call(&self, method: &str, path: &str, body: Value) -> Value {
+        let path = format!("/session/{}{path}", self.session);
+        let (status, v) = http(&self.host, method, &path, Some(&body.to_string()), &[]);
+        assert_eq!(status, 200, "{method} {path}: {v}");
+        v["value"].clone()
+    }
+
+    fn goto(&self, url: &str) {
+        self.call("POST", "/url", json!({ "url": url }));
+    }
+
+    fn exec(&self, script: &str) -> Value {
+        self.call("POST", "/execute/sync", json!({"script": script, "args": []}))
+    }
+
+    /// Runs `script` until it returns something truthy (or fails after 60 s).
+    fn wait_for(&self, script: &str) -> Value {
+        let deadline = Instant::now() + Duration::from_secs(60);
+        loop {
+            let v = self.exec(script);
+            let truthy = !matches!(&v, Value::Null | Value::Bool(false)) && v != json!(0) && v != json!("");
+            if truthy {
+                return v;
+            }
+            if Instant::now() > deadline {
+                let msg =
+                    self.exec("return document.getElementById('msg') && document.getElementById('msg').textContent");
+                panic!("never true in the page: {script} (its message: {msg})");
+            }
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    }
+
+    fn find(&self, css: &str) -> String {
+        let v = self.call("POST", "/element", json!({"using": "css selector", "value": css}));
+        v[ELEMENT]
+            .as_str()
+            .unwrap_or_else(|| panic!("no element {css}: {v}"))
+            .to_string()
+    }
+
+    fn click(&self, css: &str) {
+        let id = self.find(css);
+        self.call("POST", &format!("/element/{id}/click"), json!({}));
+    }
+
+    fn type_into(&self, css: &str, text: &str) {
+        let id = self.find(css);
+        self.call("POST", &format!("/element/{id}/value"), json!({ "text": text }));
+    }
+
+    /// A real mouse click at (dx, dy) px from the element's centre.
+    fn click_at(&self, css: &str, dx: i64, dy: i64) {
+        let id = self.find(css);
+        self.call(
+            "POST",
+            "/actions",
+            json!({"actions": [{"type": "pointer", "id": "mouse", "parameters": {"pointerType": "mouse"},
+            "actions": [
+                {"type": "pointerMove", "duration": 0, "origin": {ELEMENT: id}, "x": dx, "y": dy},
+                {"type": "pointerDown", "button": 0},
+                {"type": "pointerUp", "button": 0}
+            ]}]}),
+        );
+    }
+}
+
+impl Drop for Browser {
+    fn drop(&mut self) {
+        if !self.session.is_empty() {
+            let _ = http(&self.host, "DELETE", &format!("/session/{}", self.session), None, &[]);
+        }
+        let _ = self.driver.kill();
+        let _ = self.driver.wait();
+    }
+}
+
+/// The page's row of a part of `vorl detect --json`, from the page's columns: class (or
+/// "unknown"), x, y, angle (2 decimals), flipped yes/no, f′ (4 decimals), verification.
+fn expected_row(p: &Value) -> Vec<String> {
+    let f = |k: &str, d: usize| p[k].as_f64().map_or("–".to_string(), |v| format!("{v:.d$}"));
+    let verify = match (p["verify_px"].as_f64(), p["verify_limit"].as_f64()) {
+        (Some(v), Some(l)) => format!("{v:.2} / {l:.2}"),
+        _ => "–".to_string(),
+    };
+    vec![
+        p["class"].as_str().unwrap_or("unknown").to_string(),
+        f("x", 2),
+        f("y", 2),
+        f("angle_deg", 2),
+        if p["flipped"].as_bool() == Some(true) {
+            "yes"
+        } else {
+            "no"
+        }
+        .to_string(),
+        f("score", 4),
+        verify,
+    ]
+}
+
+const ROWS: &str =
+    "return [...document.querySelectorAll('#parts tbody tr')].map(r => [...r.cells].map(c => c.textContent))";
+
+#[test]
+fn the_page_in_a_browser_shows_teaches_tunes_and_saves() {
+    let Some(browser) = Browser::start() else {
+        return;
+    };
+    let dir = Scratch::new("serve-page");
+    let set = dir.join("set");
+    copy_dir(&plant(), &set);
+    std::fs::remove_file(set.join("templates/washer.png")).expect("washer template");
+    let truth: Value =
+        serde_json::from_str(&std::fs::read_to_string(set.join("truth.json")).expect("truth")).expect("json");
+    let washer = truth["frames"]["f000.png"]
+        .as_array()
+        .and_then(|a| a.iter().find(|p| p["class"] == "washer"))
+        .cloned()
+        .expect("a washer in f000");
+    let server = Server::start(&[set.to_str().unwrap_or_default(), "--trigger", "--require-token"]);
+    let token = server.token.clone().expect("a token");
+    assert_eq!(res_frame(&server.robot().ask("TRG").0), "f000.png");
+    browser.goto(&format!("http://{}/?token={token}", server.web));
+    // The live frame: its name, the overlay picture, the parts' table as detect gives them.
+    browser.wait_for("return document.getElementById('fname').textContent === 'f000.png'");
+    let width = browser.wait_for("const i = document.getElementById('frame'); return i.complete && i.naturalWidth");
+    assert_eq!(width, json!(640));
+    let want = detect_json(&set, &[]);
+    let rows = browser.exec(ROWS);
+    let want_rows: Vec<Vec<String>> = want["f000.png"]
+        .as_array()
+        .map(|a| a.iter().map(expected_row).collect())
+        .unwrap_or_default();
+    assert_eq!(rows, json!(want_rows));
+    let core: f64 = browser
+        .exec("return document.getElementById('core').textContent")
+        .as_str()
+        .and_then(|t| t.parse().ok())
+        .unwrap_or(0.0);
+    assert!(core > 0.0, "frame time shown");
+    // Teach: a real click on the washer, a name typed, the button pressed.
+    let shown = browser.exec("return document.getElementById('frame').getBoundingClientRect().width");
+    let k = shown.as_f64().unwrap_or(640.0) / 640.0;
+    let (wx, wy) = (washer["x"].as_f64().unwrap_or(0.0), washer["y"].as_f64().unwrap_or(0.0));
+    browser.click_at(
+        "#frame",
+        ((wx - 320.0) * k).round() as i64,
+        ((wy - 240.0) * k).round() as i64,
+    );
+    browser.wait_for("return document.getElementById('tpoint').textContent.includes(',')");
+    browser.type_into("#tname", "ring");
+    browser.click("#teach");
+    let msg = browser.wait_for("const m = document.getElementById('msg').textContent; return m.length > 0 && m");
+    assert!(msg.as_str().is_some_and(|m| m.starts_with("taught ring")), "{msg}");
+    browser.wait_for(&format!("{ROWS}.some(r => r[0] === 'ring')").replacen("return ", "return ", 1));
+    // Tune: the touching-parts box turned over, applied at once.
+    let was = browser.exec("return document.getElementById('p-touching_parts').checked") == json!(true);
+    browser.click("#p-touching_parts");
+    browser.wait_for(&format!(
+        "return document.getElementById('msg').textContent.includes('touching_parts = {}: applied')",
+        !was
+    ));
+    assert_eq!(server.get("/api/params").1["config"]["touching_parts"], json!(!was));
+    // Save: the set now detects what the page shows.
+    browser.click("#save");
+    browser.wait_for("return document.getElementById('msg').textContent.startsWith('saved')");
+    assert!(set.join("templates/ring.png").is_file());
+    let want = detect_json(&set, &[]);
+    let rows = browser.wait_for(&format!(
+        "const rows = {}; return rows.some(r => r[0] === 'ring') && rows",
+        ROWS.trim_start_matches("return ")
+    ));
+    let want_rows: Vec<Vec<String>> = want["f000.png"]
+        .as_array()
+        .map(|a| a.iter().map(expected_row).collect())
+        .unwrap_or_default();
+    assert_eq!(rows, json!(want_rows));
+    assert!(want_rows.iter().any(|r| r[0] == "ring"));
+    drop(browser);
+    assert_eq!(server.terminate(), Some(0));
+}
