@@ -483,8 +483,18 @@ impl Engine {
     /// # Errors
     /// No background, or the frame's size differs from the background's.
     pub fn detect(&mut self, img: &GrayImage) -> Result<FrameResult, String> {
-        let frame = Frame::new_checked(img.as_raw().as_slice(), img.width() as usize, img.height() as usize)
-            .map_err(|e| e.to_string())?;
+        self.detect_pixels(img.as_raw(), img.width() as usize, img.height() as usize)
+    }
+
+    /// Runs the core on one frame held in the caller's memory: `pixels` row-major, `width`
+    /// pixels a row and no padding, 8-bit gray (a camera's buffer or a Python array, read in
+    /// place, not copied).
+    ///
+    /// # Errors
+    /// `pixels` does not hold `width × height` bytes, no background, or the frame's size differs
+    /// from the background's.
+    pub fn detect_pixels(&mut self, pixels: &[u8], width: usize, height: usize) -> Result<FrameResult, String> {
+        let frame = Frame::new_checked(pixels, width, height).map_err(|e| e.to_string())?;
         if self.auto {
             // A frame of a new size: its planes are set up before the clock starts (set-up, not
             // the frame's work).
@@ -530,7 +540,7 @@ impl Engine {
             };
             if !e.is_identity() {
                 self.undone.clear();
-                self.undone.extend_from_slice(img.as_raw());
+                self.undone.extend_from_slice(pixels);
                 e.undo(&mut self.undone);
             }
             exposure = Some(e);

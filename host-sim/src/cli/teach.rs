@@ -7,7 +7,7 @@ use std::process::ExitCode;
 use image::{GrayImage, Luma};
 
 use crate::cli::params::ParamArgs;
-use crate::engine::Engine;
+use crate::engine::{Engine, FrameResult};
 use crate::io::load_gray;
 use crate::set::load_background_frames;
 use vorl_core::pixels::mask::Polarity;
@@ -70,41 +70,19 @@ pub struct TeachArgs {
 /// Unreadable inputs, no part in the frame, a part number or point that names no part, or the
 /// template cannot be written.
 pub fn run(args: TeachArgs) -> Result<ExitCode, String> {
-    let mut engine = Engine::new(args.params.params()?)?;
+    let params = args.params.params()?;
     let frame = load_gray(&args.frame).map_err(|e| e.to_string())?;
     if let Some(n) = &frame.note {
         eprintln!("note: {}: {n}", args.frame.display());
     }
-    let mut shots = None;
-    match args.background.as_deref().filter(|b| !crate::cli::detect::is_auto(b)) {
-        Some(bg) => {
-            let bgs = load_background_frames([&bg.to_path_buf()]).map_err(|e| e.to_string())?;
-            if frame.image.dimensions() != bgs[0].dimensions() {
-                return Err(format!(
-                    "{}: frame is {}×{} but the background is {}×{}",
-                    args.frame.display(),
-                    frame.image.width(),
-                    frame.image.height(),
-                    bgs[0].width(),
-                    bgs[0].height()
-                ));
-            }
-            engine.learn_background(&bgs)?;
-            shots = Some(bgs);
-        }
-        None => engine.set_auto_background(),
-    }
-    let result = engine
-        .detect(&frame.image)
-        .map_err(|e| format!("{}: {e}", args.frame.display()))?;
-    if result.detections.is_empty() {
-        return Err(format!(
-            "{}: no part found against the platform (try a lower --threshold)",
-            args.frame.display()
-        ));
-    }
+    let shots = match args.background.as_deref().filter(|b| !crate::cli::detect::is_auto(b)) {
+        Some(bg) => Some(load_background_frames([&bg.to_path_buf()]).map_err(|e| e.to_string())?),
+        None => None,
+    };
+    let label = args.frame.display().to_string();
+    let segmented = segment(params, &frame.image, shots, &label)?;
     if args.list {
-        return list(&args, &frame.image, &result);
+        return list(&args, &frame.image, &segmented.result);
     }
     let (Some(name), Some(out)) = (args.name.as_deref(), args.out.as_deref()) else {
         return Err("--name and --out are needed to teach (or --list to see the parts)".into());
@@ -132,90 +110,19 @@ pub fn run(args: TeachArgs) -> Result<ExitCode, String> {
             target.display()
         ));
     }
-    let (w, h) = (frame.image.width() as usize, frame.image.height() as usize);
-    let mut result = result;
-    let mut part_index = choose_part(&args, &result, engine.labels(), w, h)?;
-    // Polarity: a shadow beside the part is not part of it (crate::teaching). Measured on the
-    // blob as segmented; where it is one-sided, the frame is segmented again with it.
-    let mut measured = None;
-    if let Some(platform) = engine.background().map(|b| b.plane().to_vec()) {
-        let part = &result.detections[part_index];
-        if let Some(&(sx, sy)) = part.border.first() {
-            let pixels = component_pixels(engine.labels(), w, h, sx as usize, sy as usize);
-            measured = crate::teaching::measure_polarity(
-                frame.image.as_raw(),
-                &platform,
-                w,
-                h,
-                &pixels,
-                result.report.mask.threshold,
-            );
-        }
-    }
-    if let Some(evidence) = &measured {
+    let choice = match (args.part, args.at.clone()) {
+        (Some(n), _) => PartChoice::Number(n),
+        (None, Some(at)) => PartChoice::At(at),
+        (None, None) => PartChoice::Largest,
+    };
+    let taken = take_part(segmented, &frame.image, &choice, &label)?;
+    if let Some(evidence) = &taken.evidence {
         println!("{}", evidence.describe());
-        if evidence.polarity != engine.params().polarity && evidence.polarity != Polarity::Either {
-            let (cx, cy) = (
-                result.detections[part_index].core.x,
-                result.detections[part_index].core.y,
-            );
-            let mut params = *engine.params();
-            params.polarity = evidence.polarity;
-            let mut again = Engine::new(params)?;
-            match &shots {
-                Some(bgs) => again.learn_background(bgs)?,
-                None => again.set_auto_background(),
-            }
-            let second = again
-                .detect(&frame.image)
-                .map_err(|e| format!("{}: {e}", args.frame.display()))?;
-            // The same part: the one at the teach point, else the one nearest the first centroid.
-            let at = args.at.as_deref().map(parse_point).transpose()?;
-            let (px, py) = at.unwrap_or((f64::from(cx), f64::from(cy)));
-            let index = part_at(&second, again.labels(), w, h, px, py)
-                .or_else(|| nearest(&second, f64::from(cx), f64::from(cy)))
-                .and_then(|d| second.detections.iter().position(|e| std::ptr::eq(e, d)));
-            match index {
-                Some(i) => {
-                    engine = again;
-                    result = second;
-                    part_index = i;
-                }
-                None => eprintln!(
-                    "warning: {}: with polarity {:?} no part lies at the taught one; taught as segmented",
-                    args.frame.display(),
-                    evidence.polarity
-                ),
-            }
-        }
     }
-    let part = &result.detections[part_index];
-    if part.core.touches_edge {
-        eprintln!(
-            "warning: {}: the part touches the frame's edge; the template may be cut",
-            args.frame.display()
-        );
+    for w in &taken.warnings {
+        eprintln!("warning: {w}");
     }
-    let Some(&(sx, sy)) = part.border.first() else {
-        return Err("the part has no border".into());
-    };
-    // Cut at half the part's contrast along its outline, where detection puts a part's border
-    // (crate::teaching), rather than where the blurred edge first rises above τ.
-    let mut silhouette = match engine.background().map(|b| b.plane()) {
-        Some(platform) => {
-            let blob = component_pixels(engine.labels(), w, h, sx as usize, sy as usize);
-            let cut = crate::teaching::half_contrast_silhouette(
-                frame.image.as_raw(),
-                platform,
-                w,
-                h,
-                &blob,
-                engine.params().polarity,
-            );
-            largest_component(&cut, w, h).unwrap_or_else(|| component(engine.labels(), w, h, sx as usize, sy as usize))
-        }
-        None => component(engine.labels(), w, h, sx as usize, sy as usize),
-    };
+    let mut silhouette = taken.silhouette;
     if args.add {
         // Turned to the class's reference pose: the pose of its first example.
         let first = match &move_first {
@@ -227,7 +134,7 @@ pub fn run(args: TeachArgs) -> Result<ExitCode, String> {
             None => None,
         };
         if let Some(first) = first {
-            let (turned, angle) = to_reference_pose(&silhouette, &first, *engine.params())?;
+            let (turned, angle) = to_reference_pose(&silhouette, &first, taken.params)?;
             println!("turned by {:.2}° onto the pose of the class's first example", -angle);
             silhouette = turned;
         }
@@ -252,15 +159,15 @@ pub fn run(args: TeachArgs) -> Result<ExitCode, String> {
         args.frame.display(),
         silhouette.width(),
         silhouette.height(),
-        part.core.area,
-        if engine.auto_background() {
+        taken.area,
+        if taken.auto_background {
             ", platform estimated from the frame"
         } else {
             ""
         },
         target.display()
     );
-    if let Some(polarity) = measured.map(|e| e.polarity).filter(|&p| p != Polarity::Either) {
+    if let Some(polarity) = taken.evidence.map(|e| e.polarity).filter(|&p| p != Polarity::Either) {
         keep_polarity(out, polarity)?;
     }
     if args.add {
@@ -272,7 +179,7 @@ pub fn run(args: TeachArgs) -> Result<ExitCode, String> {
                 ..e
             })
             .collect();
-        let mut check = Engine::new(*engine.params())?;
+        let mut check = Engine::new(taken.params)?;
         for n in check.add_silhouettes(&examples)? {
             println!("{n}");
         }
@@ -280,13 +187,196 @@ pub fn run(args: TeachArgs) -> Result<ExitCode, String> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// The index of the part to teach: `--part N`, the part at `--at X,Y`, or the largest.
+/// Which part of a frame [`take_part`] takes.
+#[derive(Debug, Clone, PartialEq)]
+pub enum PartChoice {
+    /// Part N as `--list` numbers them (1-based): `--part N`.
+    Number(usize),
+    /// The part at a point, `X,Y` in pixels as `--at` takes it.
+    At(String),
+    /// The largest part (a warning when the frame holds several).
+    Largest,
+}
+
+/// A frame segmented for teaching ([`segment`]).
+pub struct Segmented {
+    /// The engine that ran on the frame (its labels and platform are the frame's).
+    pub engine: Engine,
+    /// What the frame gave.
+    pub result: FrameResult,
+    /// The empty shots it was run against (`None`: the platform estimated from the frame).
+    pub shots: Option<Vec<GrayImage>>,
+}
+
+/// What [`take_part`] took from a frame: what `vorl teach` saves, and what it says about it.
+pub struct Taken {
+    /// The silhouette, part 255 and rest 0, cropped with a 10 px margin: the template file.
+    pub silhouette: GrayImage,
+    /// The part's polarity as measured (`None`: no platform or no contrast to measure).
+    pub evidence: Option<crate::teaching::PolarityEvidence>,
+    /// The parameters the part was segmented with (a measured one-sided polarity included).
+    pub params: vorl_core::Params,
+    /// The part's area as detected, px².
+    pub area: f32,
+    /// Whether the platform was estimated from the frame (no empty shot).
+    pub auto_background: bool,
+    /// Warnings, one line each without the `warning: ` prefix (several parts and the largest
+    /// taken, a part cut by the frame's edge, a polarity under which the part was not found).
+    pub warnings: Vec<String>,
+}
+
+/// Runs `frame` (named `label` in messages) through an engine of `params` against the empty
+/// `shots`, or against the platform estimated from the frame: the first step of `vorl teach`.
+///
+/// # Errors
+/// Invalid parameters, a frame of another size than the shots, or no part in the frame.
+pub fn segment(
+    params: vorl_core::Params,
+    frame: &GrayImage,
+    shots: Option<Vec<GrayImage>>,
+    label: &str,
+) -> Result<Segmented, String> {
+    let mut engine = Engine::new(params)?;
+    match &shots {
+        Some(bgs) => {
+            let first = bgs.first().ok_or("no background frame")?;
+            if frame.dimensions() != first.dimensions() {
+                return Err(format!(
+                    "{label}: frame is {}×{} but the background is {}×{}",
+                    frame.width(),
+                    frame.height(),
+                    first.width(),
+                    first.height()
+                ));
+            }
+            engine.learn_background(bgs)?;
+        }
+        None => engine.set_auto_background(),
+    }
+    let result = engine.detect(frame).map_err(|e| format!("{label}: {e}"))?;
+    if result.detections.is_empty() {
+        return Err(format!(
+            "{label}: no part found against the platform (try a lower --threshold)"
+        ));
+    }
+    Ok(Segmented { engine, result, shots })
+}
+
+/// Takes the chosen part of a [`segment`]ed frame as `vorl teach` does: measures its polarity
+/// ([`crate::teaching::measure_polarity`]; a one-sided one segments the frame again with it, so
+/// a shadow beside the part is not part of it) and cuts its silhouette at half its contrast
+/// along its outline ([`crate::teaching::half_contrast_silhouette`]), where detection puts a
+/// part's border.
+///
+/// # Errors
+/// A part number or point that names no part of the frame.
+pub fn take_part(segmented: Segmented, image: &GrayImage, choice: &PartChoice, label: &str) -> Result<Taken, String> {
+    let Segmented {
+        mut engine,
+        mut result,
+        shots,
+    } = segmented;
+    let mut warnings = Vec::new();
+    let (w, h) = (image.width() as usize, image.height() as usize);
+    let mut part_index = choose_part(choice, label, &result, engine.labels(), w, h, &mut warnings)?;
+    // Polarity: a shadow beside the part is not part of it (crate::teaching). Measured on the
+    // blob as segmented; where it is one-sided, the frame is segmented again with it.
+    let mut measured = None;
+    if let Some(platform) = engine.background().map(|b| b.plane().to_vec()) {
+        let part = &result.detections[part_index];
+        if let Some(&(sx, sy)) = part.border.first() {
+            let pixels = component_pixels(engine.labels(), w, h, sx as usize, sy as usize);
+            measured = crate::teaching::measure_polarity(
+                image.as_raw(),
+                &platform,
+                w,
+                h,
+                &pixels,
+                result.report.mask.threshold,
+            );
+        }
+    }
+    if let Some(evidence) = &measured {
+        if evidence.polarity != engine.params().polarity && evidence.polarity != Polarity::Either {
+            let (cx, cy) = (
+                result.detections[part_index].core.x,
+                result.detections[part_index].core.y,
+            );
+            let mut params = *engine.params();
+            params.polarity = evidence.polarity;
+            let mut again = Engine::new(params)?;
+            match &shots {
+                Some(bgs) => again.learn_background(bgs)?,
+                None => again.set_auto_background(),
+            }
+            let second = again.detect(image).map_err(|e| format!("{label}: {e}"))?;
+            // The same part: the one at the teach point, else the one nearest the first centroid.
+            let at = match choice {
+                PartChoice::At(text) => Some(parse_point(text)?),
+                _ => None,
+            };
+            let (px, py) = at.unwrap_or((f64::from(cx), f64::from(cy)));
+            let index = part_at(&second, again.labels(), w, h, px, py)
+                .or_else(|| nearest(&second, f64::from(cx), f64::from(cy)))
+                .and_then(|d| second.detections.iter().position(|e| std::ptr::eq(e, d)));
+            match index {
+                Some(i) => {
+                    engine = again;
+                    result = second;
+                    part_index = i;
+                }
+                None => warnings.push(format!(
+                    "{label}: with polarity {:?} no part lies at the taught one; taught as segmented",
+                    evidence.polarity
+                )),
+            }
+        }
+    }
+    let part = &result.detections[part_index];
+    if part.core.touches_edge {
+        warnings.push(format!(
+            "{label}: the part touches the frame's edge; the template may be cut"
+        ));
+    }
+    let Some(&(sx, sy)) = part.border.first() else {
+        return Err("the part has no border".into());
+    };
+    // Cut at half the part's contrast along its outline, where detection puts a part's border
+    // (crate::teaching), rather than where the blurred edge first rises above τ.
+    let silhouette = match engine.background().map(|b| b.plane()) {
+        Some(platform) => {
+            let blob = component_pixels(engine.labels(), w, h, sx as usize, sy as usize);
+            let cut = crate::teaching::half_contrast_silhouette(
+                image.as_raw(),
+                platform,
+                w,
+                h,
+                &blob,
+                engine.params().polarity,
+            );
+            largest_component(&cut, w, h).unwrap_or_else(|| component(engine.labels(), w, h, sx as usize, sy as usize))
+        }
+        None => component(engine.labels(), w, h, sx as usize, sy as usize),
+    };
+    Ok(Taken {
+        silhouette,
+        evidence: measured,
+        params: *engine.params(),
+        area: part.core.area,
+        auto_background: engine.auto_background(),
+        warnings,
+    })
+}
+
+/// The index of the part to teach: part N, the part at a point, or the largest.
 fn choose_part(
-    args: &TeachArgs,
-    result: &crate::engine::FrameResult,
+    choice: &PartChoice,
+    label: &str,
+    result: &FrameResult,
     labels: &[u8],
     w: usize,
     h: usize,
+    warnings: &mut Vec<String>,
 ) -> Result<usize, String> {
     let index_of = |d: &crate::engine::HostDetection| {
         result
@@ -295,41 +385,37 @@ fn choose_part(
             .position(|e| std::ptr::eq(e, d))
             .ok_or_else(|| "no part".to_string())
     };
-    match (args.part, args.at.as_deref()) {
-        (Some(n), _) => {
+    match choice {
+        PartChoice::Number(n) => {
+            let n = *n;
             if n == 0 || n > result.detections.len() {
                 return Err(format!(
-                    "--part {n}: {} has {} part(s), numbered 1 to {} (see --list)",
-                    args.frame.display(),
+                    "--part {n}: {label} has {} part(s), numbered 1 to {} (see --list)",
                     result.detections.len(),
                     result.detections.len()
                 ));
             }
             Ok(n - 1)
         }
-        (None, Some(at)) => {
+        PartChoice::At(at) => {
             let (x, y) = parse_point(at)?;
             let d = part_at(result, labels, w, h, x, y).ok_or_else(|| {
-                format!(
-                    "--at {at}: no part of {} lies there (see --list for the parts and their centres)",
-                    args.frame.display()
-                )
+                format!("--at {at}: no part of {label} lies there (see --list for the parts and their centres)")
             })?;
             index_of(d)
         }
-        (None, None) => {
+        PartChoice::Largest => {
             let largest = result
                 .detections
                 .iter()
                 .max_by(|a, b| a.core.area.total_cmp(&b.core.area))
                 .ok_or("no part")?;
             if result.detections.len() > 1 {
-                eprintln!(
-                    "warning: {}: {} parts in the frame; teaching the largest (area {:.0} px²; --list, --part, --at choose another)",
-                    args.frame.display(),
+                warnings.push(format!(
+                    "{label}: {} parts in the frame; teaching the largest (area {:.0} px²; --list, --part, --at choose another)",
                     result.detections.len(),
                     largest.core.area
-                );
+                ));
             }
             index_of(largest)
         }
