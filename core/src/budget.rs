@@ -209,8 +209,9 @@ pub const fn recognizer_bytes(layout: Layout, t: usize, m: usize, p: usize, c: u
         .saturating_add(templates)
         .saturating_add(contour_store_bytes(layout, p, c))
         .saturating_add(part_buffer_bytes(layout, m))
-        // Which template the mirror image is of (`Option<u16>`).
-        .saturating_add(4)
+        // Which template the mirror image is of (`Option<u16>`), and whether the partial
+        // search leaves blobs without a junction whole (`bool`).
+        .saturating_add(5)
         .saturating_add(d.saturating_mul(4));
     round_up(sum, max(layout.contour_align, layout.word))
 }

@@ -13,7 +13,7 @@
 //!    `candidates = 1` (only the first candidate of the bound order aligned and verified);
 //!    then the frame of touching parts (`fixtures/frame_touching.gray`: two parts lying against
 //!    each other, a key upside down and a part apart) with the partial search on
-//!    (`touching_parts`, off by default);
+//!    (`touching_parts`, on by default since 2026-12-06; the three frames above run with it too);
 //! 5. prints every line over semihosting in the stable format below and exits with status 0
 //!    (any error: status 1; a panic: its message and status 1).
 //!
@@ -429,8 +429,8 @@ fn run() -> Result<(), Failure> {
     Ok(())
 }
 
-/// The frame of touching parts with the partial search on ([`Params::touching_parts`]; the
-/// defaults leave it off): its `frame_touching` line, `det_touching` detections and
+/// The frame of touching parts with the partial search on ([`Params::touching_parts`], the
+/// default, set here all the same): its `frame_touching` line, `det_touching` detections and
 /// `instructions_touching` counts (not in the `summary` line's totals, which are the three
 /// frames' with the defaults). The defaults are back on return.
 #[inline(never)]

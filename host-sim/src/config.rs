@@ -73,7 +73,8 @@ pub struct Config {
     /// a part that fits one is reported `flipped`. false for a feeder that never flips parts.
     pub flipped_parts: bool,
     /// Whether blobs whose border is not one template's are searched for the parts along them
-    /// (touching, overlapping and cut parts).
+    /// (touching, overlapping and cut parts); a blob inside the frame whose border has no
+    /// junction where two outlines could meet is left whole unsearched.
     pub touching_parts: bool,
 }
 
@@ -396,7 +397,8 @@ impl Config {
              # chiral) is matched too, and a part that fits it is reported \"flipped\": true; false for a feeder that never flips parts.\n\
              flipped_parts = {}\n\
              # Whether a blob whose border is not one template's is searched for the parts along it (touching and overlapping\n\
-             # parts, parts the frame's edge cuts that show half their border), reported \"touching\": true with \"visible_fraction\".\n\
+             # parts, parts the frame's edge cuts that show half their border), reported \"touching\": true with \"visible_fraction\";\n\
+             # a blob inside the frame whose border turns concave nowhere by 54 degrees (no junction of two outlines) is one part.\n\
              touching_parts = {}\n",
             d.alpha, thr, setting_name(&d.polarity), setting_name(&d.cleanup), d.min_points, d.min_area, d.n, d.m, d.k, d.omega, d.epsilon, angle,
             setting_name(&d.refine), d.candidates, toml_float(d.candidate_ratio), d.verify_threshold,

@@ -314,6 +314,13 @@ impl Engine {
         self.exposure_fit = on;
     }
 
+    /// Whether a blob inside the frame whose border has no junction is left whole by the
+    /// partial search ([`vorl_core::Recognizer::set_junction_gate`]; on by default). Off, every
+    /// blob the whole-border result does not settle is searched, to hold the gate against it.
+    pub fn set_junction_gate(&mut self, on: bool) {
+        self.rec.set_junction_gate(on);
+    }
+
     /// Without an empty shot: most frames one platform estimate serves while they still fit it
     /// ([`Background::estimate_or_keep`]; 1: every frame is estimated anew).
     pub fn set_platform_every(&mut self, every: u32) {

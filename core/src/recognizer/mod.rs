@@ -134,6 +134,10 @@ pub struct Recognizer<const T: usize, const M: usize, const P: usize, const C: u
     pub(crate) arc_template: [f32; M],
     /// The partial DP's rows ([`crate::shape::arcs::ARC_ROWS`] of `M` cells and one for the pads).
     pub(crate) arc_rows: [[f32; M]; ARC_ROWS + 1],
+    /// Whether a blob inside the frame whose border has no junction is left whole
+    /// ([`crate::recognizer::split`], "Blobs of one part"; on unless
+    /// [`Self::set_junction_gate`] turned it off).
+    pub(crate) junction_gate: bool,
 }
 
 impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: usize> Default
@@ -162,6 +166,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             arc_turning: [0.0; BLOB_POINTS],
             arc_template: [0.0; M],
             arc_rows: [[0.0; M]; ARC_ROWS + 1],
+            junction_gate: true,
         }
     }
 

@@ -1,11 +1,39 @@
 //! Several parts in one blob, and parts cut by the frame's edge: the partial search.
 //!
-//! With [`crate::Params::touching_parts`] on, a blob goes to the partial search when its
-//! whole-border result does not settle it: no part was verified, or it touches the frame's edge
-//! (its whole-border match took the edge's straight cut for outline, and its centroid is the
-//! visible piece's), or the verified template covers less of the blob than the blob's area less
-//! half the smallest template (another part touches it). Such a blob may hold parts that touch
-//! or lie partly over one another, or a part the frame's edge cuts.
+//! With [`crate::Params::touching_parts`] on (the default), a blob goes to the partial search
+//! when its whole-border result does not settle it: no part was verified, or it touches the
+//! frame's edge (its whole-border match took the edge's straight cut for outline, and its
+//! centroid is the visible piece's), or the verified template covers less of the blob than the
+//! blob's area less half the smallest template and less the band the verification lets the
+//! outline lie off the template all round (the border's length times its limit: a thick part's
+//! walls are not another part). Such a blob may hold parts that touch or lie partly over one
+//! another, or a part the frame's edge cuts.
+//!
+//! **Blobs of one part.** Most blobs the whole-border match leaves unnamed are one part no
+//! template explains (an unknown part, a part too far off its template); the search would find
+//! nothing on them, at several times the cost of their whole-border match. Two rules spare
+//! them, both from what the frame shows:
+//!
+//! - *No junction, one part.* Where a blob holds several parts, its border passes from one
+//!   part's outline to another's at a junction, and turns concave there by the angle at which
+//!   the outlines cross: about a half turn where parts merely touch, less the more one lies
+//!   over the other. A blob inside the frame whose border turns concave nowhere by
+//!   [`JUNCTION_TURN`] or more (over chords of [`JUNCTION_CHORD`] points [`JUNCTION_STEP`] apart,
+//!   [`deepest_concavity`]) is one part: its whole-border result stands, unsearched. The turn
+//!   is `π·(2v − 1)` for the least visible share `v` the search takes inside the frame
+//!   ([`MIN_VISIBLE_PINNED`]): where two equal discs cross when the lower one still shows `v` of
+//!   its outline. It is a model, not a bound: parts of about one size lying mostly over one
+//!   another, or along a shared straight side, can meet at a shallower turn, and their blob is
+//!   then taken for one part. [`Recognizer::set_junction_gate`] turns the rule off (to hold it
+//!   against the search: every blob of the accuracy sets keeps its result, `docs/performance.md`).
+//! - *Holes.* A part of a blob inside the frame lies wholly inside it, holes and all, and its
+//!   fit needs every hole of its template found, each in a hole of the blob of its own: a
+//!   template with more holes than the blob is not searched (exact: such a fit is never kept).
+//!   An unknown part without holes is searched only for the templates without holes.
+//!
+//! And the open DP of a template ([`crate::shape::arcs::best_arcs`]) first bounds, at a fraction
+//! of its cost, whether any run could cover the third of the template a hypothesis needs; where
+//! none could, it keeps none without the DP.
 //!
 //! **Hypotheses.** Each template that fits in the blob (its area at the least scale, plus half
 //! the smallest template's inside the frame) is matched against arcs of the blob's border
@@ -104,6 +132,19 @@ pub const PARTIAL_ITERATIONS: usize = 30;
 pub const EXPLAINED_TURN: f32 = 1.0e3;
 /// The unexplained share of the border from which the rest is reported as a part.
 pub const REST_SHARE: f32 = 0.15;
+/// The least concave turn (radians) taken for a junction of a blob's border, where it passes
+/// from one part's outline to another's ("Blobs of one part" in the module doc):
+/// `π·(2·v − 1)` for the least visible share `v` the search takes inside the frame
+/// ([`MIN_VISIBLE_PINNED`]), 0.3 π = 54°. Two equal discs meet at this turn when the lower one
+/// shows `v` of its outline (it shows `1 − a/π` of it where the outlines cross at `±a` about its
+/// centre, and the border turns by `π − 2a` there), and at a deeper one the less they overlap,
+/// up to a half turn for discs that merely touch.
+pub const JUNCTION_TURN: f32 = core::f32::consts::PI * (2.0 * MIN_VISIBLE_PINNED - 1.0);
+/// Spacing (px) of the border points the junction test turns at.
+pub const JUNCTION_STEP: f32 = 2.0;
+/// Points each way of the chords the junction test turns between ([`deepest_concavity`]):
+/// chords of 6 px, longer than the mask rounds a corner, shorter than the parts' sides.
+pub const JUNCTION_CHORD: usize = 3;
 
 /// One pose to align: a template and where a run of its outline puts it.
 #[derive(Debug, Clone, Copy)]
@@ -247,6 +288,37 @@ fn perimeter(points: impl Iterator<Item = [f32; 2]> + Clone) -> f32 {
     len
 }
 
+/// The deepest concave turn of the closed polyline `points`: the largest angle (radians) by
+/// which it turns against its own direction of travel (concave, for an outer border) between
+/// the chord from `k` points before a point to it and the chord from it to `k` points after.
+/// Over chords a few pixels long a corner shows its whole turn, also where the mask rounded
+/// it, and a smooth concave stretch of radius `R` about `2·chord / R`. 0 for a convex polyline.
+pub fn deepest_concavity(points: &[[f32; 2]], k: usize) -> f32 {
+    let n = points.len();
+    if n < 3 {
+        return 0.0;
+    }
+    let k = k.clamp(1, (n - 1) / 2);
+    let at = |i: usize| points.get(i % n).copied().unwrap_or_default();
+    // The polygon's orientation: a concave turn has the other sign.
+    let mut area2 = 0.0f32;
+    for i in 0..n {
+        let (p, q) = (at(i), at(i + 1));
+        area2 += p[0] * q[1] - q[0] * p[1];
+    }
+    let against = if area2 < 0.0 { 1.0 } else { -1.0 };
+    let mut deepest = 0.0f32;
+    for i in 0..n {
+        let (a, b, c) = (at(i + n - k), at(i), at(i + k));
+        let (u, v) = ([b[0] - a[0], b[1] - a[1]], [c[0] - b[0], c[1] - b[1]]);
+        let cross = (u[0] * v[1] - u[1] * v[0]) * against;
+        if cross > 0.0 {
+            deepest = deepest.max(math::atan2(cross, u[0] * v[0] + u[1] * v[1]));
+        }
+    }
+    deepest
+}
+
 /// The similarity mapping template offsets `t(j)` onto border points `q(i)` for the run, in
 /// least squares (template index advancing linearly along the border's run).
 fn pose_from_run<const M: usize>(run: &ArcMatch, border: &[[f32; 2]], t: &Template<M>) -> Option<Pose> {
@@ -302,6 +374,26 @@ fn pose_from_run<const M: usize>(run: &ArcMatch, border: &[[f32; 2]], t: &Templa
 }
 
 impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: usize> Recognizer<T, M, P, C, D> {
+    /// Whether a blob inside the frame whose border has no junction ([`JUNCTION_TURN`]) is left
+    /// whole, unsearched (on, as [`Self::new`] makes it). Off, every blob the whole-border
+    /// result does not settle is searched: to measure the gate against the search.
+    pub fn set_junction_gate(&mut self, on: bool) {
+        self.junction_gate = on;
+    }
+
+    /// Whether blob `index`'s border (`chain` px long) turns concave by [`JUNCTION_TURN`] or
+    /// more ([`deepest_concavity`] over its points [`JUNCTION_STEP`] apart, chords of
+    /// [`JUNCTION_CHORD`] points): where two parts' outlines could meet. True when it cannot be
+    /// measured.
+    fn has_junction(&mut self, index: usize, chain: f32) -> bool {
+        let count = BLOB_POINTS.min(math::round(chain / JUNCTION_STEP).max(8.0) as usize);
+        let pts = self.arc_points.get_mut(..count).unwrap_or(&mut []);
+        if resample(self.store.points(index), pts).is_err() {
+            return true;
+        }
+        deepest_concavity(pts, JUNCTION_CHORD) >= JUNCTION_TURN
+    }
+
     /// The partial search on blob `index` (whole-border result `whole`), its parts pushed to
     /// `report` (skips when it is full); false when it found none (then `whole` stands) or the
     /// blob is too long to search ([`Report::unsplit`]). Kept out of line, so its buffers take
@@ -348,6 +440,11 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let mut found = heapless::Vec::new();
         let border = self.store.points(index);
         let chain = perimeter(border.iter().map(|p| [p.x as f32, p.y as f32]));
+        // A blob inside the frame without a junction is one part: its whole-border result
+        // stands.
+        if self.junction_gate && !whole.touches_edge && !self.has_junction(index, chain) {
+            return Ok(found);
+        }
         let mut searched = 0usize;
         let least = self.least_part_area();
         let mut taken: heapless::Vec<PartFit, MAX_BLOB_PARTS> = heapless::Vec::new();
@@ -359,12 +456,12 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let (mut rest, mut rest_at) = (0usize, [0.0f32; 2]);
         for round in 0..2 {
             let before = taken.len();
-            let (hyps, s, too_long) = self.hypotheses(index, whole, least, chain, &taken);
+            let (hyps, s, too_long) = self.hypotheses(index, whole, least, chain, part_holes, &taken);
             searched += s;
             if round == 0 && too_long && hyps.is_empty() {
                 return Err(());
             }
-            self.take_fits(&hyps, diff, part_holes, &mut taken);
+            self.take_fits(&hyps, diff, part_holes, !whole.touches_edge, &mut taken);
             if taken.len() == before {
                 break;
             }
@@ -452,6 +549,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         whole: &Detection,
         least: f32,
         chain: f32,
+        part_holes: &Holes,
         taken: &[PartFit],
     ) -> (heapless::Vec<Hypothesis, MAX_HYPOTHESES>, usize, bool) {
         let params = self.params;
@@ -472,6 +570,12 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 lo * lo * t.area() + least
             };
             if needed > whole.area {
+                continue;
+            }
+            // A part of a blob inside the frame lies wholly inside it, holes and all: its fit
+            // needs every hole of its template found ([`Self::partial_fit`]), each in a hole of
+            // the blob of its own ([`agreement`]). A blob with fewer holes cannot hold it.
+            if !whole.touches_edge && t.holes().len() > part_holes.len() {
                 continue;
             }
             // Every STRIDE-th template point, the border at the same step.
@@ -557,6 +661,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         hyps: &[Hypothesis],
         diff: &Difference<'_, B>,
         part_holes: &Holes,
+        blob_inside: bool,
         taken: &mut heapless::Vec<PartFit, MAX_BLOB_PARTS>,
     ) {
         // Align and verify each pose on the visible edge, but for a pose whose centre falls on
@@ -585,7 +690,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 }
             };
             if let Some(fit) = self
-                .partial_fit(t, h, diff, part_holes)
+                .partial_fit(t, h, diff, part_holes, blob_inside)
                 .filter(|f| f.visible >= least_visible(f))
             {
                 let _ = fits.push(PartFit {
@@ -657,7 +762,9 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
     /// Whether a blob's whole-border result leaves it to the partial search: no part was
     /// verified, the blob touches the frame's edge, or the verified template covers less of
     /// the blob than its area less half the smallest template's (the least a second part
-    /// shows).
+    /// shows) and less the band the verification lets the outline lie off the template all
+    /// round (the border's length times the verification's limit: a thick part's walls, the
+    /// mask's edge a pixel out).
     pub(crate) fn blob_not_explained(&self, whole: &Detection) -> bool {
         let Some(ti) = whole.template else {
             return true;
@@ -673,17 +780,25 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             .templates
             .get(usize::from(ti))
             .map_or(f32::INFINITY, |t| t.area() * whole.scale * whole.scale);
-        whole.area - covered > least
+        let excess = whole.area - covered;
+        // (The border's length only where the area alone would leave the blob to the search.)
+        excess > least && {
+            let border = self.store.points(usize::from(whole.contour));
+            let chain = perimeter(border.iter().map(|p| [p.x as f32, p.y as f32]));
+            excess > least + chain * whole.verify_limit
+        }
     }
 
     /// Template `t` aligned from the hypothesis' seed and verified on its visible edge; `None`
-    /// when it does not hold (see the module doc).
+    /// when it does not hold (see the module doc). `blob_inside`: the blob does not touch the
+    /// frame's edge (so neither does any part of it, nor any of its holes).
     fn partial_fit<B: AsRef<[u8]>>(
         &self,
         t: &Template<M>,
         h: &Hypothesis,
         diff: &Difference<'_, B>,
         part_holes: &Holes,
+        blob_inside: bool,
     ) -> Option<PartFit> {
         let params = &self.params;
         let (lo, hi) = t.tolerance().scale_range(params.scale_min, params.scale_max);
@@ -761,12 +876,16 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let limit = limit_at(pose.scale);
         let distance = if seen > 0 { sum / seen as f32 } else { f32::INFINITY };
         let holes = agreement(t.holes(), &pose, part_holes);
-        // Every hole the pose puts wholly inside the frame must be there.
+        // Every hole the pose puts wholly inside the frame must be there: every hole of a part
+        // of a blob inside the frame.
         let in_frame = t
             .holes()
             .as_slice()
             .iter()
             .filter(|hole| {
+                if blob_inside {
+                    return true;
+                }
                 let [x, y] = pose.apply(hole.centre);
                 let r = math::sqrt(hole.area / core::f32::consts::PI) * pose.scale + 1.0;
                 x >= r && y >= r && x <= w - 1.0 - r && y <= h - 1.0 - r
@@ -789,5 +908,314 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             pinned,
             cut: k < m,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::borders::contour::{BorderKind, ContourStore};
+    use crate::pixels::background::Background;
+    use crate::Params;
+    extern crate std;
+    use std::vec::Vec;
+
+    /// A shape: whether an offset from its origin is inside it.
+    type Inside = fn([f32; 2]) -> bool;
+
+    /// Shapes at `(x, y)` turned by an angle (°), as [`draw`] takes them.
+    type Scene<'a> = &'a [(Inside, f32, f32, f32)];
+
+    /// An L: a bar 44 × 10 and a foot 10 × 16 below its left end (offsets from its area
+    /// centroid, as the recognizer's own tests draw it).
+    fn ell(t: [f32; 2]) -> bool {
+        let (u, v) = (t[0] + 10480.0 / 600.0, t[1] + 5080.0 / 600.0);
+        ((0.0..44.0).contains(&u) && (0.0..10.0).contains(&v))
+            || ((0.0..10.0).contains(&u) && (10.0..26.0).contains(&v))
+    }
+
+    /// A T: a bar 44 × 10 over a stem 10 × 30.
+    fn tee(t: [f32; 2]) -> bool {
+        let (u, v) = (t[0] + 22.0, t[1] + 9700.0 / 740.0);
+        ((0.0..44.0).contains(&u) && (0.0..10.0).contains(&v))
+            || ((17.0..27.0).contains(&u) && (10.0..40.0).contains(&v))
+    }
+
+    /// A ring (outer radius 15, hole 6): a template with a hole.
+    fn ring(t: [f32; 2]) -> bool {
+        let r2 = t[0] * t[0] + t[1] * t[1];
+        r2 < 225.0 && r2 > 36.0
+    }
+
+    /// An ellipse 32 × 20 (no template): a convex unknown part.
+    fn ellipse(t: [f32; 2]) -> bool {
+        (t[0] / 16.0).powi(2) + (t[1] / 10.0).powi(2) < 1.0
+    }
+
+    /// A bean (no template): a disc of radius 15 with a shallow bite of radius 30 out of one
+    /// side, a smooth concave stretch and no corner.
+    fn bean(t: [f32; 2]) -> bool {
+        t[0] * t[0] + t[1] * t[1] < 225.0 && t[0] * t[0] + (t[1] - 40.0).powi(2) > 900.0
+    }
+
+    /// Dark parts (20) on a platform of 200: each shape turned by its angle (°) about its origin
+    /// at `(x, y)`, 4 × 4 samples a pixel.
+    fn draw(w: usize, h: usize, parts: &[(Inside, f32, f32, f32)]) -> Vec<u8> {
+        let mut px = std::vec![200u8; w * h];
+        for (y, row) in px.chunks_exact_mut(w).enumerate() {
+            for (x, p) in row.iter_mut().enumerate() {
+                let mut cover = 0.0f32;
+                for &(inside, cx, cy, deg) in parts {
+                    let (s, c) = libm::sincosf(deg.to_radians());
+                    for k in 0..16 {
+                        let dx = x as f32 - 0.375 + 0.25 * (k % 4) as f32 - cx;
+                        let dy = y as f32 - 0.375 + 0.25 * (k / 4) as f32 - cy;
+                        cover += u8::from(inside([c * dx - s * dy, s * dx + c * dy])) as f32 / 16.0;
+                    }
+                }
+                *p = (200.0 - 180.0 * cover.min(1.0)).round() as u8;
+            }
+        }
+        px
+    }
+
+    /// A template taught from `inside`, drawn at the middle of an 80 × 80 silhouette.
+    fn taught(inside: Inside) -> Template<96> {
+        let (tw, th) = (80usize, 80usize);
+        let px: Vec<u8> = (0..tw * th)
+            .map(|i| u8::from(inside([(i % tw) as f32 - 40.0, (i / tw) as f32 - 40.0])) * 255)
+            .collect();
+        let mut labels = std::vec![0u8; tw * th];
+        let mut store = std::boxed::Box::new(ContourStore::<4096, 16>::new());
+        Template::<96>::from_silhouette(
+            &Frame::new_checked(&px[..], tw, th).unwrap(),
+            &Params::DEFAULT,
+            &mut labels,
+            &mut store,
+        )
+        .unwrap()
+    }
+
+    type Rec = Recognizer<4, 96, 8192, 64, 2112>;
+
+    /// A recognizer with the defaults and the partial search on, the junction gate as given, and
+    /// the L, the T and the ring taught.
+    fn recognizer(gate: bool) -> std::boxed::Box<Rec> {
+        let mut rec: std::boxed::Box<Rec> = std::boxed::Box::default();
+        rec.set_params(Params {
+            touching_parts: true,
+            ..Params::DEFAULT
+        })
+        .unwrap();
+        rec.set_junction_gate(gate);
+        for inside in [ell as Inside, tee, ring] {
+            rec.add_template(taught(inside)).unwrap();
+        }
+        rec
+    }
+
+    /// One frame through `rec` on the empty platform.
+    fn run(rec: &mut Rec, px: &[u8], w: usize, h: usize) -> crate::recognizer::Report {
+        let bg_px = std::vec![200u8; w * h];
+        let mut bg = Background::new(std::vec![0u8; w * h], w, h).unwrap();
+        bg.set_from_frame(&Frame::new_checked(&bg_px[..], w, h).unwrap(), Params::DEFAULT.alpha())
+            .unwrap();
+        let mut labels = std::vec![0u8; w * h];
+        rec.process(&Frame::new_checked(px, w, h).unwrap(), &bg, &mut labels)
+            .unwrap()
+    }
+
+    /// The deepest concave turn: none on a convex outline (a square, a circle), a corner's
+    /// whole turn (the L's inner corner, a right angle, whichever way round the outline runs),
+    /// and little on a smooth concave stretch (a bite of radius 30 taken at chords of 6 px).
+    #[test]
+    fn the_deepest_concavity_is_a_corner_s_turn() {
+        let square: Vec<[f32; 2]> = (0..40)
+            .map(|i| {
+                let t = (i % 10) as f32 * 2.0;
+                match i / 10 {
+                    0 => [t, 0.0],
+                    1 => [20.0, t],
+                    2 => [20.0 - t, 20.0],
+                    _ => [0.0, 20.0 - t],
+                }
+            })
+            .collect();
+        assert_eq!(deepest_concavity(&square, 3), 0.0);
+        let circle: Vec<[f32; 2]> = (0..60)
+            .map(|i| {
+                let (s, c) = libm::sincosf(i as f32 * core::f32::consts::TAU / 60.0);
+                [20.0 * c, 20.0 * s]
+            })
+            .collect();
+        assert_eq!(deepest_concavity(&circle, 3), 0.0);
+        // An L traced at 2 px: (0,0) → (40,0) → (40,10) → (10,10) → (10,30) → (0,30) → back.
+        let corners = [
+            [0.0f32, 0.0],
+            [40.0, 0.0],
+            [40.0, 10.0],
+            [10.0, 10.0],
+            [10.0, 30.0],
+            [0.0, 30.0],
+        ];
+        let mut ell_pts = Vec::new();
+        for (a, b) in corners.iter().zip(corners.iter().cycle().skip(1)) {
+            let steps = ((b[0] - a[0]).abs() + (b[1] - a[1]).abs()) as usize / 2;
+            for s in 0..steps {
+                let f = s as f32 / steps as f32;
+                ell_pts.push([a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1])]);
+            }
+        }
+        let turn = deepest_concavity(&ell_pts, 3);
+        assert!((turn - core::f32::consts::FRAC_PI_2).abs() < 1e-4, "{turn}");
+        let reversed: Vec<[f32; 2]> = ell_pts.iter().rev().copied().collect();
+        assert!((deepest_concavity(&reversed, 3) - turn).abs() < 1e-4);
+        // A disc of radius 40 with a bite of radius 30 (2 px apart): the bite turns about
+        // 2 · 6 / 30 = 0.4 rad over the chords.
+        let mut bite = Vec::new();
+        for i in 0..200 {
+            let (s, c) = libm::sincosf(i as f32 * core::f32::consts::TAU / 200.0);
+            let p = [40.0 * c, 40.0 * s];
+            let d = libm::hypotf(p[0], p[1] - 60.0);
+            bite.push(if d < 30.0 {
+                [p[0] * 1.0, 60.0 - (60.0 - p[1]) * 30.0 / d]
+            } else {
+                p
+            });
+        }
+        let shallow = deepest_concavity(&bite, 3);
+        assert!(shallow > 0.0 && shallow < 0.6 && shallow < JUNCTION_TURN, "{shallow}");
+    }
+
+    /// Blobs of one part the whole-border match leaves unnamed (an ellipse, a bean: no
+    /// template) have no junction; an L and a T that touch or lie over one another do, and so
+    /// does an L alone (its own inner corner: the rule leaves parts of concave outline to the
+    /// search).
+    #[test]
+    fn junctions_are_where_outlines_meet() {
+        let (w, h) = (260usize, 120usize);
+        let cases: [(Scene, bool); 5] = [
+            (&[(ellipse, 60.0, 60.0, 30.0)], false),
+            (&[(bean, 60.0, 60.0, 100.0)], false),
+            (&[(ell, 60.0, 60.0, 15.0), (tee, 95.0, 60.0, 0.0)], true),
+            (&[(ell, 60.0, 60.0, 0.0), (tee, 88.0, 66.0, 200.0)], true),
+            (&[(ell, 60.0, 60.0, 15.0)], true),
+        ];
+        for (parts, junction) in cases {
+            let px = draw(w, h, parts);
+            let mut rec = recognizer(true);
+            run(&mut rec, &px, w, h);
+            let outer: Vec<usize> = (0..rec.store.contours().len())
+                .filter(|&i| rec.store.contours().get(i).is_some_and(|c| c.kind == BorderKind::Outer))
+                .collect();
+            assert_eq!(outer.len(), 1, "{parts:?}");
+            let border = rec.store.points(outer[0]);
+            let chain = perimeter(border.iter().map(|p| [p.x as f32, p.y as f32]));
+            assert_eq!(rec.has_junction(outer[0], chain), junction, "{parts:?}");
+        }
+    }
+
+    /// The gate never changes what the search finds: scenes of Ls and Ts against and over one
+    /// another at random angles, with unknown ellipses and beans beside them or against them,
+    /// give the same detections with the gate on and off (every field but the searches), and
+    /// the gate leaves the lone unknown parts whole.
+    #[test]
+    fn the_junction_gate_keeps_every_part_the_search_finds() {
+        let mut rng = crate::test_rng::XorShiftStar(0x6a7e);
+        let (w, h) = (300usize, 160usize);
+        let (mut named, mut touching) = (0usize, 0usize);
+        for case in 0..24 {
+            let angle = |rng: &mut crate::test_rng::XorShiftStar| rng.below(360) as f32;
+            let a: Inside = if rng.below(2) == 0 { ell } else { tee };
+            let b: Inside = match rng.below(3) {
+                0 => ell,
+                1 => tee,
+                _ => ellipse,
+            };
+            // B against A: 26–38 px apart (they touch or overlap), in a random direction.
+            let (s, c) = libm::sincosf(angle(&mut rng).to_radians());
+            let d = 26.0 + rng.below(13) as f32;
+            let lone: Inside = if case % 2 == 0 { ellipse } else { bean };
+            let parts = [
+                (a, 80.0, 80.0, angle(&mut rng)),
+                (b, 80.0 + d * c, 80.0 + d * s, angle(&mut rng)),
+                (lone, 230.0, 80.0, angle(&mut rng)),
+            ];
+            let px = draw(w, h, &parts);
+            let on = run(&mut recognizer(true), &px, w, h);
+            let off = run(&mut recognizer(false), &px, w, h);
+            let key = |r: &crate::recognizer::Report| -> Vec<_> {
+                r.detections
+                    .iter()
+                    .map(|d| {
+                        (
+                            d.template,
+                            d.x.to_bits(),
+                            d.y.to_bits(),
+                            d.angle_deg.to_bits(),
+                            d.touching,
+                            d.visible_fraction.to_bits(),
+                            d.touches_edge,
+                            d.position_from_pose,
+                        )
+                    })
+                    .collect()
+            };
+            assert_eq!(
+                key(&on),
+                key(&off),
+                "case {case}: {parts:?}\n{:?}\n{:?}",
+                on.detections,
+                off.detections
+            );
+            named += on.detections.iter().filter(|d| d.template.is_some()).count();
+            touching += on.detections.iter().filter(|d| d.touching).count();
+            // The lone unknown part: whole, unknown, not touching.
+            assert!(
+                on.detections
+                    .iter()
+                    .any(|d| d.template.is_none() && !d.touching && (d.x - 230.0).abs() < 3.0),
+                "case {case}: {:?}",
+                on.detections
+            );
+        }
+        // The scenes exercise the search: most parts against another are found.
+        assert!(named >= 30 && touching >= 30, "{named} named, {touching} touching");
+    }
+
+    /// A template with more holes than the blob is not searched (its fit would need them all);
+    /// the templates without holes are.
+    #[test]
+    fn a_blob_without_holes_is_not_searched_for_a_template_with_one() {
+        let (w, h) = (200usize, 120usize);
+        let px = draw(w, h, &[(ell, 60.0, 60.0, 15.0), (tee, 95.0, 60.0, 0.0)]);
+        let mut rec = recognizer(true);
+        let report = run(&mut rec, &px, w, h);
+        assert!(
+            report.detections.iter().filter(|d| d.template.is_some()).count() >= 2,
+            "{:?}",
+            report.detections
+        );
+        let index = (0..rec.store.contours().len())
+            .find(|&i| rec.store.contours().get(i).is_some_and(|c| c.kind == BorderKind::Outer))
+            .unwrap();
+        let border = rec.store.points(index);
+        let chain = perimeter(border.iter().map(|p| [p.x as f32, p.y as f32]));
+        let whole = Detection {
+            touches_edge: false,
+            area: rec.store.contours()[index].area(),
+            ..report.detections[0]
+        };
+        let least = rec.least_part_area();
+        let (_, searched, _) = rec.hypotheses(index, &whole, least, chain, &Holes::new(), &[]);
+        // The L and the T; not the ring.
+        assert_eq!(searched, 2);
+        let mut one = Holes::new();
+        one.insert(crate::pose::holes::Hole {
+            centre: [60.0, 60.0],
+            area: 110.0,
+        });
+        let (_, searched, _) = rec.hypotheses(index, &whole, least, chain, &one, &[]);
+        assert_eq!(searched, 3);
     }
 }

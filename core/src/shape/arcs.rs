@@ -24,7 +24,11 @@
 //!
 //! Time `O((n + m)·m)` cells for a border of `n` and a template of `m` points (three moves a
 //! cell) and `O(K)` for each cell that may enter the list of `K` runs; memory: [`ARC_ROWS`]`·m`
-//! `f32` of the caller's scratch.
+//! `f32` of the caller's scratch. Where the target has 128-bit SIMD the cells go without a
+//! branch, a row's diagonals four at once, after a bound on the runs' advance (a fraction of a
+//! cell's cost) that spares the DP where no run could cover `min_template` template points (the
+//! border of an unknown part, against most templates); elsewhere one cell at a time. Both give
+//! the same runs: a unit test holds the rows against the DP one cell at a time.
 
 use crate::error::{Error, Result};
 use crate::math;
@@ -175,6 +179,13 @@ fn offer<const K: usize>(n: usize, run: ArcMatch, out: &mut heapless::Vec<ArcMat
 /// smaller than its template: each row keeps, for every diagonal, the running score and where
 /// its run began, and a cell takes the best of its own diagonal and its two neighbours'.
 ///
+/// With SIMD, first a relaxed pass over the same grid bounds each run's advance (`may_reach`);
+/// where no run could cover [`ArcParams::min_template`] template points, none is kept and the
+/// DP is not run. The rows then go four diagonals at once, a run named by one `f32`,
+/// `begin·m + first template index`. Without SIMD, and for a border so long that the names pass
+/// 2²⁴ (hundreds of thousands of points), each cell is worked out on its own, with the same
+/// result.
+///
 /// ```
 /// use vorl_core::shape::arcs::{best_arcs, ArcMatch, ArcParams};
 /// // The template's turning angles appear on the border from point 5 on, 12 of its 16 points.
@@ -193,6 +204,498 @@ fn offer<const K: usize>(n: usize, run: ArcMatch, out: &mut heapless::Vec<ArcMat
 /// # Errors
 /// [`Error::DegenerateContour`] for an empty sequence, [`Error::BufferTooSmall`] for `rows`.
 pub fn best_arcs<const K: usize>(
+    part: &[f32],
+    template: &[f32],
+    params: &ArcParams,
+    rows: &mut [f32],
+    out: &mut heapless::Vec<ArcMatch, K>,
+) -> Result<()> {
+    let (n, m) = (part.len(), template.len());
+    out.clear();
+    if n == 0 || m == 0 {
+        return Err(Error::DegenerateContour { points: n.min(m) });
+    }
+    let need = ARC_ROWS.saturating_mul(m).saturating_add(ARC_PAD);
+    let too_small = Error::BufferTooSmall {
+        needed: need,
+        got: rows.len(),
+    };
+    let Some(rows) = rows.get_mut(..need) else {
+        return Err(too_small);
+    };
+    // Without SIMD (the Cortex-M4) one cell at a time: its branches skip most of a cell's work
+    // there, which the branch-free rows do in every lane, and the bound does not pay for itself
+    // (the firmware's frame of touching parts: 31.7 M instructions so, 34.0 M with both). A run
+    // is named by `begin·m + first template index`, exact in `f32` below 2²⁴; beyond (borders
+    // of hundreds of thousands of points) each cell is worked out on its own too.
+    let unrolled = n + m.min(n) - 1;
+    if LANES == 1 || unrolled.saturating_add(2).saturating_mul(m) >= 1 << 24 {
+        return best_arcs_by_cell(part, template, params, rows, out);
+    }
+    // No run can cover `min_template` template points: none is kept (a bound first, at a
+    // fraction of the DP's cost).
+    if !may_reach(part, template, params, rows) {
+        return Ok(());
+    }
+    // Per diagonal o (template index j = (i + o) mod m at border point i), padded by one
+    // diagonal each side (index o + 1; the pads repeat the other end, as the diagonals wrap):
+    // the running score, its run's name and the template points it has advanced by. Then the
+    // next row's three values; the best score each diagonal's run has reached, where (border
+    // index) and at what advance; and the template twice over.
+    let w = m + 2;
+    let mut rest = rows;
+    let (
+        Some(score),
+        Some(run),
+        Some(advance),
+        Some(next),
+        Some(next_run),
+        Some(next_adv),
+        Some(peak),
+        Some(peak_i),
+        Some(peak_adv),
+        Some(twice),
+    ) = (
+        take(w, &mut rest),
+        take(w, &mut rest),
+        take(w, &mut rest),
+        take(m, &mut rest),
+        take(m, &mut rest),
+        take(m, &mut rest),
+        take(m, &mut rest),
+        take(m, &mut rest),
+        take(m, &mut rest),
+        take(2 * m, &mut rest),
+    )
+    else {
+        return Err(too_small);
+    };
+    for (k, v) in twice.iter_mut().enumerate() {
+        *v = template.get(k % m).copied().unwrap_or(0.0);
+    }
+    for v in [
+        &mut *score,
+        &mut *run,
+        &mut *advance,
+        &mut *peak,
+        &mut *peak_i,
+        &mut *peak_adv,
+    ] {
+        v.fill(0.0);
+    }
+    let min_len = params.min_template as f32;
+    let (nf, mf) = (n as f32, m as f32);
+    for i in 0..unrolled {
+        // The pads: diagonal −1 is m − 1, diagonal m is 0.
+        for v in [&mut *score, &mut *run, &mut *advance] {
+            let (first, last) = (v.get(1).copied().unwrap_or(0.0), v.get(m).copied().unwrap_or(0.0));
+            if let Some(x) = v.first_mut() {
+                *x = last;
+            }
+            if let Some(x) = v.get_mut(m + 1) {
+                *x = first;
+            }
+        }
+        let r = i % m;
+        let fi = i as f32;
+        let row = Row {
+            p: part.get(i % n).copied().unwrap_or(0.0),
+            fi,
+            oldest: (fi - nf + 1.0) * mf,
+            here: fi * mf + r as f32,
+            dead: (fi + 1.0) * mf,
+            mf,
+            min_len,
+            params: *params,
+        };
+        let Some(trow) = twice.get(r..r + m) else {
+            break;
+        };
+        let cur = [&*score, &*run, &*advance];
+        let mut next = [&mut *next, &mut *next_run, &mut *next_adv];
+        let mut peaks = [&mut *peak, &mut *peak_i, &mut *peak_adv];
+        // The diagonals in groups of LANES (one vector operation each where the target has
+        // them), then one by one.
+        let groups = m / LANES;
+        for g in 0..groups {
+            row.group::<LANES, K>(g * LANES, n, m, cur, trow, &mut next, &mut peaks, out);
+            if LANES > 1 {
+                // An empty barrier: the loop vectoriser leaves the loop alone, so each group
+                // stays one operation (as in `shape::matching`).
+                core::hint::black_box(());
+            }
+        }
+        for o in groups * LANES..m {
+            row.group::<1, K>(o, n, m, cur, trow, &mut next, &mut peaks, out);
+        }
+        for (dst, src) in [
+            (&mut *score, &*next[0]),
+            (&mut *run, &*next[1]),
+            (&mut *advance, &*next[2]),
+        ] {
+            if let Some(d) = dst.get_mut(1..m + 1) {
+                d.copy_from_slice(src);
+            }
+        }
+    }
+    for o in 0..m {
+        if let (Some(&pk), Some(&id), Some(&at), Some(&adv)) =
+            (peak.get(o), run.get(o + 1), peak_i.get(o), peak_adv.get(o))
+        {
+            if pk > 0.0 && adv + 1.0 >= min_len {
+                report_run(n, m, pk, id, at, adv, out);
+            }
+        }
+    }
+    // Best first (insertion sort: K is small).
+    for a in 1..out.len() {
+        let mut b = a;
+        while b > 0 && out.get(b - 1).map(|x| x.score) < out.get(b).map(|x| x.score) {
+            out.swap(b - 1, b);
+            b -= 1;
+        }
+    }
+    Ok(())
+}
+
+/// Whether a run of [`best_arcs`] could cover `params.min_template` template points: the DP
+/// relaxed to the scores alone (a run continues from any neighbour whose score is positive,
+/// whatever its age), each cell bounding its run's advance by the largest among those
+/// neighbours. Its scores are never below the DP's (the same sums, with fewer restarts), so
+/// neither are its advances: when none reaches `min_template − 1`, the DP keeps no run.
+/// `rows` is [`best_arcs`]'s scratch (`6·m + 4` cells of it).
+fn may_reach(part: &[f32], template: &[f32], params: &ArcParams, rows: &mut [f32]) -> bool {
+    let (n, m) = (part.len(), template.len());
+    let goal = params.min_template as f32 - 1.0;
+    if n == 0 || m == 0 || !(goal > 0.0) {
+        return true;
+    }
+    let w = m + 2;
+    let mut rest = rows;
+    let (Some(score), Some(advance), Some(next), Some(next_adv), Some(twice)) = (
+        take(w, &mut rest),
+        take(w, &mut rest),
+        take(m, &mut rest),
+        take(m, &mut rest),
+        take(2 * m, &mut rest),
+    ) else {
+        return true;
+    };
+    for (k, v) in twice.iter_mut().enumerate() {
+        *v = template.get(k % m).copied().unwrap_or(0.0);
+    }
+    score.fill(0.0);
+    advance.fill(0.0);
+    let unrolled = n + m.min(n) - 1;
+    for i in 0..unrolled {
+        for v in [&mut *score, &mut *advance] {
+            let (first, last) = (v.get(1).copied().unwrap_or(0.0), v.get(m).copied().unwrap_or(0.0));
+            if let Some(x) = v.first_mut() {
+                *x = last;
+            }
+            if let Some(x) = v.get_mut(m + 1) {
+                *x = first;
+            }
+        }
+        let p = part.get(i % n).copied().unwrap_or(0.0);
+        let r = i % m;
+        let Some(trow) = twice.get(r..r + m) else {
+            return true;
+        };
+        let mut reach = [0.0f32; LANES];
+        // (Comparisons, not `f32::max`: the DP's own choices, and one vector operation each;
+        // each step over the lanes at once.)
+        let larger = |a: f32, b: f32| if b > a { b } else { a };
+        let groups = m / LANES;
+        for g in 0..groups {
+            let at = g * LANES;
+            let (Some(s_l), Some(s_o), Some(s_r), Some(a_l), Some(a_o), Some(a_r), Some(tr)) = (
+                lanes::<LANES>(score, at),
+                lanes::<LANES>(score, at + 1),
+                lanes::<LANES>(score, at + 2),
+                lanes::<LANES>(advance, at),
+                lanes::<LANES>(advance, at + 1),
+                lanes::<LANES>(advance, at + 2),
+                lanes::<LANES>(trow, at),
+            ) else {
+                return true;
+            };
+            let (ns, na) = relaxed_cells([s_l, s_o, s_r], [a_l, a_o, a_r], tr, p, params);
+            for (re, a) in reach.iter_mut().zip(na) {
+                *re = larger(*re, a);
+            }
+            put(next, at, ns);
+            put(next_adv, at, na);
+            if LANES > 1 {
+                core::hint::black_box(());
+            }
+        }
+        for o in groups * LANES..m {
+            let g = |v: &[f32], i: usize| [v.get(i).copied().unwrap_or(0.0)];
+            let ([v], [a]) = relaxed_cells(
+                [g(score, o), g(score, o + 1), g(score, o + 2)],
+                [g(advance, o), g(advance, o + 1), g(advance, o + 2)],
+                g(trow, o),
+                p,
+                params,
+            );
+            if let (Some(ns), Some(na), Some(re)) = (next.get_mut(o), next_adv.get_mut(o), reach.first_mut()) {
+                (*ns, *na) = (v, a);
+                *re = larger(*re, a);
+            }
+        }
+        if reach.iter().any(|a| *a >= goal) {
+            return true;
+        }
+        for (dst, src) in [(&mut *score, &*next), (&mut *advance, &*next_adv)] {
+            if let Some(d) = dst.get_mut(1..m + 1) {
+                d.copy_from_slice(src);
+            }
+        }
+    }
+    false
+}
+
+/// [`may_reach`]'s cells of `L` diagonals: from the scores and advances of their left
+/// neighbours, themselves and their right neighbours, and the template values `t` against
+/// border turning `p`, the next scores and the bounds on their runs' advances.
+#[inline(always)]
+fn relaxed_cells<const L: usize>(
+    [s_l, s_o, s_r]: [[f32; L]; 3],
+    [a_l, a_o, a_r]: [[f32; L]; 3],
+    t: [f32; L],
+    p: f32,
+    params: &ArcParams,
+) -> ([f32; L], [f32; L]) {
+    let larger = |a: f32, b: f32| if b > a { b } else { a };
+    let lane = |v: &[f32; L], k: usize| v.get(k).copied().unwrap_or(0.0);
+    let ls: [f32; L] = core::array::from_fn(|k| lane(&s_l, k) - params.stretch);
+    let rs: [f32; L] = core::array::from_fn(|k| lane(&s_r, k) - params.stretch);
+    let best: [f32; L] = core::array::from_fn(|k| larger(larger(lane(&s_o, k), lane(&ls, k)), lane(&rs, k)));
+    let d: [f32; L] = core::array::from_fn(|k| (p - lane(&t, k)).abs());
+    let gain: [f32; L] = core::array::from_fn(|k| {
+        let d = lane(&d, k);
+        params.reward - if d < params.cap { d } else { params.cap }
+    });
+    let v: [f32; L] = core::array::from_fn(|k| lane(&gain, k) + larger(0.0, lane(&best, k)));
+    let a: [f32; L] = core::array::from_fn(|k| {
+        let own = if lane(&s_o, k) > 0.0 { lane(&a_o, k) + 1.0 } else { 0.0 };
+        let left = if lane(&ls, k) > 0.0 { lane(&a_l, k) + 2.0 } else { 0.0 };
+        let right = if lane(&rs, k) > 0.0 { lane(&a_r, k) } else { 0.0 };
+        larger(larger(own, left), right)
+    });
+    let live: [bool; L] = core::array::from_fn(|k| lane(&v, k) > 0.0);
+    let alive = |x: &[f32; L], k: usize| {
+        if live.get(k).copied().unwrap_or(false) {
+            lane(x, k)
+        } else {
+            0.0
+        }
+    };
+    (
+        core::array::from_fn(|k| alive(&v, k)),
+        core::array::from_fn(|k| alive(&a, k)),
+    )
+}
+
+/// Diagonals [`best_arcs`] computes at once: four where the target has 128-bit float SIMD,
+/// one otherwise (the Cortex-M4).
+const LANES: usize = if cfg!(any(
+    target_feature = "sse2",
+    target_feature = "neon",
+    target_feature = "simd128"
+)) {
+    4
+} else {
+    1
+};
+
+/// The first `len` cells of `rest`, which keeps the others.
+fn take<'a>(len: usize, rest: &mut &'a mut [f32]) -> Option<&'a mut [f32]> {
+    let (head, tail) = core::mem::take(rest).split_at_mut_checked(len)?;
+    *rest = tail;
+    Some(head)
+}
+
+/// `L` values of `v` from `at`.
+#[inline(always)]
+fn lanes<const L: usize>(v: &[f32], at: usize) -> Option<[f32; L]> {
+    v.get(at..at.checked_add(L)?)?.try_into().ok()
+}
+
+/// Writes `L` values into `v` from `at`.
+#[inline(always)]
+fn put<const L: usize>(v: &mut [f32], at: usize, x: [f32; L]) {
+    if let Some(d) = at.checked_add(L).and_then(|end| v.get_mut(at..end)) {
+        d.copy_from_slice(&x);
+    }
+}
+
+/// One row of [`best_arcs`]: border point `fi` (its index as `f32`) with turning `p`. A run is
+/// named `begin·m + j` (begun at border index `begin`, template index `j`), exact in `f32`.
+#[derive(Clone, Copy)]
+struct Row {
+    p: f32,
+    fi: f32,
+    /// The least name of a run that has not yet covered the border once
+    /// (`(fi − n + 1)·m`: begun after border index `fi − n`).
+    oldest: f32,
+    /// The name of a run begun here on diagonal 0 (on diagonal o: `+ o`, less `m` from `dead`).
+    here: f32,
+    /// A dead cell's name (a run begun at the next border index, template index 0).
+    dead: f32,
+    mf: f32,
+    min_len: f32,
+    params: ArcParams,
+}
+
+impl Row {
+    /// Diagonals `at … at + L` of the next row from the current one (`cur`: score, run name,
+    /// advance, each padded), written into `next`; each diagonal's best in `peaks` (score,
+    /// where, advance) after the runs that end here were offered, in diagonal order. Without a
+    /// branch but for the offers (rare).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn group<const L: usize, const K: usize>(
+        &self,
+        at: usize,
+        n: usize,
+        m: usize,
+        cur: [&[f32]; 3],
+        trow: &[f32],
+        next: &mut [&mut [f32]; 3],
+        peaks: &mut [&mut [f32]; 3],
+        out: &mut heapless::Vec<ArcMatch, K>,
+    ) {
+        let [score, run, advance] = cur;
+        let three = |v: &[f32]| Some((lanes::<L>(v, at)?, lanes::<L>(v, at + 1)?, lanes::<L>(v, at + 2)?));
+        let (Some((s_l, s_o, s_r)), Some((id_l, id_o, id_r)), Some((a_l, a_o, a_r))) =
+            (three(score), three(run), three(advance))
+        else {
+            return;
+        };
+        let (Some(tr), Some(pk), Some(pi), Some(pa)) = (
+            lanes::<L>(trow, at),
+            lanes::<L>(peaks[0], at),
+            lanes::<L>(peaks[1], at),
+            lanes::<L>(peaks[2], at),
+        ) else {
+            return;
+        };
+        let ArcParams {
+            reward, cap, stretch, ..
+        } = self.params;
+        let (fi, mf) = (self.fi, self.mf);
+        let here = self.here + at as f32;
+        let (mut ns, mut nid, mut na) = ([0.0f32; L], [0.0f32; L], [0.0f32; L]);
+        let (mut npk, mut npi, mut npa) = ([0.0f32; L], [0.0f32; L], [0.0f32; L]);
+        let mut offers = 0u32;
+        for k in 0..L {
+            let g = |v: &[f32; L]| v.get(k).copied().unwrap_or(0.0);
+            let own = g(&s_o);
+            // Along the diagonal, or from a neighbour: o − 1 skips a template point, o + 1
+            // repeats one.
+            let (ls, rs) = (g(&s_l) - stretch, g(&s_r) - stretch);
+            let take_l = ls > own;
+            let best_l = if take_l { ls } else { own };
+            let take_r = rs > best_l;
+            let best = if take_r { rs } else { best_l };
+            let run_id = if take_r {
+                g(&id_r)
+            } else if take_l {
+                g(&id_l)
+            } else {
+                g(&id_o)
+            };
+            let run_a = if take_r {
+                g(&a_r)
+            } else if take_l {
+                g(&a_l) + 2.0
+            } else {
+                g(&a_o) + 1.0
+            };
+            let gain = reward - (self.p - g(&tr)).abs().min(cap);
+            // Within one turn of the border and of the template, else a new run (at template
+            // point (r + o) mod m).
+            let cont = (best > 0.0) & (run_id >= self.oldest) & (run_a < mf);
+            let j = here + k as f32;
+            let j = if j >= self.dead { j - mf } else { j };
+            let v = if cont { best + gain } else { gain };
+            let vid = if cont { run_id } else { j };
+            let va = if cont { run_a } else { 0.0 };
+            let dead = v <= 0.0;
+            // The run that held this diagonal ends: its best is a candidate.
+            let ended = dead | ((own > 0.0) & (vid != g(&id_o)));
+            let (pkk, pak) = (g(&pk), g(&pa));
+            offers |= u32::from(ended & (pkk > 0.0) & (pak + 1.0 >= self.min_len)) << k;
+            let base = if ended { 0.0 } else { pkk };
+            let raise = !dead & (v > base);
+            if let (Some(ns), Some(nid), Some(na), Some(npk), Some(npi), Some(npa)) = (
+                ns.get_mut(k),
+                nid.get_mut(k),
+                na.get_mut(k),
+                npk.get_mut(k),
+                npi.get_mut(k),
+                npa.get_mut(k),
+            ) {
+                *ns = if dead { 0.0 } else { v };
+                *nid = if dead { self.dead } else { vid };
+                *na = if dead { 0.0 } else { va };
+                *npk = if raise { v } else { base };
+                *npi = if raise { fi } else { g(&pi) };
+                *npa = if raise { va } else { pak };
+            }
+        }
+        if offers != 0 {
+            for k in 0..L {
+                if offers & (1 << k) != 0 {
+                    let g = |v: &[f32; L]| v.get(k).copied().unwrap_or(0.0);
+                    report_run(n, m, g(&pk), g(&id_o), g(&pi), g(&pa), out);
+                }
+            }
+        }
+        let [next_s, next_id, next_a] = next;
+        put(next_s, at, ns);
+        put(next_id, at, nid);
+        put(next_a, at, na);
+        let [peak, peak_i, peak_adv] = peaks;
+        put(peak, at, npk);
+        put(peak_i, at, npi);
+        put(peak_adv, at, npa);
+    }
+}
+
+/// Offers the run named `id` (`begin·m + first template index`) that held a diagonal
+/// ([`offer`]): its best `peak`, reached at border index `end` after advancing `adv`
+/// template points.
+#[cold]
+fn report_run<const K: usize>(
+    n: usize,
+    m: usize,
+    peak: f32,
+    id: f32,
+    end: f32,
+    adv: f32,
+    out: &mut heapless::Vec<ArcMatch, K>,
+) {
+    let (id, m) = (id as usize, m.max(1));
+    let first = id / m;
+    offer(
+        n,
+        ArcMatch {
+            part_start: first % n,
+            part_len: (end as usize + 1).saturating_sub(first),
+            template_start: id % m,
+            template_len: adv as usize + 1,
+            score: peak,
+        },
+        out,
+    );
+}
+
+/// [`best_arcs`] one cell at a time, its run's begin and first template index kept apart (the
+/// DP as first written; for borders too long to name a run in `f32`).
+fn best_arcs_by_cell<const K: usize>(
     part: &[f32],
     template: &[f32],
     params: &ArcParams,
@@ -407,6 +910,90 @@ mod tests {
                 "case {case}: n {n} m {m}: {out:?}"
             );
         }
+    }
+
+    /// The DP gives exactly the runs of the reference (the same scores bit for bit, the same
+    /// order): random turning angles, borders shorter and longer than the template, templates of
+    /// 1 to 60 points, stretches of the template copied in, every list length.
+    #[test]
+    fn best_arcs_gives_the_reference_runs() {
+        let mut rng = crate::test_rng::XorShiftStar(0xa4c5_0001);
+        let mut rows = std::vec![0.0f32; ARC_ROWS * 64 + ARC_PAD];
+        let mut rows_ref = rows.clone();
+        for case in 0..600 {
+            let m = 1 + rng.below(60) as usize;
+            let n = 1 + rng.below(150) as usize;
+            let template: std::vec::Vec<f32> = (0..m).map(|_| rng.below(4000) as f32 * 0.001 - 2.0).collect();
+            let mut part: std::vec::Vec<f32> = (0..n).map(|_| rng.below(4000) as f32 * 0.001 - 2.0).collect();
+            if rng.below(2) == 0 {
+                let len = 1 + rng.below(m.min(n) as u64) as usize;
+                let (ps, ts) = (rng.below(n as u64) as usize, rng.below(m as u64) as usize);
+                for k in 0..len {
+                    part[(ps + k) % n] = template[(ts + k) % m] + rng.below(100) as f32 * 0.001;
+                }
+            }
+            let params = ArcParams {
+                min_template: rng.below(m as u64 + 2) as usize,
+                ..ArcParams::DEFAULT
+            };
+            let mut out = heapless::Vec::<ArcMatch, 4>::new();
+            let mut out_ref = heapless::Vec::<ArcMatch, 4>::new();
+            best_arcs(&part, &template, &params, &mut rows, &mut out).unwrap();
+            best_arcs_by_cell(&part, &template, &params, &mut rows_ref, &mut out_ref).unwrap();
+            assert_eq!(out.len(), out_ref.len(), "case {case}: n {n} m {m}");
+            for (a, b) in out.iter().zip(&out_ref) {
+                assert_eq!(
+                    (
+                        a.part_start,
+                        a.part_len,
+                        a.template_start,
+                        a.template_len,
+                        a.score.to_bits()
+                    ),
+                    (
+                        b.part_start,
+                        b.part_len,
+                        b.template_start,
+                        b.template_len,
+                        b.score.to_bits()
+                    ),
+                    "case {case}: n {n} m {m}"
+                );
+            }
+            let mut one = heapless::Vec::<ArcMatch, 1>::new();
+            let mut one_ref = heapless::Vec::<ArcMatch, 1>::new();
+            best_arcs(&part, &template, &params, &mut rows, &mut one).unwrap();
+            best_arcs_by_cell(&part, &template, &params, &mut rows_ref, &mut one_ref).unwrap();
+            assert_eq!(one, one_ref, "case {case}");
+        }
+    }
+
+    /// A border so long that its runs' names pass 2²⁴ (each cell worked out on its own): the
+    /// best run is still the copied stretch.
+    #[test]
+    fn a_border_too_long_for_run_names_still_gives_the_copied_stretch() {
+        let m = 4096;
+        let n = 2100;
+        let mut rng = crate::test_rng::XorShiftStar(0x10_0000);
+        let template: std::vec::Vec<f32> = (0..m).map(|_| rng.below(2000) as f32 * 0.001 - 1.0).collect();
+        let mut part = std::vec![3.0f32; n];
+        for k in 0..600 {
+            part[(2000 + k) % n] = template[(100 + k) % m];
+        }
+        assert!((n + m.min(n) + 1) * m >= 1 << 24);
+        let mut rows = std::vec![0.0f32; ARC_ROWS * m + ARC_PAD];
+        let mut out = heapless::Vec::<ArcMatch, 2>::new();
+        let params = ArcParams {
+            min_template: 16,
+            ..ArcParams::DEFAULT
+        };
+        best_arcs(&part, &template, &params, &mut rows, &mut out).unwrap();
+        let best = out[0];
+        assert_eq!(
+            (best.part_start, best.part_len, best.template_start, best.template_len),
+            (2000, 600, 100, 600),
+            "{out:?}"
+        );
     }
 
     /// Bad input: empty sequences and short scratch are errors, not panics.

@@ -217,7 +217,7 @@ mod tests {
         ("platform-every", "3", |c| c.platform_every == 3),
         ("nested-parts", "true", |c| c.nested_parts),
         ("flipped-parts", "false", |c| !c.flipped_parts),
-        ("touching-parts", "true", |c| c.touching_parts),
+        ("touching-parts", "false", |c| !c.touching_parts),
     ];
 
     /// Every flag of [`ParamArgs`] has a row in [`FLAGS`], and each flag, given a value other

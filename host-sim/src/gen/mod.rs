@@ -107,7 +107,8 @@ use render::{
 use rng::{purpose, Rng};
 use scene::{plan, Body, CloseFit, Placed, SceneConfig, StereoRig};
 
-/// The `touching` variant's `vorl.toml`: the partial search on (off by default).
+/// The `touching` variant's `vorl.toml`: the partial search on (the default since 2026-12-06;
+/// kept, so the set says what it needs).
 pub const TOUCHING_CONFIG: &str = "# Parameters for this set (keys of `vorl config --defaults`).\n\
 # Parts touch and lie over one another: search the blobs for the parts along them.\n\
 touching_parts = true\n";
