@@ -143,6 +143,10 @@ pub struct Scores {
     /// `"partial": true`, `visible_fraction` ≥ 0.5).
     #[serde(skip_serializing_if = "Group::is_empty")]
     pub cut_half: Group,
+    /// Predictions from blobs the truth leaves unscored ([`is_unscored_blob`]): counted in
+    /// neither recall nor precision.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub unscored: usize,
     /// Confusions: (truth class, predicted class or "unknown", count).
     pub confusions: Vec<(String, String, usize)>,
 }
@@ -276,14 +280,26 @@ pub fn score(truth: &FramesJson, pred: &FramesJson) -> Scores {
             all
         };
         s.frames += 1;
+        // Blobs the truth leaves unscored are taken out before pairing ([`is_unscored_blob`]).
+        let (blobs, scored): (Vec<&PartJson>, Vec<&PartJson>) = truth_parts.iter().partition(|t| is_unscored_blob(t));
+        let scored: Vec<PartJson> = scored.into_iter().cloned().collect();
+        let truth_parts = &scored;
         let pairs = pair(truth_parts, preds);
+        let paired = |pi: usize| pairs.iter().any(|&(_, q)| q == pi);
         // A prediction touching the frame's edge that pairs with nothing is a cut part whose
         // visible piece lies far from the full part's truth centroid: not counted against
-        // precision.
+        // precision. Nor is one that pairs with nothing and comes from a blob the truth leaves
+        // unscored.
+        let in_blob = |p: &PartJson| blobs.iter().any(|b| from_blob(p, b));
+        s.unscored += preds
+            .iter()
+            .enumerate()
+            .filter(|&(pi, p)| !paired(pi) && in_blob(p))
+            .count();
         s.predictions += preds
             .iter()
             .enumerate()
-            .filter(|(pi, p)| p.partial != Some(true) || pairs.iter().any(|&(_, q)| q == *pi))
+            .filter(|&(pi, p)| paired(pi) || (p.partial != Some(true) && !in_blob(p)))
             .count();
         s.truth_parts += truth_parts.iter().filter(|t| t.partial != Some(true)).count();
         s.flipped += truth_parts
@@ -382,6 +398,32 @@ pub fn score(truth: &FramesJson, pred: &FramesJson) -> Scores {
 }
 
 /// Greedy pairing by distance: (truth index, prediction index).
+/// Whether a truth entry marks a blob of several parts whose parts the truth does not list (a
+/// real set's `"partial": true` without a class or a `visible_fraction`: "several parts touching
+/// or overlapping in one blob: don't care for the scorer", `../shared/datasets/real/README.md`).
+/// Such a blob counts against neither recall nor precision, whatever is found in it. A cut part
+/// of a generated set has its `visible_fraction` and is scored.
+pub fn is_unscored_blob(t: &PartJson) -> bool {
+    t.partial == Some(true) && t.class.is_none() && !t.extra.contains_key("visible_fraction")
+}
+
+/// Whether prediction `p` comes from the blob truth entry `blob` marks: it lies within
+/// [`MATCH_RADIUS_PX`] of the blob's centroid, or its blob's border does (`polygon_centroid`,
+/// the same for every part found along one blob).
+fn from_blob(p: &PartJson, blob: &PartJson) -> bool {
+    let near = |x: f64, y: f64| (x - blob.x).hypot(y - blob.y) <= MATCH_RADIUS_PX;
+    let polygon = p
+        .extra
+        .get("polygon_centroid")
+        .and_then(|v| v.as_array())
+        .and_then(|a| {
+            let x = a.first()?.as_f64()?;
+            let y = a.get(1)?.as_f64()?;
+            Some((x, y))
+        });
+    near(p.x, p.y) || polygon.is_some_and(|(x, y)| near(x, y))
+}
+
 fn pair(truth: &[PartJson], pred: &[PartJson]) -> Vec<(usize, usize)> {
     let mut cands: Vec<(f64, usize, usize)> = Vec::new();
     for (ti, t) in truth.iter().enumerate() {
@@ -460,6 +502,50 @@ mod tests {
         assert!((angle_error(359.0, 1.0, 1) - 2.0).abs() < 1e-12);
         assert!((angle_error(95.0, 5.0, 4) - 0.0).abs() < 1e-12);
         assert!((angle_error(50.0, 5.0, 4) - 45.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_blob_the_truth_does_not_score_counts_against_nothing() {
+        let frames = |parts: Vec<PartJson>| FramesJson {
+            frames: [("a.png".to_string(), parts)].into_iter().collect(),
+        };
+        // A real set's blob of two overlapping parts (partial, no class, no visible share) and
+        // one isolated part.
+        let mut blob = part(None, 400.0, 180.0, 0.0, Some(0));
+        blob.partial = Some(true);
+        let truth = frames(vec![blob.clone(), part(Some("gear"), 100.0, 100.0, 0.0, Some(12))]);
+        // Two parts found along the blob, 50 px from its centroid but with its border's
+        // centroid; the gear; and a phantom far from both.
+        let along = |x: f64| {
+            let mut p = part(Some("clip"), x, 170.0, 0.0, None);
+            p.touching = Some(true);
+            p.extra
+                .insert("polygon_centroid".into(), serde_json::json!([401.0, 181.0]));
+            p
+        };
+        let pred = frames(vec![
+            along(350.0),
+            along(450.0),
+            part(Some("gear"), 100.5, 100.0, 0.0, None),
+            part(Some("clip"), 250.0, 300.0, 0.0, None),
+        ]);
+        let s = score(&truth, &pred);
+        assert_eq!((s.truth_parts, s.detected), (1, 1), "the blob is not a part to find");
+        assert_eq!((s.predictions, s.true_predictions, s.unscored), (2, 1, 2));
+        assert!(s.cut_half.is_empty(), "the blob is not a cut part");
+        // The whole blob reported as one unknown part at its centroid is unscored too.
+        let whole = frames(vec![
+            part(None, 400.5, 180.0, 0.0, None),
+            part(Some("gear"), 100.5, 100.0, 0.0, None),
+        ]);
+        let s = score(&truth, &whole);
+        assert_eq!((s.predictions, s.true_predictions, s.unscored), (1, 1, 1));
+        // A generated set's cut part (with its visible share) stays scored.
+        let mut cut = blob;
+        cut.class = Some("clip".into());
+        cut.extra.insert("visible_fraction".into(), serde_json::json!(0.7));
+        let s = score(&frames(vec![cut]), &whole);
+        assert_eq!((s.cut_half.parts, s.unscored), (1, 0));
     }
 
     #[test]

@@ -175,6 +175,12 @@ pub fn print_table(r: &EvalReport) {
         s.true_predictions,
         s.predictions
     );
+    if s.unscored > 0 {
+        println!(
+            "  unscored                {:>8}   (predictions in blobs the truth marks \"don't care\")",
+            s.unscored
+        );
+    }
     println!(
         "  classification          {:>8}   ({}/{} known parts)",
         pct(r.classification),
