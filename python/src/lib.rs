@@ -23,7 +23,9 @@ use std::path::PathBuf;
 use std::sync::{Mutex, MutexGuard};
 
 use image::GrayImage;
-use numpy::{PyArray2, PyArrayDescrMethods, PyArrayDyn, PyArrayMethods, PyUntypedArray, PyUntypedArrayMethods};
+use numpy::{
+    PyArray1, PyArray2, PyArrayDescrMethods, PyArrayDyn, PyArrayMethods, PyUntypedArray, PyUntypedArrayMethods,
+};
 use pyo3::exceptions::{PyTypeError, PyUserWarning, PyValueError};
 use pyo3::intern;
 use pyo3::prelude::*;
@@ -710,13 +712,37 @@ fn imread<'py>(py: Python<'py>, path: &Bound<'py, PyAny>) -> PyResult<Bound<'py,
 }
 
 /// Seconds the engine alone takes on `frame` inside Rust (`Engine::detect` on an owned image,
-/// as `vorl detect` calls it): the reference of `python/bench.py`. Not part of the API.
+/// as `vorl detect` calls it on a frame just decoded): the reference of `python/bench.py`, not
+/// part of the API. With `evict` (a large uint8 array), each of its bytes is incremented
+/// between the copy and the call, as the benchmark does before a cold Python call, so that the
+/// frame is no longer in the caches.
 #[pyfunction]
-fn _engine_seconds(py: Python<'_>, rec: &Recognizer, frame: &Bound<'_, PyAny>) -> PyResult<f64> {
+#[pyo3(signature = (rec, frame, evict=None))]
+fn _engine_seconds(
+    py: Python<'_>,
+    rec: &Recognizer,
+    frame: &Bound<'_, PyAny>,
+    evict: Option<&Bound<'_, PyArray1<u8>>>,
+) -> PyResult<f64> {
     let image = gray_array(frame, "frame", false)?.to_image("frame")?;
+    let mut scratch = evict
+        .map(|e| e.try_readwrite())
+        .transpose()
+        .map_err(|e| err(format!("evict: {e}")))?;
+    let mut scratch = scratch
+        .as_mut()
+        .map(|s| s.as_slice_mut())
+        .transpose()
+        .map_err(|e| err(format!("evict: {e}")))?;
     py.detach(|| {
         guarded(|| {
             let mut inner = rec.lock();
+            if let Some(s) = scratch.as_mut() {
+                for b in s.iter_mut() {
+                    *b = b.wrapping_add(1);
+                }
+                std::hint::black_box(s);
+            }
             let t0 = std::time::Instant::now();
             let result = inner.engine.detect(&image)?;
             let seconds = t0.elapsed().as_secs_f64();
