@@ -4,6 +4,7 @@
 #     components, via rustup;
 #   - qemu-system-arm (to run the firmware example), via apt-get, when it is missing;
 #   - chromium and chromium-driver (the browser test of `vorl serve`), via apt-get, when missing;
+#   - libclang (the camera feature's V4L2 bindings are generated at build), via apt-get, when missing;
 #   - the nightly toolchain (minimal profile) and cargo-fuzz, for the fuzz targets
 #     (scripts/fuzz.sh), unless VORL_SKIP_FUZZ=1.
 # Safe to run again: each step checks first. Needs the Rust toolchain (rustup) already.
@@ -86,5 +87,29 @@ else
     $BSUDO apt-get update -qq
     $BSUDO apt-get install -y -qq --no-install-recommends chromium chromium-driver >/dev/null
     say "chromium: $(chromium --version 2>/dev/null | head -n 1)"
+fi
+# libclang: the V4L2 bindings of `vorl serve`'s camera feature (the v4l crate) are generated
+# when it is built (bindgen); scripts/test.sh lints that feature.
+have_libclang() {
+    local f
+    for f in /usr/lib/llvm-*/lib/libclang.so* /usr/lib/*/libclang.so* /usr/lib/*/libclang-[0-9]*.so*; do
+        [ -e "$f" ] && return 0
+    done
+    return 1
+}
+if have_libclang; then
+    say "libclang: present"
+else
+    CSUDO=""
+    if [ "$(id -u)" != "0" ]; then
+        if command -v sudo >/dev/null 2>&1; then CSUDO="sudo"; else
+            echo "[setup] error: libclang is missing and this user cannot apt-get install it (no root, no sudo)" >&2
+            exit 1
+        fi
+    fi
+    say "installing libclang-dev (apt-get)"
+    export DEBIAN_FRONTEND=noninteractive
+    $CSUDO apt-get update -qq
+    $CSUDO apt-get install -y -qq --no-install-recommends libclang-dev >/dev/null
 fi
 say "done"

@@ -20,6 +20,9 @@ cargo clippy --workspace --all-targets -- -D warnings
 step "API docs (cargo doc, warnings are errors: broken or private links)"
 RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --quiet
 
+step "vorl serve's camera source (cargo clippy --features camera: V4L2 through the v4l crate)"
+cargo clippy -p vorl-host-sim --features camera -- -D warnings
+
 step "vorl-core for the MCU (thumbv7em-none-eabihf, no std, no alloc)"
 cargo build -p vorl-core --target thumbv7em-none-eabihf --release
 

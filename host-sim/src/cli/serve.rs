@@ -23,9 +23,11 @@ pub struct ServeArgs {
     /// The fixture set: templates, background, vorl.toml (and frames/, in replay).
     #[arg(value_name = "SET")]
     pub set: PathBuf,
-    /// Where frames come from: replay (SET/frames in name order, looping) or gen (scenes drawn
-    /// live by the generator; SET gets the generator's templates when it has none).
-    #[arg(long, default_value = "replay", value_name = "replay|gen")]
+    /// Where frames come from: replay (SET/frames in name order, looping), gen (scenes drawn
+    /// live by the generator; SET gets the generator's templates when it has none), or camera
+    /// (a V4L2/UVC camera, /dev/video0; camera:DEVICE names another; built with --features
+    /// camera).
+    #[arg(long, default_value = "replay", value_name = "replay|gen|camera[:DEVICE]")]
     pub source: String,
     /// The generator's seed (--source gen).
     #[arg(long, default_value_t = 1)]
@@ -71,9 +73,13 @@ pub fn run(args: ServeArgs) -> Result<ExitCode, String> {
     let source = match args.source.as_str() {
         "replay" => SourceSpec::Replay,
         "gen" => SourceSpec::Gen { seed: args.seed },
-        other => {
-            return Err(format!("--source {other}: expected replay or gen"));
-        }
+        "camera" => SourceSpec::Camera {
+            device: "/dev/video0".into(),
+        },
+        other => match other.strip_prefix("camera:") {
+            Some(device) if !device.is_empty() => SourceSpec::Camera { device: device.into() },
+            _ => return Err(format!("--source {other}: expected replay, gen or camera[:DEVICE]")),
+        },
     };
     let stop_after = args
         .stop_after

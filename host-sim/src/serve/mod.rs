@@ -50,6 +50,11 @@ pub enum SourceSpec {
         /// The generator's seed.
         seed: u64,
     },
+    /// A V4L2/UVC camera (`/dev/video0`, …; needs the `camera` feature).
+    Camera {
+        /// The device.
+        device: String,
+    },
 }
 
 /// Everything `vorl serve` is asked to do.

@@ -82,6 +82,7 @@ impl Worker {
         let source: Box<dyn FrameSource> = match opts.source {
             SourceSpec::Replay => Box::new(Replay::new(set.frames.clone(), &opts.set)?),
             SourceSpec::Gen { seed } => Box::new(Generated::new(seed)?),
+            SourceSpec::Camera { ref device } => camera(device)?,
         };
         let recorder = opts
             .record
@@ -438,6 +439,18 @@ impl Worker {
         self.rerun();
         Ok(serde_json::json!({"calibration": out.display().to_string(), "points": points.len()}))
     }
+}
+
+#[cfg(feature = "camera")]
+fn camera(device: &str) -> Result<Box<dyn FrameSource>, String> {
+    Ok(Box::new(super::source::Camera::open(device)?))
+}
+
+#[cfg(not(feature = "camera"))]
+fn camera(device: &str) -> Result<Box<dyn FrameSource>, String> {
+    Err(format!(
+        "--source camera:{device}: this vorl was built without cameras (cargo build --release --features camera)"
+    ))
 }
 
 /// A frame of another size than the empty shot's is refused, naming it (as `vorl detect`).
