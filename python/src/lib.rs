@@ -233,11 +233,39 @@ fn to_py<'py>(py: Python<'py>, v: &serde_json::Value) -> PyResult<Bound<'py, PyA
         serde_json::Value::Object(map) => {
             let dict = PyDict::new(py);
             for (k, item) in map {
-                dict.set_item(k, to_py(py, item)?)?;
+                dict.set_item(key(py, k), to_py(py, item)?)?;
             }
             dict.into_any()
         }
     })
+}
+
+/// A dict key: the keys [`vorl_host_sim::run::to_json`] writes beside the fixed fields as
+/// strings made once per process (interned, their hash kept), any other made anew.
+fn key<'py>(py: Python<'py>, k: &str) -> Bound<'py, PyString> {
+    macro_rules! known {
+        ($($name:literal),*) => {
+            match k {
+                $($name => intern!(py, $name).clone(),)*
+                _ => PyString::new(py, k),
+            }
+        };
+    }
+    known!(
+        "angle_paper_deg",
+        "angle_dp_deg",
+        "polygon_centroid",
+        "verify_px",
+        "scale",
+        "verify_limit",
+        "holes",
+        "expected",
+        "found",
+        "best_class",
+        "searches",
+        "visible_fraction",
+        "position"
+    )
 }
 
 /// One part of `vorl detect --json` as a dict of the same keys and values (what
@@ -278,7 +306,7 @@ fn part_dict(py: Python<'_>, part: PartJson) -> PyResult<Bound<'_, PyDict>> {
         d.set_item(intern!(py, "touching"), v)?;
     }
     for (k, v) in &extra {
-        d.set_item(k, to_py(py, v)?)?;
+        d.set_item(key(py, k), to_py(py, v)?)?;
     }
     Ok(d)
 }
