@@ -18,8 +18,8 @@
 //!   part's outline to another's at a junction, and turns concave there by the angle at which
 //!   the outlines cross: about a half turn where parts merely touch, less the more one lies
 //!   over the other. A blob inside the frame whose border turns concave nowhere by
-//!   [`JUNCTION_TURN`] or more (over chords of [`JUNCTION_CHORD`] points [`JUNCTION_STEP`] apart,
-//!   [`deepest_concavity`]) is one part: its whole-border result stands, unsearched. The turn
+//!   [`JUNCTION_TURN`] or more (over chords of [`JUNCTION_CHAIN_CHORD`] points of its pixel
+//!   chain, [`turns_concave_by`]) is one part: its whole-border result stands, unsearched. The turn
 //!   is `π·(2v − 1)` for the least visible share `v` the search takes inside the frame
 //!   ([`MIN_VISIBLE_PINNED`]): where two equal discs cross when the lower one still shows `v` of
 //!   its outline. It is a model, not a bound: parts of about one size lying mostly over one
@@ -140,11 +140,13 @@ pub const REST_SHARE: f32 = 0.15;
 /// centre, and the border turns by `π − 2a` there), and at a deeper one the less they overlap,
 /// up to a half turn for discs that merely touch.
 pub const JUNCTION_TURN: f32 = core::f32::consts::PI * (2.0 * MIN_VISIBLE_PINNED - 1.0);
-/// Spacing (px) of the border points the junction test turns at.
-pub const JUNCTION_STEP: f32 = 2.0;
-/// Points each way of the chords the junction test turns between ([`deepest_concavity`]):
-/// chords of 6 px, longer than the mask rounds a corner, shorter than the parts' sides.
-pub const JUNCTION_CHORD: usize = 3;
+/// The junction test turns at every `JUNCTION_CHAIN_STEP`-th point of a blob's pixel chain
+/// (1 to 1.4 px apart): every 2 to 3 px.
+pub const JUNCTION_CHAIN_STEP: usize = 2;
+/// Points of the pixel chain each way of the chords the junction test turns between
+/// ([`turns_concave_by`]): chords of 5 to 7 px, longer than the mask rounds a corner and than
+/// the stairs of a digital straight edge, shorter than the parts' sides.
+pub const JUNCTION_CHAIN_CHORD: usize = 5;
 
 /// One pose to align: a template and where a run of its outline puts it.
 #[derive(Debug, Clone, Copy)]
@@ -319,6 +321,43 @@ pub fn deepest_concavity(points: &[[f32; 2]], k: usize) -> f32 {
     deepest
 }
 
+/// Whether the closed polyline `points` turns concave somewhere by `turn` (radians, in
+/// `(0, π)`) or more, over the chords of [`deepest_concavity`]: `deepest_concavity(points, k) >=
+/// turn` without an arc tangent per point, and done at the first such turn (the camera's cost of
+/// the junction test).
+pub fn turns_concave_by(points: &[[f32; 2]], k: usize, turn: f32) -> bool {
+    let n = points.len();
+    let at = |i: usize| points.get(i).copied().unwrap_or_default();
+    let mut area2 = 0.0f32;
+    for i in 0..n {
+        let (p, q) = (at(i), at(if i + 1 == n { 0 } else { i + 1 }));
+        area2 += p[0] * q[1] - q[0] * p[1];
+    }
+    turns_concave_at(n, k, 1, area2 > 0.0, turn, at)
+}
+
+/// [`turns_concave_by`] over the `n` points `at(0..n)` of a closed polyline that runs
+/// counter-clockwise (in image coordinates) or not, turning at every `every`-th point.
+fn turns_concave_at(n: usize, k: usize, every: usize, ccw: bool, turn: f32, at: impl Fn(usize) -> [f32; 2]) -> bool {
+    if n < 3 {
+        return false;
+    }
+    let k = k.clamp(1, (n - 1) / 2);
+    // A concave turn has the sign opposite to the polygon's orientation.
+    let against = if ccw { -1.0 } else { 1.0 };
+    // atan2(cross, dot) ≥ turn for cross > 0 is sin(angle − turn) ≥ 0.
+    let (sin_t, cos_t) = math::sin_cos(turn);
+    (0..n).step_by(every.max(1)).any(|i| {
+        let before = if i >= k { i - k } else { i + n - k };
+        let after = if i + k < n { i + k } else { i + k - n };
+        let (a, b, c) = (at(before), at(i), at(after));
+        let (u, v) = ([b[0] - a[0], b[1] - a[1]], [c[0] - b[0], c[1] - b[1]]);
+        let cross = (u[0] * v[1] - u[1] * v[0]) * against;
+        let dot = u[0] * v[0] + u[1] * v[1];
+        cross > 0.0 && cross * cos_t - dot * sin_t >= 0.0
+    })
+}
+
 /// The similarity mapping template offsets `t(j)` onto border points `q(i)` for the run, in
 /// least squares (template index advancing linearly along the border's run).
 fn pose_from_run<const M: usize>(run: &ArcMatch, border: &[[f32; 2]], t: &Template<M>) -> Option<Pose> {
@@ -381,17 +420,20 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         self.junction_gate = on;
     }
 
-    /// Whether blob `index`'s border (`chain` px long) turns concave by [`JUNCTION_TURN`] or
-    /// more ([`deepest_concavity`] over its points [`JUNCTION_STEP`] apart, chords of
-    /// [`JUNCTION_CHORD`] points): where two parts' outlines could meet. True when it cannot be
-    /// measured.
-    fn has_junction(&mut self, index: usize, chain: f32) -> bool {
-        let count = BLOB_POINTS.min(math::round(chain / JUNCTION_STEP).max(8.0) as usize);
-        let pts = self.arc_points.get_mut(..count).unwrap_or(&mut []);
-        if resample(self.store.points(index), pts).is_err() {
+    /// Whether blob `index`'s border turns concave by [`JUNCTION_TURN`] or more
+    /// ([`turns_concave_by`] on its pixel chain, at every [`JUNCTION_CHAIN_STEP`]-th point over
+    /// chords of [`JUNCTION_CHAIN_CHORD`] points): where two parts' outlines could meet.
+    fn has_junction(&self, index: usize) -> bool {
+        let border = self.store.points(index);
+        let Some(contour) = self.store.contours().get(index) else {
             return true;
-        }
-        deepest_concavity(pts, JUNCTION_CHORD) >= JUNCTION_TURN
+        };
+        // Points of a border too long for the store lie `stride` pixels of the chain apart.
+        let stride = (contour.stride as usize).max(1);
+        let chord = (JUNCTION_CHAIN_CHORD / stride).max(1);
+        let every = (JUNCTION_CHAIN_STEP / stride).max(1);
+        let at = |i: usize| border.get(i).map_or([0.0; 2], |p| [f32::from(p.x), f32::from(p.y)]);
+        turns_concave_at(border.len(), chord, every, contour.area2 > 0, JUNCTION_TURN, at)
     }
 
     /// The partial search on blob `index` (whole-border result `whole`), its parts pushed to
@@ -407,9 +449,16 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         whole: &Detection,
         report: &mut Report,
     ) -> bool {
+        // A blob inside the frame without a junction is one part: its whole-border result
+        // stands (tested before anything else is set up: most blobs end here).
+        if self.junction_gate && !whole.touches_edge && !self.has_junction(index) {
+            return false;
+        }
+        let border = self.store.points(index);
+        let chain = perimeter(border.iter().map(|p| [p.x as f32, p.y as f32]));
         let diff = Difference::new(frame, background, self.params.alpha());
         let holes = Holes::from_borders(self.store.holes_of(index).map(|i| self.store.points(i)), 0.0);
-        match self.split_blob(index, &diff, &holes, whole) {
+        match self.split_blob(index, chain, &diff, &holes, whole) {
             Ok(parts) if !parts.is_empty() => {
                 for d in parts {
                     if report.detections.push(d).is_err() {
@@ -433,18 +482,12 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
     fn split_blob<B: AsRef<[u8]>>(
         &mut self,
         index: usize,
+        chain: f32,
         diff: &Difference<'_, B>,
         part_holes: &Holes,
         whole: &Detection,
     ) -> Result<heapless::Vec<Detection, MAX_BLOB_PARTS>, ()> {
         let mut found = heapless::Vec::new();
-        let border = self.store.points(index);
-        let chain = perimeter(border.iter().map(|p| [p.x as f32, p.y as f32]));
-        // A blob inside the frame without a junction is one part: its whole-border result
-        // stands.
-        if self.junction_gate && !whole.touches_edge && !self.has_junction(index, chain) {
-            return Ok(found);
-        }
         let mut searched = 0usize;
         let least = self.least_part_area();
         let mut taken: heapless::Vec<PartFit, MAX_BLOB_PARTS> = heapless::Vec::new();
@@ -1087,6 +1130,44 @@ mod tests {
         assert!(shallow > 0.0 && shallow < 0.6 && shallow < JUNCTION_TURN, "{shallow}");
     }
 
+    /// The camera's junction test says what the deepest concave turn says, on random
+    /// star-like polygons (radii 10–30 at random steps, either way round) for turns from 0.1
+    /// to 3 radians, away from the boundary by float noise.
+    #[test]
+    fn turns_concave_by_is_the_deepest_turn_reached() {
+        let mut rng = crate::test_rng::XorShiftStar(0x7e57);
+        let (mut yes, mut no) = (0usize, 0usize);
+        for case in 0..200 {
+            let n = 12 + rng.below(60) as usize;
+            let mut pts: Vec<[f32; 2]> = (0..n)
+                .map(|i| {
+                    let r = 10.0 + rng.below(2000) as f32 / 100.0;
+                    let (s, c) = libm::sincosf(i as f32 * core::f32::consts::TAU / n as f32);
+                    [r * c, r * s]
+                })
+                .collect();
+            if case % 2 == 1 {
+                pts.reverse();
+            }
+            let deepest = deepest_concavity(&pts, 3);
+            for t in 1..30 {
+                let turn = t as f32 / 10.0;
+                if (deepest - turn).abs() < 1e-4 {
+                    continue;
+                }
+                let reached = turns_concave_by(&pts, 3, turn);
+                assert_eq!(reached, deepest >= turn, "case {case}, turn {turn}, deepest {deepest}");
+                if reached {
+                    yes += 1;
+                } else {
+                    no += 1;
+                }
+            }
+        }
+        assert!(yes > 500 && no > 500, "{yes} reached, {no} not");
+        assert!(!turns_concave_by(&[[0.0, 0.0], [1.0, 0.0]], 3, 0.5));
+    }
+
     /// Blobs of one part the whole-border match leaves unnamed (an ellipse, a bean: no
     /// template) have no junction; an L and a T that touch or lie over one another do, and so
     /// does an L alone (its own inner corner: the rule leaves parts of concave outline to the
@@ -1109,9 +1190,7 @@ mod tests {
                 .filter(|&i| rec.store.contours().get(i).is_some_and(|c| c.kind == BorderKind::Outer))
                 .collect();
             assert_eq!(outer.len(), 1, "{parts:?}");
-            let border = rec.store.points(outer[0]);
-            let chain = perimeter(border.iter().map(|p| [p.x as f32, p.y as f32]));
-            assert_eq!(rec.has_junction(outer[0], chain), junction, "{parts:?}");
+            assert_eq!(rec.has_junction(outer[0]), junction, "{parts:?}");
         }
     }
 
