@@ -6,7 +6,10 @@
 #   - chromium and chromium-driver (the browser test of `vorl serve`), via apt-get, when missing;
 #   - libclang (the camera feature's V4L2 bindings are generated at build), via apt-get, when missing;
 #   - the nightly toolchain (minimal profile) and cargo-fuzz, for the fuzz targets
-#     (scripts/fuzz.sh), unless VORL_SKIP_FUZZ=1.
+#     (scripts/fuzz.sh), unless VORL_SKIP_FUZZ=1;
+#   - for the Python package (python/): a virtual environment of the project's own, .venv/, with
+#     maturin, numpy and pytest from PyPI (python3 and its venv module via apt-get when missing),
+#     unless VORL_SKIP_PYTHON=1.
 # Safe to run again: each step checks first. Needs the Rust toolchain (rustup) already.
 set -euo pipefail
 
@@ -111,5 +114,40 @@ else
     export DEBIAN_FRONTEND=noninteractive
     $CSUDO apt-get update -qq
     $CSUDO apt-get install -y -qq --no-install-recommends libclang-dev >/dev/null
+fi
+if [ "${VORL_SKIP_PYTHON:-0}" = "1" ]; then
+    say "python: skipped (VORL_SKIP_PYTHON=1); scripts/test.sh skips the Python package"
+else
+    root="$(cd "$(dirname "$0")/.." && pwd)"
+    venv="${root}/.venv"
+    apt_python() {
+        local sudo=""
+        if [ "$(id -u)" != "0" ]; then
+            if command -v sudo >/dev/null 2>&1; then sudo="sudo"; else
+                echo "[setup] error: $* missing and this user cannot apt-get install it (no root, no sudo); set VORL_SKIP_PYTHON=1 to go on without the Python package" >&2
+                exit 1
+            fi
+        fi
+        say "installing $* (apt-get)"
+        export DEBIAN_FRONTEND=noninteractive
+        $sudo apt-get update -qq
+        $sudo apt-get install -y -qq --no-install-recommends "$@" >/dev/null
+    }
+    command -v python3 >/dev/null 2>&1 || apt_python python3 python3-venv
+    if [ ! -x "${venv}/bin/python" ]; then
+        say "creating the virtual environment ${venv}"
+        if ! python3 -m venv "${venv}" >/dev/null 2>&1; then
+            # Debian keeps venv (ensurepip) in a package of its own.
+            rm -rf "${venv}"
+            apt_python python3-venv
+            python3 -m venv "${venv}"
+        fi
+    fi
+    if "${venv}/bin/python" -c "import numpy, pytest" >/dev/null 2>&1 && "${venv}/bin/maturin" --version >/dev/null 2>&1; then
+        say "python: $("${venv}/bin/python" --version), $("${venv}/bin/maturin" --version), numpy and pytest present in .venv"
+    else
+        say "installing maturin, numpy and pytest into .venv (pip)"
+        "${venv}/bin/python" -m pip install --quiet --disable-pip-version-check maturin numpy pytest
+    fi
 fi
 say "done"

@@ -2,7 +2,9 @@
 # Runs every check of the project, as CI does: set-up (idempotent), formatting, lints, the API
 # docs, the microcontroller build of the core, the panic-never link, the whole test suite (unit,
 # doc, integration, property and the firmware-in-QEMU test), a build of the benchmarks, and a
-# short run of every fuzz target (VORL_SKIP_FUZZ=1 leaves it out).
+# short run of every fuzz target (VORL_SKIP_FUZZ=1 leaves it out), and the Python package:
+# its lints, a release build into .venv and pytest against the `vorl` program
+# (VORL_SKIP_PYTHON=1 leaves it out).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -34,6 +36,24 @@ step "panic-never: vorl-core links with no panic path left (thumbv7em-none-eabih
 
 step "tests (cargo test --workspace)"
 timeout 1800 cargo test --workspace
+
+if [ "${VORL_SKIP_PYTHON:-0}" = "1" ]; then
+    step "Python package: skipped (VORL_SKIP_PYTHON=1)"
+else
+    step "Python package (python/: fmt, clippy -D warnings, maturin build into .venv, pytest)"
+    # Its own cargo workspace (an extension module links against the interpreter that loads
+    # it), built in the repository's target folder: one folder to cache, and the crates it
+    # shares with the workspace at the same features (build scripts, proc macros) built once.
+    (
+        export CARGO_TARGET_DIR="$PWD/target"
+        cargo fmt --manifest-path python/Cargo.toml -- --check
+        cargo clippy --manifest-path python/Cargo.toml -- -D warnings
+        VIRTUAL_ENV="$PWD/.venv" PATH="$PWD/.venv/bin:$PATH" \
+            maturin develop --release --quiet --manifest-path python/Cargo.toml
+    )
+    # Against the program as `cargo test` just built it.
+    VORL_BIN="$PWD/target/debug/vorl" .venv/bin/python -m pytest -q python/tests
+fi
 
 step "benchmarks build (cargo bench --no-run)"
 cargo bench --workspace --no-run
