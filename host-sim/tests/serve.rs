@@ -102,9 +102,14 @@ impl Server {
     }
 
     /// SIGTERM, then the exit status (killed after 30 s).
-    fn terminate(mut self) -> Option<i32> {
+    fn terminate(self) -> Option<i32> {
+        self.signal("-TERM")
+    }
+
+    /// A signal (`-TERM`, `-INT`: what Ctrl-C sends), then the exit status (killed after 30 s).
+    fn signal(mut self, which: &str) -> Option<i32> {
         let _ = Command::new("kill")
-            .args(["-TERM", &self.child.id().to_string()])
+            .args([which, &self.child.id().to_string()])
             .status();
         let deadline = Instant::now() + Duration::from_secs(30);
         loop {
@@ -969,4 +974,35 @@ fn a_frame_that_cannot_be_read_is_an_error_and_the_next_goes_on() {
     assert!(v["error"].as_str().is_some_and(|e| e.contains("f000b.png")), "{v}");
     assert_eq!(res_frame(&robot.ask("TRG").0), "f001.png");
     assert_eq!(server.terminate(), Some(0));
+}
+
+#[test]
+fn ctrl_c_finishes_the_frame_in_hand_and_flushes_the_recording() {
+    let dir = Scratch::new("serve-int");
+    let rec = dir.join("rec");
+    let set = plant();
+    let server = Server::start(&[
+        set.to_str().unwrap_or_default(),
+        "--trigger",
+        "--record",
+        rec.to_str().unwrap_or_default(),
+    ]);
+    let mut robot = server.robot();
+    for want in ["f000.png", "f001.png", "f002.png"] {
+        assert_eq!(res_frame(&robot.ask("TRG").0), want);
+    }
+    // Fewer frames than a flush holds: only the stop writes truth.json.
+    assert!(!rec.join("truth.json").exists());
+    assert_eq!(server.signal("-INT"), Some(0));
+    let truth: Value =
+        serde_json::from_str(&std::fs::read_to_string(rec.join("truth.json")).expect("truth.json")).expect("json");
+    let expected = detect_json(&set, &[]);
+    let recorded = truth["frames"].as_object().cloned().unwrap_or_default();
+    assert_eq!(recorded.len(), 3);
+    for (name, from) in recorded.keys().zip(["f000.png", "f001.png", "f002.png"]) {
+        assert_eq!(truth["frames"][name], expected[from], "{name} is {from}");
+    }
+    // The robot's connection was closed, not left hanging.
+    let mut rest = String::new();
+    assert_eq!(robot.reader.read_line(&mut rest).ok(), Some(0), "{rest:?}");
 }
