@@ -749,7 +749,7 @@ mod tests {
     }
 
     /// An L of unequal arms (chiral), `inside` in offsets from its area centroid.
-    fn l_inside(t: [f32; 2]) -> bool {
+    pub(super) fn l_inside(t: [f32; 2]) -> bool {
         // A bar 44 × 10 and a foot 10 × 16 below its left end; area centroid
         // ((440·22 + 160·5)/600, (440·5 + 160·18)/600).
         let (u, v) = (t[0] + 10480.0 / 600.0, t[1] + 5080.0 / 600.0);
@@ -758,7 +758,7 @@ mod tests {
     }
 
     /// A T (mirror-symmetric), `inside` in offsets from its area centroid.
-    fn t_inside(t: [f32; 2]) -> bool {
+    pub(super) fn t_inside(t: [f32; 2]) -> bool {
         // Bar 44 × 10, stem 10 × 30 below its middle; area centroid (22, (440·5 + 300·25)/740).
         let (u, v) = (t[0] + 22.0, t[1] + 9700.0 / 740.0);
         ((0.0..44.0).contains(&u) && (0.0..10.0).contains(&v))

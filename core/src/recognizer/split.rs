@@ -969,20 +969,9 @@ mod tests {
     /// Shapes at `(x, y)` turned by an angle (°), as [`draw`] takes them.
     type Scene<'a> = &'a [(Inside, f32, f32, f32)];
 
-    /// An L: a bar 44 × 10 and a foot 10 × 16 below its left end (offsets from its area
-    /// centroid, as the recognizer's own tests draw it).
-    fn ell(t: [f32; 2]) -> bool {
-        let (u, v) = (t[0] + 10480.0 / 600.0, t[1] + 5080.0 / 600.0);
-        ((0.0..44.0).contains(&u) && (0.0..10.0).contains(&v))
-            || ((0.0..10.0).contains(&u) && (10.0..26.0).contains(&v))
-    }
-
-    /// A T: a bar 44 × 10 over a stem 10 × 30.
-    fn tee(t: [f32; 2]) -> bool {
-        let (u, v) = (t[0] + 22.0, t[1] + 9700.0 / 740.0);
-        ((0.0..44.0).contains(&u) && (0.0..10.0).contains(&v))
-            || ((17.0..27.0).contains(&u) && (10.0..40.0).contains(&v))
-    }
+    // The recognizer's own test shapes: an L (a bar 44 × 10, a foot 10 × 16 below its left
+    // end) and a T (a bar 44 × 10 over a stem 10 × 30), offsets from their area centroids.
+    use crate::recognizer::tests::{l_inside as ell, t_inside as tee};
 
     /// A ring (outer radius 15, hole 6): a template with a hole.
     fn ring(t: [f32; 2]) -> bool {

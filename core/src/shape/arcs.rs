@@ -347,14 +347,7 @@ pub fn best_arcs<const K: usize>(
             }
         }
     }
-    // Best first (insertion sort: K is small).
-    for a in 1..out.len() {
-        let mut b = a;
-        while b > 0 && out.get(b - 1).map(|x| x.score) < out.get(b).map(|x| x.score) {
-            out.swap(b - 1, b);
-            b -= 1;
-        }
-    }
+    best_first(out);
     Ok(())
 }
 
@@ -828,7 +821,12 @@ fn best_arcs_by_cell<const K: usize>(
     for o in 0..m {
         report(peak[o], begin[o + 1], tstart[o + 1], peak_i[o], peak_adv[o], out);
     }
-    // Best first (insertion sort: K is small).
+    best_first(out);
+    Ok(())
+}
+
+/// Sorts the runs best first (insertion sort: `K` is small).
+fn best_first<const K: usize>(out: &mut heapless::Vec<ArcMatch, K>) {
     for a in 1..out.len() {
         let mut b = a;
         while b > 0 && out.get(b - 1).map(|x| x.score) < out.get(b).map(|x| x.score) {
@@ -836,7 +834,6 @@ fn best_arcs_by_cell<const K: usize>(
             b -= 1;
         }
     }
-    Ok(())
 }
 
 #[cfg(test)]
