@@ -212,7 +212,9 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Background<S> {
         if self.learned >= MAX_LEARN_FRAMES {
             return Err(Error::TooManyBackgroundFrames { max: MAX_LEARN_FRAMES });
         }
-        let w = self.width;
+        // (`max(1)`: a width of 0 has no pixels, n = 0 above; without it the chunking keeps a
+        // panic path the firmware would link.)
+        let w = self.width.max(1);
         let low = self.plane.as_mut();
         for (y, (lo_row, hi_row)) in low
             .chunks_exact_mut(w)

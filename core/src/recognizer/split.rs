@@ -460,8 +460,10 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let holes = Holes::from_borders(self.store.holes_of(index).map(|i| self.store.points(i)), 0.0);
         match self.split_blob(index, chain, &diff, &holes, whole) {
             Ok(parts) if !parts.is_empty() => {
-                for d in parts {
-                    if report.detections.push(d).is_err() {
+                // By reference: a by-value iterator left at `break` drops its rest through a
+                // slice index the firmware would link as a panic path.
+                for d in &parts {
+                    if report.detections.push(*d).is_err() {
                         report.skip(index, SkipReason::TooManyParts);
                         break;
                     }
