@@ -993,7 +993,19 @@ fn ctrl_c_finishes_the_frame_in_hand_and_flushes_the_recording() {
     }
     // Fewer frames than a flush holds: only the stop writes truth.json.
     assert!(!rec.join("truth.json").exists());
+    let scratch = format!("vorl-serve-{}-", server.child.id());
+    let leftovers = || {
+        std::fs::read_dir(std::env::temp_dir())
+            .map(|d| {
+                d.flatten()
+                    .filter(|e| e.file_name().to_string_lossy().starts_with(&scratch))
+                    .count()
+            })
+            .unwrap_or(0)
+    };
+    assert_eq!(leftovers(), 1, "the server's scratch folder (templates being taught)");
     assert_eq!(server.signal("-INT"), Some(0));
+    assert_eq!(leftovers(), 0, "the scratch folder is removed at the stop");
     let truth: Value =
         serde_json::from_str(&std::fs::read_to_string(rec.join("truth.json")).expect("truth.json")).expect("json");
     let expected = detect_json(&set, &[]);

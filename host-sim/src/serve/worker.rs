@@ -24,7 +24,7 @@ pub struct Worker {
     source: Box<dyn FrameSource>,
     set: PathBuf,
     /// The set's templates copied here; teaching writes here, saving copies back.
-    work: PathBuf,
+    work: WorkDir,
     /// Template files (relative) as copied from the set: those gone from `work` at save time
     /// were moved by teaching (a class's first example into its folder).
     copied: Vec<PathBuf>,
@@ -62,7 +62,8 @@ impl Worker {
         let base = set.config().map_err(|e| e.to_string())?;
         let config = opts.params.config_over(base.as_deref())?;
         let backgrounds = set.load_backgrounds().map_err(|e| e.to_string())?;
-        let work = std::env::temp_dir().join(format!("vorl-serve-{}-{}", std::process::id(), super::new_token()));
+        let work =
+            WorkDir(std::env::temp_dir().join(format!("vorl-serve-{}-{}", std::process::id(), super::new_token())));
         let copied = copy_tree(&set.templates, &work.join("templates"))?;
         let templates = crate::engine::load_silhouettes(&work.join("templates")).map_err(|e| e.to_string())?;
         for t in &templates {
@@ -165,7 +166,6 @@ impl Worker {
                 eprintln!("error: {e}");
             }
         }
-        let _ = std::fs::remove_dir_all(&self.work);
         self.shared.stopped.send_replace(true);
         outcome
     }
@@ -451,6 +451,22 @@ fn camera(device: &str) -> Result<Box<dyn FrameSource>, String> {
     Err(format!(
         "--source camera:{device}: this vorl was built without cameras (cargo build --release --features camera)"
     ))
+}
+
+/// The worker's scratch folder, removed when the worker ends (or fails to start).
+struct WorkDir(PathBuf);
+
+impl std::ops::Deref for WorkDir {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl Drop for WorkDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
 }
 
 /// A frame of another size than the empty shot's is refused, naming it (as `vorl detect`).
