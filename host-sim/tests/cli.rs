@@ -1825,7 +1825,11 @@ fn gen_border_cut_parts_are_named_with_defaults() {
     let cut = &v["cut_half"];
     let (known, correct) = (cut["known"].as_u64().unwrap(), cut["correct"].as_u64().unwrap());
     assert!(known >= 20, "{known} known cut parts: {}", out.dump());
-    assert!(correct * 5 >= known * 4, "{correct} of {known} cut parts named: {}", out.dump());
+    assert!(
+        correct * 5 >= known * 4,
+        "{correct} of {known} cut parts named: {}",
+        out.dump()
+    );
     assert_eq!(v["unknown_rejection"].as_f64(), Some(1.0), "{}", out.dump());
 }
 
