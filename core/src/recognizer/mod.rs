@@ -809,7 +809,7 @@ mod tests {
 
     /// A template taught from the shape `inside` (offsets from its area centroid) drawn at the
     /// middle of an 80 × 80 silhouette.
-    fn taught(inside: fn([f32; 2]) -> bool) -> Template<96> {
+    pub(super) fn taught(inside: fn([f32; 2]) -> bool) -> Template<96> {
         let (tw, th) = (80usize, 80usize);
         let px: std::vec::Vec<u8> = (0..tw * th)
             .map(|i| u8::from(inside([(i % tw) as f32 - 30.0, (i / tw) as f32 - 30.0])) * 255)

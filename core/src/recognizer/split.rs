@@ -959,7 +959,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::borders::contour::{BorderKind, ContourStore};
+    use crate::borders::contour::BorderKind;
     use crate::pixels::background::Background;
     use crate::Params;
     extern crate std;
@@ -973,7 +973,7 @@ mod tests {
 
     // The recognizer's own test shapes: an L (a bar 44 × 10, a foot 10 × 16 below its left
     // end) and a T (a bar 44 × 10 over a stem 10 × 30), offsets from their area centroids.
-    use crate::recognizer::tests::{l_inside as ell, t_inside as tee};
+    use crate::recognizer::tests::{l_inside as ell, t_inside as tee, taught};
 
     /// A ring (outer radius 15, hole 6): a template with a hole.
     fn ring(t: [f32; 2]) -> bool {
@@ -1011,23 +1011,6 @@ mod tests {
             }
         }
         px
-    }
-
-    /// A template taught from `inside`, drawn at the middle of an 80 × 80 silhouette.
-    fn taught(inside: Inside) -> Template<96> {
-        let (tw, th) = (80usize, 80usize);
-        let px: Vec<u8> = (0..tw * th)
-            .map(|i| u8::from(inside([(i % tw) as f32 - 40.0, (i / tw) as f32 - 40.0])) * 255)
-            .collect();
-        let mut labels = std::vec![0u8; tw * th];
-        let mut store = std::boxed::Box::new(ContourStore::<4096, 16>::new());
-        Template::<96>::from_silhouette(
-            &Frame::new_checked(&px[..], tw, th).unwrap(),
-            &Params::DEFAULT,
-            &mut labels,
-            &mut store,
-        )
-        .unwrap()
     }
 
     type Rec = Recognizer<4, 96, 8192, 64, 2112>;
