@@ -1018,3 +1018,165 @@ fn ctrl_c_finishes_the_frame_in_hand_and_flushes_the_recording() {
     let mut rest = String::new();
     assert_eq!(robot.reader.read_line(&mut rest).ok(), Some(0), "{rest:?}");
 }
+
+/// Checks one answer to `TRG` or `LAST` read off the wire: `RES <frame> <n>`, exactly n part
+/// lines of the protocol's shape, `END`; and that the lines are what `vorl detect --json` gives
+/// for the named frame. The frame's name.
+fn check_result(head: &str, lines: &[String], expected: &Value) -> String {
+    let fields: Vec<&str> = head.split(' ').collect();
+    assert_eq!(fields.len(), 3, "RES <frame> <n>: {head:?}");
+    assert_eq!(fields[0], "RES", "{head:?}");
+    let n: usize = fields[2].parse().unwrap_or_else(|_| panic!("n in {head:?}"));
+    assert_eq!(lines.len(), n, "{head}: {lines:?}");
+    let three_decimals = |s: &str| {
+        s == "nan"
+            || s.split_once('.').is_some_and(|(i, d)| {
+                d.len() == 3
+                    && d.bytes().all(|b| b.is_ascii_digit())
+                    && !i.trim_start_matches('-').is_empty()
+                    && i.trim_start_matches('-').bytes().all(|b| b.is_ascii_digit())
+            })
+    };
+    for l in lines {
+        let f: Vec<&str> = l.split(' ').collect();
+        assert_eq!(f.len(), 6, "<class> <x> <y> <angle_deg> <flipped> <score>: {l:?}");
+        assert!(!f[0].is_empty() && f[0].is_ascii(), "{l:?}");
+        assert!(f[1..4].iter().all(|v| three_decimals(v) && *v != "nan"), "{l:?}");
+        assert!(f[4] == "0" || f[4] == "1", "{l:?}");
+        assert!(three_decimals(f[5]), "{l:?}");
+    }
+    let frame = fields[1].to_string();
+    let want: Vec<String> = expected[&frame]
+        .as_array()
+        .unwrap_or_else(|| panic!("no frame {frame} in detect's answer"))
+        .iter()
+        .map(expected_line)
+        .collect();
+    assert_eq!(lines, want, "{frame}");
+    frame
+}
+
+/// Open file descriptors of a process (Linux), or `None` where /proc does not tell.
+fn open_fds(pid: u32) -> Option<usize> {
+    std::fs::read_dir(format!("/proc/{pid}/fd")).ok().map(|d| d.count())
+}
+
+#[test]
+fn fifty_clients_at_once_each_get_complete_answers_and_rude_ones_harm_nobody() {
+    const CLIENTS: usize = 50;
+    const ROUNDS: usize = 3;
+    let set = plant();
+    let expected = detect_json(&set, &[]);
+    let server = Server::start(&[set.to_str().unwrap_or_default(), "--fps", "30"]);
+    // A first frame, so that LAST has something to answer from the start.
+    server.last_when(|_| true);
+    let pid = server.child.id();
+    let fds_before = open_fds(pid);
+    let addr = server.robot.clone();
+    let start = std::sync::Arc::new(std::sync::Barrier::new(CLIENTS + 1));
+    let polite: Vec<_> = (0..CLIENTS)
+        .map(|i| {
+            let (addr, start, expected) = (addr.clone(), start.clone(), expected.clone());
+            std::thread::spawn(move || {
+                let mut r = Robot::connect(&addr);
+                start.wait();
+                let mut answers = 0;
+                for round in 0..ROUNDS {
+                    if (i + round) % 2 == 0 {
+                        // Pipelined: three requests in one write, three answers in order.
+                        r.send(b"TRG\nLAST\nPING\n");
+                        let (head, lines) = r.answer();
+                        check_result(&head, &lines, &expected);
+                        let (head, lines) = r.answer();
+                        check_result(&head, &lines, &expected);
+                        assert_eq!(r.answer(), ("PONG".to_string(), vec![]));
+                    } else {
+                        assert_eq!(r.ask("PING"), ("PONG".to_string(), vec![]));
+                        let (head, lines) = r.ask("LAST");
+                        check_result(&head, &lines, &expected);
+                        let (head, lines) = r.ask("trg");
+                        check_result(&head, &lines, &expected);
+                    }
+                    answers += 3;
+                }
+                answers
+            })
+        })
+        .collect();
+    // Meanwhile, rude clients: gone after a few bytes of an answer, gone while waiting on a
+    // trigger, and one that asks for much and reads nothing until the server must wait on it.
+    let rude: Vec<_> = (0..10)
+        .map(|_| {
+            let addr = addr.clone();
+            std::thread::spawn(move || {
+                let mut gone = Robot::connect(&addr);
+                gone.send(b"LAST\nTRG\nLAST\nPING\n");
+                let mut few = [0u8; 5];
+                let _ = gone.stream.read(&mut few);
+                drop(gone);
+                let mut gone = Robot::connect(&addr);
+                gone.send(b"TRG\n");
+                drop(gone);
+            })
+        })
+        .collect();
+    let mut stuck = Robot::connect(&addr);
+    stuck
+        .stream
+        .set_write_timeout(Some(Duration::from_secs(1)))
+        .expect("write timeout");
+    // LAST after LAST until our writes block: the server's answers have filled both sockets'
+    // buffers, and the server, which reads a client's next line only once its answer is
+    // written, is waiting to write to this client.
+    let many = "LAST\n".repeat(10_000);
+    let mut blocked = false;
+    for _ in 0..2_000 {
+        if stuck.stream.write_all(many.as_bytes()).is_err() {
+            blocked = true;
+            break;
+        }
+    }
+    assert!(blocked, "the stuck client's writes never blocked");
+    start.wait();
+    let t0 = Instant::now();
+    let mut total = 0;
+    for c in polite {
+        total += c.join().expect("a polite client: complete, well-formed answers");
+    }
+    for c in rude {
+        c.join().expect("a rude client");
+    }
+    assert_eq!(total, CLIENTS * ROUNDS * 3);
+    assert!(
+        t0.elapsed() < Duration::from_secs(60),
+        "50 clients took {:?}",
+        t0.elapsed()
+    );
+    // The stuck client goes away with the server still writing to it.
+    drop(stuck);
+    // The server goes on for everyone: a new client, the page's API, triggers.
+    let mut after = server.robot();
+    assert_eq!(after.ask("PING").0, "PONG");
+    for _ in 0..2 {
+        let (head, lines) = after.ask("TRG");
+        check_result(&head, &lines, &expected);
+    }
+    assert_eq!(server.get("/api/last").0, 200);
+    // And the connections of the clients gone are closed by the server, not left open.
+    drop(after);
+    if let Some(before) = fds_before {
+        let deadline = Instant::now() + Duration::from_secs(20);
+        loop {
+            let now = open_fds(pid).unwrap_or(usize::MAX);
+            if now <= before + 1 {
+                break;
+            }
+            assert!(
+                Instant::now() < deadline,
+                "{now} file descriptors open, {before} before the clients"
+            );
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    }
+    assert_eq!(server.terminate(), Some(0));
+}
