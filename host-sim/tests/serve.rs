@@ -1180,3 +1180,133 @@ fn fifty_clients_at_once_each_get_complete_answers_and_rude_ones_harm_nobody() {
     }
     assert_eq!(server.terminate(), Some(0));
 }
+
+/// In the page: once the frame picture shows the publication `version`, its pixels that are
+/// not gray (R, G and B not all equal: the overlay's outlines, crosses and arrows).
+const COLOURED: &str = "const i = document.getElementById('frame');
+    if (!i.complete || !i.naturalWidth || !i.src.endsWith('v=' + arguments[0])) return null;
+    const c = document.createElement('canvas'); c.width = i.naturalWidth; c.height = i.naturalHeight;
+    const g = c.getContext('2d'); g.drawImage(i, 0, 0);
+    const d = g.getImageData(0, 0, c.width, c.height).data;
+    let n = 0; for (let k = 0; k < d.length; k += 4) if (d[k] !== d[k + 1] || d[k + 1] !== d[k + 2]) n++;
+    return {coloured: n};";
+
+/// WebDriver's keys (the private-use code points of the W3C spec).
+const KEY_HOME: char = '\u{E011}';
+const KEY_END: char = '\u{E010}';
+const KEY_RIGHT: char = '\u{E014}';
+
+#[test]
+fn the_threshold_slider_changes_the_overlay() {
+    let Some(browser) = Browser::start() else {
+        return;
+    };
+    let set = plant();
+    let server = Server::start(&[set.to_str().unwrap_or_default(), "--trigger"]);
+    assert_eq!(res_frame(&server.robot().ask("TRG").0), "f000.png");
+    browser.goto(&format!("http://{}/", server.web));
+    browser.wait_for("return document.getElementById('fname').textContent === 'f000.png'");
+    let coloured = |version: &Value| -> u64 {
+        let script = json!({"script": COLOURED, "args": [version]});
+        let deadline = Instant::now() + Duration::from_secs(60);
+        loop {
+            let v = browser.call("POST", "/execute/sync", script.clone());
+            if let Some(n) = v["coloured"].as_u64() {
+                return n;
+            }
+            assert!(
+                Instant::now() < deadline,
+                "the picture of version {version} never showed"
+            );
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    };
+    let before = server.last_when(|_| true);
+    let parts_before = before["frames"]["f000.png"].as_array().map_or(0, Vec::len);
+    assert!(parts_before > 0, "{before}");
+    let drawn = coloured(&before["version"]);
+    assert!(drawn > 100, "the overlay draws the parts: {drawn} coloured pixels");
+    browser.wait_for(&format!(
+        "return {}.length === {parts_before}",
+        ROWS.trim_start_matches("return ")
+    ));
+    assert_eq!(
+        browser.exec("return document.getElementById('threshold-slider').value"),
+        json!(before_threshold(&server))
+    );
+    // The slider to its end, as a user does from the keyboard: the highest threshold, 255,
+    // which no difference |I' − B| exceeds: nothing is foreground, no part, nothing drawn.
+    browser.type_into("#threshold-slider", &KEY_END.to_string());
+    browser.wait_for("return document.getElementById('msg').textContent === 'threshold = 255: applied'");
+    assert_eq!(server.get("/api/params").1["config"]["threshold"], json!(255));
+    let high = server.last_when(|v| v["version"].as_u64() > before["version"].as_u64());
+    assert_eq!(high["frame"], "f000.png", "the frame on screen, run again");
+    assert_eq!(high["frames"]["f000.png"], json!([]), "{high}");
+    assert_eq!(coloured(&high["version"]), 0, "no part drawn at threshold 255");
+    browser.wait_for(&format!("return {}.length === 0", ROWS.trim_start_matches("return ")));
+    assert_eq!(
+        browser.exec("return document.getElementById('p-threshold').value"),
+        json!("255"),
+        "the threshold's field follows the slider"
+    );
+    // The overlay is then the frame itself under the caption.
+    let (status, png) = http_raw(&server.web, "GET", "/api/overlay.png", None, &[]);
+    assert_eq!(status, 200);
+    let overlay = image::load_from_memory(&png).expect("a PNG").to_rgb8();
+    let frame = image::open(set.join("frames/f000.png")).expect("f000").to_luma8();
+    assert_eq!(overlay.dimensions(), frame.dimensions());
+    let differ = frame
+        .enumerate_pixels()
+        .filter(|(_, y, _)| *y >= 24)
+        .filter(|(x, y, p)| overlay.get_pixel(*x, *y).0 != [p.0[0]; 3])
+        .count();
+    assert_eq!(
+        differ, 0,
+        "pixels of the overlay below its caption that are not the frame's"
+    );
+    // Back down to 60 with Home and the arrow keys (each step applied as the slider moves):
+    // the page shows what `vorl detect --threshold 60` gives, which is not the default's.
+    let keys: String = std::iter::once(KEY_HOME)
+        .chain(std::iter::repeat_n(KEY_RIGHT, 59))
+        .collect();
+    browser.type_into("#threshold-slider", &keys);
+    browser.wait_for(
+        "return document.getElementById('threshold-slider').value === '60'
+            && document.getElementById('msg').textContent === 'threshold = 60: applied'",
+    );
+    assert_eq!(server.get("/api/params").1["config"]["threshold"], json!(60));
+    let want = detect_json(&set, &["--threshold", "60"]);
+    let default = detect_json(&set, &[]);
+    assert_ne!(
+        want["f000.png"], default["f000.png"],
+        "threshold 60 changes f000's parts"
+    );
+    let mid = server.last_when(|v| v["frames"]["f000.png"] == want["f000.png"]);
+    assert!(coloured(&mid["version"]) > 100, "parts drawn again at threshold 60");
+    let want_rows: Vec<Vec<String>> = want["f000.png"]
+        .as_array()
+        .map(|a| a.iter().map(expected_row).collect())
+        .unwrap_or_default();
+    let rows = browser.wait_for(&format!(
+        "const rows = {}; return rows.length === {} && rows",
+        ROWS.trim_start_matches("return "),
+        want_rows.len()
+    ));
+    assert_eq!(rows, json!(want_rows));
+    // The next frames run with it too.
+    let (head, lines) = server.robot().ask("TRG");
+    assert_eq!(res_frame(&head), "f001.png");
+    let want_lines: Vec<String> = want["f001.png"]
+        .as_array()
+        .map(|a| a.iter().map(expected_line).collect())
+        .unwrap_or_default();
+    assert_eq!(lines, want_lines);
+    drop(browser);
+    assert_eq!(server.terminate(), Some(0));
+}
+
+/// The threshold in force, as the slider shows it (a string, as an input's value is).
+fn before_threshold(server: &Server) -> String {
+    let t = &server.get("/api/params").1["config"]["threshold"];
+    t.as_u64().map_or_else(|| t.to_string(), |v| v.to_string())
+}
