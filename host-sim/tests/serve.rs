@@ -635,8 +635,38 @@ fn addresses_off_loopback_need_listen() {
     ])
     .failure();
     assert!(out.stderr.contains("not on loopback"), "{}", out.stderr);
-    let out = vorl(["serve", plant().to_str().unwrap_or_default(), "--fps", "0"]).failure();
-    assert!(out.stderr.contains("--fps"), "{}", out.stderr);
+    for fps in ["-1", "1001", "nan"] {
+        let flag = format!("--fps={fps}");
+        let out = vorl(["serve", plant().to_str().unwrap_or_default(), &flag]).failure();
+        assert!(out.stderr.contains("--fps"), "{fps}: {}", out.stderr);
+    }
+}
+
+#[test]
+fn fps_0_runs_as_fast_as_the_frames_are_processed() {
+    let set = plant();
+    let server = Server::start(&[set.to_str().unwrap_or_default(), "--fps", "0"]);
+    let first = server.last_when(|_| true);
+    let t0 = Instant::now();
+    std::thread::sleep(Duration::from_secs(2));
+    let later = server.last_when(|_| true);
+    let frames = later["seq"].as_u64().unwrap_or(0) - first["seq"].as_u64().unwrap_or(0);
+    let seconds = t0.elapsed().as_secs_f64();
+    // Paced at the default 10 fps this would be about 20 frames; unpaced, a frame here takes a
+    // few ms (core_ms tells), so there are several times more.
+    let frame_ms = later["timing"]["frame_ms"].as_f64().unwrap_or(f64::NAN);
+    assert!(
+        frames as f64 > 40.0 * seconds,
+        "{frames} frames in {seconds:.1} s ({frame_ms:.1} ms a frame)"
+    );
+    // Unpaced, the robot still gets every answer whole.
+    let expected = detect_json(&set, &[]);
+    let mut robot = server.robot();
+    for _ in 0..20 {
+        let (head, lines) = robot.ask("TRG");
+        check_result(&head, &lines, &expected);
+    }
+    assert_eq!(server.terminate(), Some(0));
 }
 
 /// Headless Chromium driven through chromedriver's WebDriver HTTP API.

@@ -32,7 +32,8 @@ pub struct ServeArgs {
     /// The generator's seed (--source gen).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Frames per second when running free.
+    /// Frames per second when running free (at most 1000); 0: as fast as the frames are
+    /// processed (soaks, benchmarks).
     #[arg(long, default_value_t = 10.0)]
     pub fps: f64,
     /// Wait for a robot's TRG (or POST /api/trigger) before each frame instead of running free.

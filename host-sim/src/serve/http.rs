@@ -103,24 +103,20 @@ async fn trigger(State(shared): State<Arc<Shared>>) -> Result<Response, ServeErr
 
 async fn overlay(State(shared): State<Arc<Shared>>) -> Result<Response, ServeError> {
     let p = shared.last()?;
-    if p.overlay.is_none() {
+    if p.drawn_from.is_none() {
         return Err(ServeError::NoFrame);
     }
-    let p2 = p.clone();
-    tokio::task::spawn_blocking(move || {
-        p2.png
-            .get_or_init(|| p2.overlay.as_ref().map(encode_png).unwrap_or_default());
-    })
-    .await
-    .map_err(|e| ServeError::Failed(e.to_string()))?;
-    let bytes = p.png.get().cloned().unwrap_or_default();
-    if bytes.is_empty() {
-        return Err(ServeError::Failed("the overlay could not be encoded".into()));
-    }
+    // Drawn and encoded here, off the worker, once per frame the page shows.
+    let bytes = tokio::task::spawn_blocking(move || p.overlay_png().map(<[u8]>::to_vec))
+        .await
+        .map_err(|e| ServeError::Failed(e.to_string()))?
+        .ok_or_else(|| ServeError::Failed("the overlay could not be encoded".into()))?;
     Ok((no_store(), [(header::CONTENT_TYPE, "image/png")], bytes).into_response())
 }
 
-fn encode_png(img: &image::RgbImage) -> Vec<u8> {
+/// The overlay as PNG (fast compression: a picture for the page, not for keeping); empty
+/// when it cannot be encoded.
+pub(super) fn encode_png(img: &image::RgbImage) -> Vec<u8> {
     use image::ImageEncoder as _;
     let mut out = Vec::new();
     let enc = image::codecs::png::PngEncoder::new_with_quality(

@@ -4,11 +4,15 @@
 //! The data flow:
 //!
 //! ```text
-//! source (replay | gen) ──▶ worker thread: Engine::detect, overlay, record ──▶ Shared::last
+//! source (replay | gen) ──▶ worker thread: Engine::detect, record ───────────▶ Shared::last
 //!                                   ▲  commands (tune, teach, save, calibrate)     │
 //!                                   │                                             ▼
 //!                 page (axum, `http`) ◀──────────── /api/last, /api/overlay.png, TRG/LAST (`robot`)
 //! ```
+//!
+//! The worker does not draw the overlay: `/api/overlay.png` draws and encodes it when the page
+//! asks for it (once per frame shown, at the page's rate), so that the page adds nothing to the
+//! frames it does not show.
 //!
 //! - [`source`]: where frames come from (the set's frames in name order, looping; or scenes
 //!   drawn live by the generator).
@@ -66,7 +70,7 @@ pub struct ServeOptions {
     pub params: ParamArgs,
     /// Where frames come from.
     pub source: SourceSpec,
-    /// Frames per second when running free.
+    /// Frames per second when running free; 0: as fast as the frames are processed.
     pub fps: f64,
     /// Wait for a robot's (or the API's) trigger before each frame instead of running free.
     pub trigger: bool,
@@ -101,7 +105,8 @@ pub struct Published {
     pub parts: Vec<PartJson>,
     /// Time in the core, ms.
     pub core_ms: f64,
-    /// Time for the whole frame (read, detect, overlay), ms.
+    /// Time for the whole frame in the worker (read, detect, results, recording; not the
+    /// overlay, drawn when the page asks for it), ms.
     pub frame_ms: f64,
     /// Frames per second over the last frames.
     pub fps: f64,
@@ -109,10 +114,25 @@ pub struct Published {
     pub error: Option<String>,
     /// Notes on the frame (what the core could not take).
     pub notes: Vec<String>,
-    /// The frame with the overlay of `vorl detect --overlay`.
-    pub overlay: Option<image::RgbImage>,
-    /// The overlay as PNG, encoded on first request.
+    /// The frame and its result (none for a frame that gave no result), from which the overlay
+    /// of `vorl detect --overlay` is drawn when the page first asks for it: at the page's rate,
+    /// not at every frame.
+    pub drawn_from: Option<(Arc<image::GrayImage>, crate::engine::FrameResult)>,
+    /// The overlay as PNG, drawn and encoded on first request.
     pub png: OnceLock<Vec<u8>>,
+}
+
+impl Published {
+    /// The frame with the overlay of `vorl detect --overlay`, as PNG: drawn and encoded on the
+    /// first call, kept for the next ones; `None` for a frame that gave no result or a picture
+    /// that could not be encoded.
+    pub fn overlay_png(&self) -> Option<&[u8]> {
+        let (frame, result) = self.drawn_from.as_ref()?;
+        let png = self
+            .png
+            .get_or_init(|| http::encode_png(&crate::overlay::draw(frame, result)));
+        (!png.is_empty()).then_some(png.as_slice())
+    }
 }
 
 /// What went wrong with a request from the page or the robot.
@@ -322,8 +342,11 @@ pub fn check_address(what: &str, addr: SocketAddr, listen: bool) -> Result<(), S
 pub fn run(opts: ServeOptions) -> Result<(), String> {
     check_address("http", opts.http, opts.listen)?;
     check_address("robot", opts.robot, opts.listen)?;
-    if !(opts.fps.is_finite() && opts.fps > 0.0 && opts.fps <= 1000.0) {
-        return Err(format!("--fps {}: must lie in (0, 1000]", opts.fps));
+    if !(opts.fps == 0.0 || (opts.fps.is_finite() && opts.fps > 0.0 && opts.fps <= 1000.0)) {
+        return Err(format!(
+            "--fps {}: must lie in (0, 1000], or be 0 (as fast as the frames are processed)",
+            opts.fps
+        ));
     }
     let open_to_others = !(opts.http.ip().is_loopback() && opts.robot.ip().is_loopback());
     let token = (open_to_others || opts.require_token).then(new_token);

@@ -38,7 +38,7 @@ pub struct Worker {
     period: Duration,
     stop_after: Option<Duration>,
     /// The frame on screen.
-    current: Option<(String, GrayImage)>,
+    current: Option<(String, Arc<GrayImage>)>,
     seq: u64,
     version: u64,
     last_capture: Option<Instant>,
@@ -103,7 +103,12 @@ impl Worker {
             engine,
             calibration,
             recorder,
-            period: Duration::from_secs_f64(1.0 / opts.fps),
+            // --fps 0: no pause between frames.
+            period: if opts.fps > 0.0 {
+                Duration::from_secs_f64(1.0 / opts.fps)
+            } else {
+                Duration::ZERO
+            },
             stop_after: opts.stop_after,
             current: None,
             seq: 0,
@@ -117,6 +122,8 @@ impl Worker {
     pub fn describe(&self) -> String {
         let pace = if self.shared.trigger_mode() {
             "a frame per trigger".to_string()
+        } else if self.period.is_zero() {
+            "as fast as the frames are processed".to_string()
         } else {
             format!("{:.1} fps", 1.0 / self.period.as_secs_f64())
         };
@@ -245,7 +252,6 @@ impl Worker {
                 if let Some(c) = &self.calibration {
                     c.apply_all(&mut parts);
                 }
-                let overlay = crate::overlay::draw(&image, &result);
                 if fresh {
                     if let Some(r) = self.recorder.as_mut() {
                         if let Err(e) = r.add(&image, &parts) {
@@ -253,6 +259,7 @@ impl Worker {
                         }
                     }
                 }
+                let image = Arc::new(image);
                 let p = Published {
                     seq: self.seq,
                     version: self.version,
@@ -263,7 +270,7 @@ impl Worker {
                     fps: self.fps,
                     error: None,
                     notes,
-                    overlay: Some(overlay),
+                    drawn_from: Some((image.clone(), result)),
                     png: OnceLock::new(),
                 };
                 self.current = Some((captured.name, image));
@@ -281,7 +288,7 @@ impl Worker {
                     fps: self.fps,
                     error: Some(e),
                     notes,
-                    overlay: None,
+                    drawn_from: None,
                     png: OnceLock::new(),
                 }
             }
@@ -297,7 +304,7 @@ impl Worker {
             self.process(
                 Captured {
                     name,
-                    image: Ok(image),
+                    image: Ok(Arc::unwrap_or_clone(image)),
                     note: None,
                 },
                 false,
