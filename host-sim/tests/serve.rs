@@ -1340,3 +1340,115 @@ fn before_threshold(server: &Server) -> String {
     let t = &server.get("/api/params").1["config"]["threshold"];
     t.as_u64().map_or_else(|| t.to_string(), |v| v.to_string())
 }
+
+#[test]
+fn the_page_adds_another_example_of_a_class() {
+    let Some(browser) = Browser::start() else {
+        return;
+    };
+    let dir = Scratch::new("serve-page-add");
+    let set = dir.join("set");
+    copy_dir(&plant(), &set);
+    // The washer is not taught; f000 holds two, taught here as examples of one class "ring".
+    std::fs::remove_file(set.join("templates/washer.png")).expect("washer template");
+    let truth: Value =
+        serde_json::from_str(&std::fs::read_to_string(set.join("truth.json")).expect("truth")).expect("json");
+    let washers: Vec<(f64, f64)> = truth["frames"]["f000.png"]
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .filter(|p| p["class"] == "washer")
+                .map(|p| (p["x"].as_f64().unwrap_or(0.0), p["y"].as_f64().unwrap_or(0.0)))
+                .collect()
+        })
+        .unwrap_or_default();
+    assert_eq!(washers.len(), 2, "two washers in f000");
+    let server = Server::start(&[set.to_str().unwrap_or_default(), "--trigger"]);
+    assert_eq!(res_frame(&server.robot().ask("TRG").0), "f000.png");
+    browser.goto(&format!("http://{}/", server.web));
+    browser.wait_for("const i = document.getElementById('frame'); return i.complete && i.naturalWidth === 640");
+    let k = browser
+        .exec("return document.getElementById('frame').getBoundingClientRect().width")
+        .as_f64()
+        .unwrap_or(640.0)
+        / 640.0;
+    let teach = |(x, y): (f64, f64), add: bool| -> String {
+        browser.exec("document.getElementById('msg').textContent = ''; document.getElementById('tname').value = ''");
+        browser.click_at(
+            "#frame",
+            ((x - 320.0) * k).round() as i64,
+            ((y - 240.0) * k).round() as i64,
+        );
+        browser.wait_for("return document.getElementById('tpoint').textContent.includes(',')");
+        browser.type_into("#tname", "ring");
+        let ticked = browser.exec("return document.getElementById('tadd').checked") == json!(true);
+        if ticked != add {
+            browser.click("#tadd");
+        }
+        browser.click("#teach");
+        let msg = browser.wait_for("const m = document.getElementById('msg').textContent; return m.length > 0 && m");
+        msg.as_str().unwrap_or_default().to_string()
+    };
+    let rings = |v: &Value| {
+        v["frames"]["f000.png"]
+            .as_array()
+            .map_or(0, |a| a.iter().filter(|p| p["class"] == "ring").count())
+    };
+    // The first washer, a class of one example, saved to the set as templates/ring.png.
+    let msg = teach(washers[0], false);
+    assert!(msg.starts_with("taught ring from f000.png"), "{msg}");
+    assert!(!msg.contains("another example"), "{msg}");
+    browser.click("#save");
+    browser.wait_for("return document.getElementById('msg').textContent.startsWith('saved')");
+    assert!(set.join("templates/ring.png").is_file());
+    // The second washer under the same name without the box ticked: refused, nothing changed.
+    let before = server.last_when(|_| true);
+    let msg = teach(washers[1], false);
+    assert!(msg.starts_with("teach: ") && msg.contains("--add"), "{msg}");
+    assert_eq!(server.last_when(|_| true)["version"], before["version"]);
+    // Ticked: another example of the class; the frame on screen is run again with both.
+    let msg = teach(washers[1], true);
+    assert_eq!(
+        msg,
+        "taught ring from f000.png (another example): matched from now on; Save writes it to the set"
+    );
+    let after = server.last_when(|v| v["version"].as_u64() > before["version"].as_u64());
+    let (_, params) = server.get("/api/params");
+    assert_eq!(
+        params["classes"]
+            .as_array()
+            .map(|c| c.iter().filter(|n| *n == "ring").count()),
+        Some(1),
+        "one class ring: {params}"
+    );
+    // Saved: the class is now a folder of two examples, the single file moved into it (and
+    // removed from the set), and `vorl detect SET` gives what the page shows.
+    browser.click("#save");
+    browser.wait_for("return document.getElementById('msg').textContent.startsWith('saved')");
+    assert!(
+        !set.join("templates/ring.png").exists(),
+        "ring.png moved into templates/ring/"
+    );
+    let examples = std::fs::read_dir(set.join("templates/ring"))
+        .map(|d| {
+            d.flatten()
+                .filter(|e| e.path().extension().is_some_and(|x| x == "png"))
+                .count()
+        })
+        .unwrap_or(0);
+    assert_eq!(examples, 2, "templates/ring/ holds both examples");
+    let want = detect_json(&set, &[]);
+    assert_eq!(after["frames"]["f000.png"], want["f000.png"]);
+    assert_eq!(rings(&after), 2, "both washers are rings: {after}");
+    let want_rows: Vec<Vec<String>> = want["f000.png"]
+        .as_array()
+        .map(|a| a.iter().map(expected_row).collect())
+        .unwrap_or_default();
+    let rows = browser.wait_for(&format!(
+        "const rows = {}; return rows.filter(r => r[0] === 'ring').length === 2 && rows",
+        ROWS.trim_start_matches("return ")
+    ));
+    assert_eq!(rows, json!(want_rows));
+    drop(browser);
+    assert_eq!(server.terminate(), Some(0));
+}

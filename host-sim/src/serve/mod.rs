@@ -105,8 +105,9 @@ pub struct Published {
     pub parts: Vec<PartJson>,
     /// Time in the core, ms.
     pub core_ms: f64,
-    /// Time for the whole frame in the worker (read, detect, results, recording; not the
-    /// overlay, drawn when the page asks for it), ms.
+    /// Time for the frame in the worker from the captured pixels on (detect, results,
+    /// recording; not reading or waiting for the frame, nor the overlay, drawn when the page
+    /// asks for it), ms.
     pub frame_ms: f64,
     /// Frames per second over the last frames.
     pub fps: f64,
