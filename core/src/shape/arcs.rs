@@ -400,25 +400,51 @@ fn may_reach(part: &[f32], template: &[f32], params: &ArcParams, rows: &mut [f32
         // each step over the lanes at once.)
         let larger = |a: f32, b: f32| if b > a { b } else { a };
         let groups = m / LANES;
-        for g in 0..groups {
-            let at = g * LANES;
+        // The groups from slices of the exact lengths (each neighbour a slice one cell on), so
+        // that the compiler sees every lane in bounds and keeps a group in registers.
+        let span = groups * LANES;
+        let (Some(s_l), Some(s_o), Some(s_r), Some(a_l), Some(a_o), Some(a_r), Some(tr), Some(ns), Some(na)) = (
+            score.get(..span),
+            score.get(1..span + 1),
+            score.get(2..span + 2),
+            advance.get(..span),
+            advance.get(1..span + 1),
+            advance.get(2..span + 2),
+            trow.get(..span),
+            next.get_mut(..span),
+            next_adv.get_mut(..span),
+        ) else {
+            return true;
+        };
+        let sources = s_l
+            .chunks_exact(LANES)
+            .zip(s_o.chunks_exact(LANES))
+            .zip(s_r.chunks_exact(LANES))
+            .zip(
+                a_l.chunks_exact(LANES)
+                    .zip(a_o.chunks_exact(LANES))
+                    .zip(a_r.chunks_exact(LANES)),
+            )
+            .zip(tr.chunks_exact(LANES));
+        let targets = ns.chunks_exact_mut(LANES).zip(na.chunks_exact_mut(LANES));
+        for (((((s_l, s_o), s_r), ((a_l, a_o), a_r)), tr), (ns, na)) in sources.zip(targets) {
             let (Some(s_l), Some(s_o), Some(s_r), Some(a_l), Some(a_o), Some(a_r), Some(tr)) = (
-                lanes::<LANES>(score, at),
-                lanes::<LANES>(score, at + 1),
-                lanes::<LANES>(score, at + 2),
-                lanes::<LANES>(advance, at),
-                lanes::<LANES>(advance, at + 1),
-                lanes::<LANES>(advance, at + 2),
-                lanes::<LANES>(trow, at),
+                arr::<LANES>(s_l),
+                arr::<LANES>(s_o),
+                arr::<LANES>(s_r),
+                arr::<LANES>(a_l),
+                arr::<LANES>(a_o),
+                arr::<LANES>(a_r),
+                arr::<LANES>(tr),
             ) else {
                 return true;
             };
-            let (ns, na) = relaxed_cells([s_l, s_o, s_r], [a_l, a_o, a_r], tr, p, params);
-            for (re, a) in reach.iter_mut().zip(na) {
+            let (vs, va) = relaxed_cells([s_l, s_o, s_r], [a_l, a_o, a_r], tr, p, params);
+            for (re, a) in reach.iter_mut().zip(va) {
                 *re = larger(*re, a);
             }
-            put(next, at, ns);
-            put(next_adv, at, na);
+            ns.copy_from_slice(&vs);
+            na.copy_from_slice(&va);
             if LANES > 1 {
                 core::hint::black_box(());
             }
@@ -514,6 +540,12 @@ fn take<'a>(len: usize, rest: &mut &'a mut [f32]) -> Option<&'a mut [f32]> {
 #[inline(always)]
 fn lanes<const L: usize>(v: &[f32], at: usize) -> Option<[f32; L]> {
     v.get(at..at.checked_add(L)?)?.try_into().ok()
+}
+
+/// The `L` values of a chunk of exactly `L` (`None` for another length).
+#[inline(always)]
+fn arr<const L: usize>(v: &[f32]) -> Option<[f32; L]> {
+    v.try_into().ok()
 }
 
 /// Writes `L` values into `v` from `at`.

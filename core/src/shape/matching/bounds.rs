@@ -92,38 +92,36 @@ fn sorted_columns(part: &[f32], template: &[f32], bound: f32, buf: &mut [f32]) -
             *c = 0.0;
         }
     }
+    // Column j writes `next` from `prev`; the two swap after each column (j even: odd → even).
+    let (mut prev, mut next): (&mut [f32], &mut [f32]) = (odd, even);
     for (j, &b) in template.iter().enumerate() {
-        let (prev, next) = if j % 2 == 0 {
-            (&*odd, &mut *even)
-        } else {
-            (&*even, &mut *odd)
-        };
         // Rows lo ..= hi cover position j.
         let lo = (j + 1).saturating_sub(w);
         let hi = j.min(n - 1);
         let len = hi + 1 - lo;
-        let (Some(dst), Some(same), Some(below), Some(a)) = (
-            next.get_mut(lo + 1..).and_then(|r| r.get_mut(..len)),
-            prev.get(lo + 1..).and_then(|r| r.get(..len)),
-            prev.get(lo..).and_then(|r| r.get(..len)),
-            part.get(lo..).and_then(|r| r.get(..len)),
+        // The previous column's rows lo − 1 ..= hi (row −1 is cell 0), and this column's lo ..= hi.
+        let (Some(src), Some(dst), Some(a)) = (
+            prev.get(lo..lo + 1 + len),
+            next.get_mut(lo + 1..lo + 1 + len),
+            part.get(lo..lo + len),
         ) else {
             return None;
         };
-        for k in 0..len {
-            if let (Some(d), Some(&q), Some(&p), Some(&ai)) = (dst.get_mut(k), same.get(k), below.get(k), a.get(k)) {
-                let v = (ai - b).abs() + p;
-                *d = if v < q { v } else { q };
-            }
+        let (Some((_, same)), Some((_, below))) = (src.split_first(), src.split_last()) else {
+            return None;
+        };
+        for (((d, &q), &p), &ai) in dst.iter_mut().zip(same).zip(below).zip(a) {
+            let v = (ai - b).abs() + p;
+            *d = if v < q { v } else { q };
         }
         // Row `lo` ends at position j; its least value is a lower bound on every later row's.
-        if j + 1 >= w && next.get(lo + 1).is_none_or(|&q| q >= bound) {
+        if j + 1 >= w && dst.first().is_none_or(|&q| q >= bound) {
             return None;
         }
+        core::mem::swap(&mut prev, &mut next);
     }
-    let (even, odd) = buf.split_at(n + 1);
-    let last = if template.len() % 2 == 1 { even } else { odd };
-    last.get(n).copied().filter(|&total| total < bound)
+    // After the last column's swap its values are in `prev`.
+    prev.get(n).copied().filter(|&total| total < bound)
 }
 
 /// A cheaper, looser lower bound than [`sorted_lower_bound`], on the same sorted values, in
