@@ -557,18 +557,29 @@ pub(super) fn sweep<const BITS: bool, const WIDE: bool, const L: usize>(
             // a chain, `Q_i = D_i = |p_i − t2[k_i]| + Q_{i−1}` (the cell against `+∞`, as in
             // `column_cells`) with the row below ended. Their columns need no record: a path's
             // row there can only lie in its band's one column, and no other row reads them.
-            let mut below = q.get(lo).copied().unwrap_or(f32::NAN);
+            // Rows `lo ..` side by side (their first and last columns, part values and `Q`
+            // cells), so that no row needs a bounds check of its own.
+            let (Some((below, chain)), Some(fs), Some(ls), Some(ps)) = (
+                q.get_mut(lo..).and_then(|c| c.split_first_mut()),
+                firsts.get(lo..),
+                lasts.get(lo..),
+                pc.get(lo..),
+            ) else {
+                return None;
+            };
+            let mut below = *below;
             let mut r = lo;
-            loop {
-                let kr = first(r);
-                let d = match (pc.get(r), t2.get(kr)) {
-                    (Some(&p), Some(&t)) => (p - t).abs() + below,
-                    _ => f32::NAN,
+            for (((&f, &l), &p), c) in fs.iter().zip(ls).zip(ps).zip(chain) {
+                // Row `lo` is one column wide (tested above), a later row must be too.
+                if r > lo && f.to_bits() != l.to_bits() {
+                    break;
+                }
+                let d = match t2.get(unpack(f)) {
+                    Some(&t) => (p - t).abs() + below,
+                    None => f32::NAN,
                 };
                 let v = if d < f32::INFINITY { d } else { f32::INFINITY };
-                if let Some(c) = q.get_mut(r + 1) {
-                    *c = v;
-                }
+                *c = v;
                 if cfg!(test) {
                     *cells += 1;
                 }
@@ -578,9 +589,6 @@ pub(super) fn sweep<const BITS: bool, const WIDE: bool, const L: usize>(
                 }
                 below = v;
                 r += 1;
-                if r >= n || first(r) != last(r) {
-                    break;
-                }
             }
             (lo, hi) = (r, r);
             (enter, leave) = (first(r), last(r));
