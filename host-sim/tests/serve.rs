@@ -1452,3 +1452,41 @@ fn the_page_adds_another_example_of_a_class() {
     drop(browser);
     assert_eq!(server.terminate(), Some(0));
 }
+
+#[test]
+fn sigterm_during_the_set_up_still_stops_cleanly() {
+    // SIGTERM while the set is being loaded (or right after start): caught, and the server
+    // stops as it does later on, exit 0 and its scratch folder gone, not killed by the signal.
+    for delay_ms in [30, 150] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_vorl"))
+            .args(["serve", plant().to_str().unwrap_or_default(), "--trigger"])
+            .args(["--http", "127.0.0.1:0", "--robot", "127.0.0.1:0", "--stop-after", "60"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("start vorl serve");
+        std::thread::sleep(Duration::from_millis(delay_ms));
+        let _ = Command::new("kill").args(["-TERM", &child.id().to_string()]).status();
+        let deadline = Instant::now() + Duration::from_secs(30);
+        let status = loop {
+            if let Ok(Some(s)) = child.try_wait() {
+                break s;
+            }
+            if Instant::now() > deadline {
+                let _ = child.kill();
+                panic!("no stop {delay_ms} ms after start");
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        };
+        assert_eq!(status.code(), Some(0), "SIGTERM {delay_ms} ms after start: {status}");
+        let scratch = format!("vorl-serve-{}-", child.id());
+        let left = std::fs::read_dir(std::env::temp_dir())
+            .map(|d| {
+                d.flatten()
+                    .filter(|e| e.file_name().to_string_lossy().starts_with(&scratch))
+                    .count()
+            })
+            .unwrap_or(0);
+        assert_eq!(left, 0, "the scratch folder is removed");
+    }
+}

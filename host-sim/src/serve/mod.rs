@@ -352,12 +352,19 @@ pub fn run(opts: ServeOptions) -> Result<(), String> {
     let open_to_others = !(opts.http.ip().is_loopback() && opts.robot.ip().is_loopback());
     let token = (open_to_others || opts.require_token).then(new_token);
     let shared = Shared::new(token.clone(), opts.trigger);
-    let worker = worker::Worker::new(&opts, shared.clone())?;
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()
         .build()
         .map_err(|e| format!("cannot start the runtime: {e}"))?;
+    // Ctrl-C and SIGTERM are caught from here on, before the set-up: one that comes while the
+    // set is loaded, or right after "Ctrl-C stops" is printed, still stops cleanly (the
+    // worker's scratch folder removed).
+    let signals = {
+        let _in_runtime = runtime.enter();
+        StopSignals::catch()
+    };
+    let worker = worker::Worker::new(&opts, shared.clone())?;
     runtime.block_on(async move {
         let web = tokio::net::TcpListener::bind(opts.http)
             .await
@@ -390,7 +397,7 @@ pub fn run(opts: ServeOptions) -> Result<(), String> {
                 })
                 .await;
         });
-        wait_for_stop(&shared, opts.stop_after).await;
+        wait_for_stop(&shared, opts.stop_after, signals).await;
         shared.request_stop();
         let mut stopped = shared.stopped();
         let _ = stopped.wait_for(|s| *s).await;
@@ -405,8 +412,32 @@ pub fn run(opts: ServeOptions) -> Result<(), String> {
     })
 }
 
+/// Ctrl-C (SIGINT) and SIGTERM, caught from the moment this is made.
+struct StopSignals {
+    #[cfg(unix)]
+    interrupt: Option<tokio::signal::unix::Signal>,
+    #[cfg(unix)]
+    terminate: Option<tokio::signal::unix::Signal>,
+}
+
+impl StopSignals {
+    /// Starts catching the signals (within a tokio runtime).
+    fn catch() -> Self {
+        #[cfg(unix)]
+        {
+            use tokio::signal::unix::{signal, SignalKind};
+            StopSignals {
+                interrupt: signal(SignalKind::interrupt()).ok(),
+                terminate: signal(SignalKind::terminate()).ok(),
+            }
+        }
+        #[cfg(not(unix))]
+        StopSignals {}
+    }
+}
+
 /// Waits for Ctrl-C, SIGTERM, `stop_after`, or the worker's own end.
-async fn wait_for_stop(shared: &Shared, stop_after: Option<Duration>) {
+async fn wait_for_stop(shared: &Shared, stop_after: Option<Duration>, signals: StopSignals) {
     let mut stopped = shared.stopped();
     let timer = async {
         match stop_after {
@@ -415,18 +446,29 @@ async fn wait_for_stop(shared: &Shared, stop_after: Option<Duration>) {
         }
     };
     #[cfg(unix)]
-    let term = async {
-        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
-            Ok(mut s) => {
-                s.recv().await;
+    let (interrupt, term) = {
+        let wait = |s: Option<tokio::signal::unix::Signal>| async move {
+            match s {
+                Some(mut s) => {
+                    s.recv().await;
+                }
+                None => std::future::pending().await,
             }
-            Err(_) => std::future::pending().await,
-        }
+        };
+        (wait(signals.interrupt), wait(signals.terminate))
     };
     #[cfg(not(unix))]
-    let term = std::future::pending::<()>();
+    let (interrupt, term) = {
+        let _ = signals;
+        (
+            async {
+                let _ = tokio::signal::ctrl_c().await;
+            },
+            std::future::pending::<()>(),
+        )
+    };
     tokio::select! {
-        _ = tokio::signal::ctrl_c() => eprintln!("stopping (Ctrl-C): finishing the frame in hand"),
+        _ = interrupt => eprintln!("stopping (Ctrl-C): finishing the frame in hand"),
         _ = term => eprintln!("stopping (SIGTERM): finishing the frame in hand"),
         _ = timer => eprintln!("stopping (--stop-after)"),
         _ = stopped.wait_for(|s| *s) => {}
