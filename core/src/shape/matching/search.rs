@@ -529,6 +529,8 @@ pub(super) fn sweep<const BITS: bool, const WIDE: bool, const L: usize>(
     let first = |i: usize| firsts.get(i).map_or(usize::MAX, |&v| unpack(v));
     let last = |i: usize| lasts.get(i).map_or(usize::MAX, |&v| unpack(v));
     let end = last(n - 1);
+    // The template up to the last column (so that the loop's `k ≤ end` bounds every read).
+    let t2 = t2.get(..=end)?;
     let mut k = first(0);
     // Rows `lo .. hi` are in the band of column `k`; row `hi` begins at column `enter`, row
     // `lo` ends at column `leave`. Column `k`'s record is at `bits[at..]`.
@@ -551,7 +553,8 @@ pub(super) fn sweep<const BITS: bool, const WIDE: bool, const L: usize>(
             lo += 1;
             leave = last(lo);
         }
-        let active = hi.saturating_sub(lo);
+        // `lo ≤ hi`: a row that has ended has begun (its first column is not past its last).
+        let active = hi.wrapping_sub(lo);
         if active == 1 && first(lo) == leave {
             // Rows one column wide, each alone in its column (the deep levels' narrow bands):
             // a chain, `Q_i = D_i = |p_i − t2[k_i]| + Q_{i−1}` (the cell against `+∞`, as in
