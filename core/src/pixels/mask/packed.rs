@@ -600,10 +600,13 @@ fn unpack<W: Word>(plane: &mut [u8], g: &Geometry<W>, spans: &mut RowSpans) -> u
         let (head, tail) = plane.split_at_mut((y * w).min(plane.len()));
         let src = g.row(head, y);
         let out = tail.get_mut(..w).unwrap_or_default();
-        let mut outs = out.chunks_exact_mut(W::PX);
-        let mut words = src.chunks_exact(W::BYTES);
+        // The row's whole words and their pixels as slices of one length in words (the loop's
+        // count known before it starts), then the partial word.
+        let whole = w / W::PX;
+        let (out, rest) = out.split_at_mut((whole * W::PX).min(out.len()));
+        let (src, partial) = src.split_at((whole * W::BYTES).min(src.len()));
         let (mut first, mut last) = ((usize::MAX, W::ZERO), (0, W::ZERO));
-        for (k, (o, word)) in outs.by_ref().zip(words.by_ref()).enumerate() {
+        for (k, (o, word)) in out.chunks_exact_mut(W::PX).zip(src.chunks_exact(W::BYTES)).enumerate() {
             let bits = W::load(word);
             if bits == W::ZERO {
                 W::clear(o);
@@ -616,10 +619,10 @@ fn unpack<W: Word>(plane: &mut [u8], g: &Geometry<W>, spans: &mut RowSpans) -> u
                 last = (k, bits);
             }
         }
-        if let Some(word) = words.next() {
+        if let Some(word) = partial.get(..W::BYTES) {
             let bits = W::load(word) & g.last_valid;
             foreground += bits.ones();
-            expand_tail(outs.into_remainder(), bits);
+            expand_tail(rest, bits);
             if bits != W::ZERO {
                 if first.0 == usize::MAX {
                     first = (g.words - 1, bits);
