@@ -380,14 +380,24 @@ fn pack<W: Word, B: AsRef<[u8]>>(input: &Input<'_, B>, g: &Geometry<W>, labels: 
             .zip(input.bg.chunks_exact(g.w.max(1)))
             .enumerate()
         {
-            let mut words = prow.chunks_exact_mut(W::BYTES);
-            let (mut fc, mut bc) = (frame.row(y).chunks_exact(W::PX), brow.chunks_exact(W::PX));
-            // The full chunks first in the zip, so that the partial word is not consumed.
-            for ((f, b), word) in fc.by_ref().zip(bc.by_ref()).zip(words.by_ref()) {
+            // The row's whole words, their frame and background pixels as slices of one length
+            // in words (the loop's count known before it starts), then the partial word.
+            let frow = frame.row(y);
+            let whole = g.w / W::PX;
+            let (px, bytes) = (whole * W::PX, whole * W::BYTES);
+            let (Some((fw, ft)), Some((bw, bt)), Some((pw, pt))) = (
+                frow.split_at_checked(px),
+                brow.split_at_checked(px),
+                prow.split_at_mut_checked(bytes),
+            ) else {
+                continue;
+            };
+            let pixels = fw.chunks_exact(W::PX).zip(bw.chunks_exact(W::PX));
+            for ((f, b), word) in pixels.zip(pw.chunks_exact_mut(W::BYTES)) {
                 pack_word(f, b, tau, k).store(word);
             }
-            if let Some(word) = words.next() {
-                pack_tail::<W>(fc.remainder(), bc.remainder(), tau).store(word);
+            if let Some(word) = pt.get_mut(..W::BYTES) {
+                pack_tail::<W>(ft, bt, tau).store(word);
             }
         }
     } else {
