@@ -343,6 +343,37 @@ fn robot_port_and_api_answer_what_detect_gives() {
     assert_eq!(server.terminate(), Some(0));
 }
 
+/// The overlay's shapes (`/api/overlay.json`) against what `vorl detect --json` gives for the
+/// frame: a part each, its cross at the part's position (rounded, as the overlay draws it), its
+/// label naming its class ("unknown" for none), a closed border of many steps, an arrow and
+/// an aligned outline for a known part; the caption counts the parts.
+fn assert_overlay_matches(shapes: &Value, want: &Value) {
+    let want = want.as_array().cloned().unwrap_or_default();
+    let parts = shapes["parts"].as_array().cloned().unwrap_or_default();
+    assert_eq!(parts.len(), want.len(), "{shapes}");
+    let caption = shapes["caption"]["text"].as_str().unwrap_or_default();
+    assert!(caption.starts_with(&format!("{} part(s), ", want.len())), "{caption}");
+    for (p, w) in parts.iter().zip(&want) {
+        let at = |k: &str| w[k].as_f64().map(|v| v.round() as i64);
+        assert_eq!(
+            (p["cross"][0].as_i64(), p["cross"][1].as_i64()),
+            (at("x"), at("y")),
+            "{p} / {w}"
+        );
+        let class = w["class"].as_str().unwrap_or("unknown");
+        let text = p["label"]["text"].as_str().unwrap_or_default();
+        assert!(text == class || text.starts_with(&format!("{class} ")), "{text} / {w}");
+        let border = p["border"].as_str().unwrap_or_default().split(['l', 'L']).count();
+        assert!(border > 20, "{border} border points: {p}");
+        if !w["class"].is_null() {
+            assert_eq!(p["arrow"].as_array().map(Vec::len), Some(3), "{p}");
+            assert!(p["outline"].as_str().is_some_and(|o| o.split(' ').count() > 20), "{p}");
+        }
+        let colour = p["colour"].as_str().unwrap_or_default();
+        assert!(colour.len() == 7 && colour.starts_with('#'), "{colour}");
+    }
+}
+
 #[test]
 fn bad_lines_get_errors_and_the_rest_goes_on() {
     let set = plant();
@@ -455,6 +486,23 @@ fn trigger_mode_runs_one_frame_per_trigger_and_tuning_reruns_it() {
     assert_ne!(after["frames"]["f002.png"], before["frames"]["f002.png"]);
     let (_, params) = server.get("/api/params");
     assert_eq!(params["config"]["touching_parts"], true);
+    // What the page shows of a publication: the frame itself, and the overlay's shapes, a
+    // part each where detect puts it, labelled with its class; the one before the last is
+    // still served by its version (the page may ask for it just after the next came).
+    let frame = image::open(set.join("frames/f002.png")).expect("f002").to_luma8();
+    let default = detect_json(&set, &[]);
+    for (version, want) in [(&after["version"], &want), (&before["version"], &default)] {
+        let (status, bmp) = http_raw(&server.web, "GET", &format!("/api/frame.bmp?v={version}"), None, &[]);
+        assert_eq!(status, 200);
+        let shown = image::load_from_memory_with_format(&bmp, image::ImageFormat::Bmp)
+            .expect("a BMP")
+            .to_luma8();
+        assert!(shown == frame, "the page's picture of version {version} is f002 itself");
+        let (status, shapes) = server.get(&format!("/api/overlay.json?v={version}"));
+        assert_eq!(status, 200, "{shapes}");
+        assert_eq!((&shapes["version"], &shapes["frame"]), (version, &json!("f002.png")));
+        assert_overlay_matches(&shapes, &want["f002.png"]);
+    }
     assert_eq!(server.terminate(), Some(0));
 }
 
@@ -1211,15 +1259,23 @@ fn fifty_clients_at_once_each_get_complete_answers_and_rude_ones_harm_nobody() {
     assert_eq!(server.terminate(), Some(0));
 }
 
-/// In the page: once the frame picture shows the publication `version`, its pixels that are
-/// not gray (R, G and B not all equal: the overlay's outlines, crosses and arrows).
-const COLOURED: &str = "const i = document.getElementById('frame');
-    if (!i.complete || !i.naturalWidth || !i.src.endsWith('v=' + arguments[0])) return null;
+/// In the page: once the frame picture and its overlay layer show the publication `version`,
+/// the picture's pixels that are not gray (R, G and B not all equal: none, the picture is the
+/// frame itself), the parts the SVG layer draws, their points (borders and outlines) and
+/// crosses, and the caption.
+const DRAWN: &str = "const i = document.getElementById('frame'), o = document.getElementById('overlay');
+    if (!i.complete || !i.naturalWidth || !i.src.endsWith('v=' + arguments[0]) || o.dataset.version !== String(arguments[0])) return null;
     const c = document.createElement('canvas'); c.width = i.naturalWidth; c.height = i.naturalHeight;
     const g = c.getContext('2d'); g.drawImage(i, 0, 0);
     const d = g.getImageData(0, 0, c.width, c.height).data;
     let n = 0; for (let k = 0; k < d.length; k += 4) if (d[k] !== d[k + 1] || d[k + 1] !== d[k + 2]) n++;
-    return {coloured: n};";
+    const parts = [...o.querySelectorAll('g.part')];
+    const points = [...o.querySelectorAll('g.part path.border')].reduce((s, p) => s + p.getAttribute('d').split(/[lL]/).length, 0)
+        + [...o.querySelectorAll('g.part polygon.outline')].reduce((s, p) => s + p.points.numberOfItems, 0);
+    const r = o.getBoundingClientRect(), f = i.getBoundingClientRect();
+    return {coloured: n, parts: parts.length, points, crosses: parts.map(p => p.dataset.cross),
+        caption: o.lastElementChild.lastElementChild.textContent,
+        over: Math.abs(r.width - f.width) < 1 && Math.abs(r.height - f.height) < 1 && Math.abs(r.left - f.left) < 1 && Math.abs(r.top - f.top) < 1};";
 
 /// WebDriver's keys (the private-use code points of the W3C spec).
 const KEY_HOME: char = '\u{E011}';
@@ -1236,13 +1292,26 @@ fn the_threshold_slider_changes_the_overlay() {
     assert_eq!(res_frame(&server.robot().ask("TRG").0), "f000.png");
     browser.goto(&format!("http://{}/", server.web));
     browser.wait_for("return document.getElementById('fname').textContent === 'f000.png'");
-    let coloured = |version: &Value| -> u64 {
-        let script = json!({"script": COLOURED, "args": [version]});
+    // What the page draws for a publication: (parts, their polygons' points, their crosses).
+    let drawn = |version: &Value| -> (u64, u64, Vec<String>) {
+        let script = json!({"script": DRAWN, "args": [version]});
         let deadline = Instant::now() + Duration::from_secs(60);
         loop {
             let v = browser.call("POST", "/execute/sync", script.clone());
-            if let Some(n) = v["coloured"].as_u64() {
-                return n;
+            if let Some(n) = v["parts"].as_u64() {
+                assert_eq!(v["coloured"], json!(0), "the picture is the gray frame: {v}");
+                assert_eq!(v["over"], json!(true), "the overlay lies over the picture: {v}");
+                assert!(
+                    v["caption"]
+                        .as_str()
+                        .is_some_and(|c| c.starts_with(&format!("{n} part(s), "))),
+                    "{v}"
+                );
+                let crosses = v["crosses"]
+                    .as_array()
+                    .map(|a| a.iter().map(|c| c.as_str().unwrap_or_default().to_string()).collect())
+                    .unwrap_or_default();
+                return (n, v["points"].as_u64().unwrap_or_default(), crosses);
             }
             assert!(
                 Instant::now() < deadline,
@@ -1254,8 +1323,9 @@ fn the_threshold_slider_changes_the_overlay() {
     let before = server.last_when(|_| true);
     let parts_before = before["frames"]["f000.png"].as_array().map_or(0, Vec::len);
     assert!(parts_before > 0, "{before}");
-    let drawn = coloured(&before["version"]);
-    assert!(drawn > 100, "the overlay draws the parts: {drawn} coloured pixels");
+    let (parts, points, _) = drawn(&before["version"]);
+    assert_eq!(parts, parts_before as u64, "the overlay draws every part");
+    assert!(points > 100, "the overlay draws the parts' outlines: {points} points");
     browser.wait_for(&format!(
         "return {}.length === {parts_before}",
         ROWS.trim_start_matches("return ")
@@ -1272,18 +1342,29 @@ fn the_threshold_slider_changes_the_overlay() {
     let high = server.last_when(|v| v["version"].as_u64() > before["version"].as_u64());
     assert_eq!(high["frame"], "f000.png", "the frame on screen, run again");
     assert_eq!(high["frames"]["f000.png"], json!([]), "{high}");
-    assert_eq!(coloured(&high["version"]), 0, "no part drawn at threshold 255");
+    assert_eq!(drawn(&high["version"]).0, 0, "no part drawn at threshold 255");
     browser.wait_for(&format!("return {}.length === 0", ROWS.trim_start_matches("return ")));
     assert_eq!(
         browser.exec("return document.getElementById('p-threshold').value"),
         json!("255"),
         "the threshold's field follows the slider"
     );
-    // The overlay is then the frame itself under the caption.
+    // The picture the page shows is the frame itself; the overlay's picture (what `vorl
+    // detect --overlay` draws) is then the frame itself under the caption.
+    let (status, bmp) = http_raw(
+        &server.web,
+        "GET",
+        &format!("/api/frame.bmp?v={}", high["version"]),
+        None,
+        &[],
+    );
+    assert_eq!(status, 200);
+    let shown = image::load_from_memory(&bmp).expect("a BMP").to_luma8();
+    let frame = image::open(set.join("frames/f000.png")).expect("f000").to_luma8();
+    assert!(shown == frame, "the page's picture is f000 itself");
     let (status, png) = http_raw(&server.web, "GET", "/api/overlay.png", None, &[]);
     assert_eq!(status, 200);
     let overlay = image::load_from_memory(&png).expect("a PNG").to_rgb8();
-    let frame = image::open(set.join("frames/f000.png")).expect("f000").to_luma8();
     assert_eq!(overlay.dimensions(), frame.dimensions());
     let differ = frame
         .enumerate_pixels()
@@ -1312,7 +1393,26 @@ fn the_threshold_slider_changes_the_overlay() {
         "threshold 60 changes f000's parts"
     );
     let mid = server.last_when(|v| v["frames"]["f000.png"] == want["f000.png"]);
-    assert!(coloured(&mid["version"]) > 100, "parts drawn again at threshold 60");
+    let (parts, points, crosses) = drawn(&mid["version"]);
+    let want_crosses: Vec<String> = want["f000.png"]
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .map(|p| {
+                    let at = |k: &str| p[k].as_f64().unwrap_or(f64::NAN).round();
+                    format!("{},{}", at("x"), at("y"))
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    assert_eq!(parts, want_crosses.len() as u64, "parts drawn again at threshold 60");
+    assert!(points > 100, "{points} points");
+    assert_eq!(
+        crosses, want_crosses,
+        "the crosses where detect --threshold 60 puts the parts"
+    );
+    let (_, shapes) = server.get(&format!("/api/overlay.json?v={}", mid["version"]));
+    assert_overlay_matches(&shapes, &want["f000.png"]);
     let want_rows: Vec<Vec<String>> = want["f000.png"]
         .as_array()
         .map(|a| a.iter().map(expected_row).collect())

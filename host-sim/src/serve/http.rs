@@ -5,7 +5,9 @@
 //! | `GET /` | the page (one file, no external assets) |
 //! | `GET /api/last` | the last frame's result: `frames` in the shape of `vorl detect --json`, `timing` |
 //! | `POST /api/trigger` | the next frame's result (starts it in trigger mode), as `/api/last` |
-//! | `GET /api/overlay.png` | the last frame with the overlay of `vorl detect --overlay` |
+//! | `GET /api/frame.bmp?v=N` | the frame of publication N (while it is the last or the one before, else the last) as the page shows it: 8-bit gray BMP, uncompressed |
+//! | `GET /api/overlay.json?v=N` | the shapes of that frame's overlay of `vorl detect --overlay`, which the page draws over the frame ([`super::picture::shapes_json`]) |
+//! | `GET /api/overlay.png` | the last frame with the overlay of `vorl detect --overlay`, drawn and encoded on the server (the page does not use it) |
 //! | `GET /api/params` | the parameters in force and the classes taught |
 //! | `POST /api/params` | `{"key": value, …}`: parameters changed, the frame on screen run again |
 //! | `POST /api/teach` | `{"x", "y", "name", "add"}`: the part at (x, y) taught |
@@ -37,6 +39,8 @@ pub fn router(shared: Arc<Shared>) -> Router {
         .route("/", get(page))
         .route("/api/last", get(last))
         .route("/api/trigger", post(trigger))
+        .route("/api/frame.bmp", get(frame_bmp))
+        .route("/api/overlay.json", get(overlay_json))
         .route("/api/overlay.png", get(overlay))
         .route("/api/params", get(params).post(set_params))
         .route("/api/teach", post(teach))
@@ -99,6 +103,27 @@ async fn last(State(shared): State<Arc<Shared>>) -> Result<Response, ServeError>
 async fn trigger(State(shared): State<Arc<Shared>>) -> Result<Response, ServeError> {
     let p = shared.trigger()?.await.map_err(|_| ServeError::Stopping)?;
     Ok((no_store(), Json(result_json(&p, shared.trigger_mode()))).into_response())
+}
+
+/// The publication a request names by `?v=N`.
+fn version_of(uri: &Uri) -> Option<u64> {
+    uri.query()?
+        .split('&')
+        .find_map(|kv| kv.strip_prefix("v="))?
+        .parse()
+        .ok()
+}
+
+async fn frame_bmp(State(shared): State<Arc<Shared>>, uri: Uri) -> Result<Response, ServeError> {
+    let p = shared.published(version_of(&uri))?;
+    let bytes = p.frame_bmp().ok_or(ServeError::NoFrame)?;
+    Ok((no_store(), [(header::CONTENT_TYPE, "image/bmp")], bytes).into_response())
+}
+
+async fn overlay_json(State(shared): State<Arc<Shared>>, uri: Uri) -> Result<Response, ServeError> {
+    let p = shared.published(version_of(&uri))?;
+    let bytes = p.overlay_json().ok_or(ServeError::NoFrame)?;
+    Ok((no_store(), [(header::CONTENT_TYPE, "application/json")], bytes).into_response())
 }
 
 async fn overlay(State(shared): State<Arc<Shared>>) -> Result<Response, ServeError> {

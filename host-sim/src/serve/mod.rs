@@ -7,12 +7,15 @@
 //! source (replay | gen) ──▶ worker thread: Engine::detect, record ───────────▶ Shared::last
 //!                                   ▲  commands (tune, teach, save, calibrate)     │
 //!                                   │                                             ▼
-//!                 page (axum, `http`) ◀──────────── /api/last, /api/overlay.png, TRG/LAST (`robot`)
+//!                 page (axum, `http`) ◀──────────── /api/last, /api/frame.bmp, TRG/LAST (`robot`)
 //! ```
 //!
-//! The worker does not draw the overlay: `/api/overlay.png` draws and encodes it when the page
-//! asks for it (once per frame shown, at the page's rate), so that the page adds nothing to the
-//! frames it does not show.
+//! Nobody draws pixels for the page: for each frame it shows, the page fetches the frame as it
+//! is (`/api/frame.bmp`, 8-bit gray, uncompressed: a header and the rows copied) and the shapes
+//! of `vorl detect --overlay` (`/api/overlay.json`), which it draws in the browser as an SVG
+//! layer. Both are made once per frame shown, on the HTTP threads, so that the page adds next
+//! to nothing to a frame. `/api/overlay.png` still draws and encodes the overlay's picture,
+//! for whoever asks for it (the page does not).
 //!
 //! - [`source`]: where frames come from (the set's frames in name order, looping; or scenes
 //!   drawn live by the generator).
@@ -21,6 +24,7 @@
 //!   it, applies the page's commands to the frame on screen, and records.
 //! - [`robot`]: the robot port's line protocol (`TRG`, `LAST`, `PING`) over TCP.
 //! - [`http`]: the page and its JSON API.
+//! - [`picture`]: what the page shows of a frame: the gray BMP and the overlay's shapes.
 //! - [`record`]: `--record DIR`, a fixture set of every frame and its result.
 //!
 //! Threads: the worker is a plain thread (detection is CPU work); the two ports run on a small
@@ -28,6 +32,7 @@
 //! across an await or a detection.
 
 pub mod http;
+pub mod picture;
 pub mod record;
 pub mod robot;
 pub mod source;
@@ -39,6 +44,7 @@ use std::path::PathBuf;
 use std::sync::{Arc, Condvar, Mutex, MutexGuard, OnceLock};
 use std::time::Duration;
 
+use axum::body::Bytes;
 use tokio::sync::{oneshot, watch};
 
 use crate::cli::params::ParamArgs;
@@ -121,6 +127,10 @@ pub struct Published {
     pub drawn_from: Option<(Arc<image::GrayImage>, crate::engine::FrameResult)>,
     /// The overlay as PNG, drawn and encoded on first request.
     pub png: OnceLock<Vec<u8>>,
+    /// The frame as a gray BMP, made on first request.
+    pub bmp: OnceLock<Bytes>,
+    /// The overlay's shapes as JSON, made on first request.
+    pub shapes: OnceLock<Bytes>,
 }
 
 impl Published {
@@ -133,6 +143,25 @@ impl Published {
             .png
             .get_or_init(|| http::encode_png(&crate::overlay::draw(frame, result)));
         (!png.is_empty()).then_some(png.as_slice())
+    }
+
+    /// The frame as the page shows it: 8-bit gray BMP, made on the first call and kept;
+    /// `None` for a frame that gave no result.
+    pub fn frame_bmp(&self) -> Option<Bytes> {
+        let (frame, _) = self.drawn_from.as_ref()?;
+        Some(self.bmp.get_or_init(|| picture::gray_bmp(frame).into()).clone())
+    }
+
+    /// The shapes of the overlay of `vorl detect --overlay`, as JSON for the page to draw
+    /// ([`picture::shapes_json`]): made on the first call and kept; `None` for a frame that
+    /// gave no result.
+    pub fn overlay_json(&self) -> Option<Bytes> {
+        let (frame, result) = self.drawn_from.as_ref()?;
+        Some(
+            self.shapes
+                .get_or_init(|| picture::shapes_json(self.version, &self.frame, frame, result).into())
+                .clone(),
+        )
     }
 }
 
@@ -195,6 +224,9 @@ pub type Reply = Result<serde_json::Value, ServeError>;
 
 struct State {
     last: Option<Arc<Published>>,
+    /// The one published before `last`: the page, having read `last`'s version, may ask for
+    /// its picture just after the next frame came.
+    previous: Option<Arc<Published>>,
     waiters: Vec<oneshot::Sender<Arc<Published>>>,
     commands: VecDeque<(Command, oneshot::Sender<Reply>)>,
     stop: bool,
@@ -217,6 +249,7 @@ impl Shared {
         Arc::new(Shared {
             state: Mutex::new(State {
                 last: None,
+                previous: None,
                 waiters: Vec::new(),
                 commands: VecDeque::new(),
                 stop: false,
@@ -239,6 +272,20 @@ impl Shared {
     /// [`ServeError::NoFrame`] before the first frame.
     pub fn last(&self) -> Result<Arc<Published>, ServeError> {
         self.lock().last.clone().ok_or(ServeError::NoFrame)
+    }
+
+    /// The publication `version` while it is the last or the one before, else the last (the
+    /// page asks for a frame's picture and shapes by the version it read).
+    ///
+    /// # Errors
+    /// [`ServeError::NoFrame`] before the first frame.
+    pub fn published(&self, version: Option<u64>) -> Result<Arc<Published>, ServeError> {
+        let st = self.lock();
+        let last = st.last.clone().ok_or(ServeError::NoFrame)?;
+        Ok(match (version, &st.previous) {
+            (Some(v), Some(p)) if last.version != v && p.version == v => p.clone(),
+            _ => last,
+        })
     }
 
     /// Asks for the next frame's result: the receiver gets the result of the first frame

@@ -272,6 +272,8 @@ impl Worker {
                     notes,
                     drawn_from: Some((image.clone(), result)),
                     png: OnceLock::new(),
+                    bmp: OnceLock::new(),
+                    shapes: OnceLock::new(),
                 };
                 self.current = Some((captured.name, image));
                 p
@@ -290,11 +292,15 @@ impl Worker {
                     notes,
                     drawn_from: None,
                     png: OnceLock::new(),
+                    bmp: OnceLock::new(),
+                    shapes: OnceLock::new(),
                 }
             }
         };
         let published = Arc::new(published);
-        self.shared.lock().last = Some(published.clone());
+        let mut st = self.shared.lock();
+        st.previous = st.last.replace(published.clone());
+        drop(st);
         published
     }
 
