@@ -1506,16 +1506,25 @@ fn teach_leaves_the_shadow_out_keeps_the_polarity_and_takes_an_open_part_at_its_
 /// oval flange drawn without their holes) are unknown: their outlines verify against the
 /// templates, but a bore the mask resolves is not there (`holes::solid_where_a_hole_is`).
 /// Without that rule, 14 of the 46 unknown parts of seed 1's 60 frames were rejected (the
-/// rule: 46); every template part stays named.
+/// rule: 46); every template part stays named. Seed 2 has a solid hex nut (frame 23) and a
+/// solid oval flange (frame 26) with a label printed over the bore's place, which keeps a dip
+/// in the difference there: they were named until a bore wider than three times the frame's
+/// edge blur had to show in the mask.
 #[test]
 fn look_alikes_without_the_templates_holes_are_unknown() {
-    let scratch = Scratch::new("lookalike");
+    for seed in ["1", "2"] {
+        look_alikes_are_unknown(seed);
+    }
+}
+
+fn look_alikes_are_unknown(seed: &str) {
+    let scratch = Scratch::new(&format!("lookalike{seed}"));
     let set = scratch.join("set");
     vorl([
         OsStr::new("gen"),
         set.as_os_str(),
         OsStr::new("--seed"),
-        OsStr::new("1"),
+        OsStr::new(seed),
         OsStr::new("--frames"),
         OsStr::new("40"),
         OsStr::new("--variant"),
@@ -1540,16 +1549,20 @@ fn look_alikes_without_the_templates_holes_are_unknown() {
             let shape = t["shape"].as_str().unwrap_or("");
             if shape.ends_with("_solid") || shape == "disc" {
                 solids += 1;
-                assert!(p["class"].is_null(), "{frame}: a {shape} named {}", p["class"]);
+                assert!(
+                    p["class"].is_null(),
+                    "seed {seed}, {frame}: a {shape} named {}",
+                    p["class"]
+                );
             } else if !t["class"].is_null() {
                 known += 1;
-                assert_eq!(p["class"], t["class"], "{frame}: {shape}");
+                assert_eq!(p["class"], t["class"], "seed {seed}, {frame}: {shape}");
             }
         }
     }
     assert!(
         solids >= 10 && known >= 40,
-        "{solids} look-alikes, {known} template parts"
+        "seed {seed}: {solids} look-alikes, {known} template parts"
     );
 }
 

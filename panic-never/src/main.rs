@@ -515,13 +515,27 @@ fn borders() {
     black_box(holes::agreement(&moved, &pose_(), &part_holes).missing());
     black_box(holes::pose_from_holes(&moved, &part_holes));
     black_box(holes::resolvable(f()));
+    let sight = holes::Sight {
+        hidden: f(),
+        filter: BorderFilter {
+            min_points: u(),
+            min_area: f(),
+        },
+    };
     black_box(holes::solid_where_a_hole_is(
         &moved,
         &pose_(),
         &part_holes,
-        f(),
+        &sight,
+        || flag().then(f),
         |_, _| f(),
         |_, _| flag(),
+    ));
+    // The edge blur over any outline, any sampler.
+    black_box(holes::edge_blur(
+        out.iter().map(|&p| (p, p2())),
+        u(),
+        |_, _| f(),
     ));
     black_box(polarity().difference(u8_(), u8_()));
     let agreed = holes::agreement(&moved, &pose_(), &part_holes);

@@ -53,7 +53,7 @@
 //! assert_eq!((a.expected, a.found), (1, 1));
 //! ```
 
-use crate::borders::contour::Point;
+use crate::borders::contour::{BorderFilter, Point};
 use crate::pose::polygon_moments;
 use crate::pose::refine::Pose;
 
@@ -343,40 +343,65 @@ pub fn agreement(template: &Holes, pose: &Pose, part: &Holes) -> HoleAgreement {
 pub const SOLID_KEEPS: f32 = 0.75;
 
 /// Whether `template` has a hole that the part, at `pose`, shows no trace of: resolvable at
-/// the pose's scale ([`resolvable`]) and of a radius above `hidden` px (the widest wall a thick
-/// part's side may show inside a hole: the caller's bound), its disc and the ring of face around it inside the frame
+/// the pose's scale ([`resolvable`]) and of a radius above [`Sight::hidden`], its disc and the ring of face around it inside the frame
 /// (`inside`), no part hole of any size within reach of where the pose puts it (see the
-/// module doc), and the difference `d` (a sampler of `|D|` at a sub-pixel position) at its
-/// centre and halfway to its edge still [`SOLID_KEEPS`] of the part's face around it (sampled
-/// on a ring at 1.6 radii, where that ring lies on the part). A part without the template's
-/// bore is not the part with it, however well its outline fits (a smooth blob fitted a cam or
-/// a hex nut); a hole that blur nearly closed, or that shows a wall, still leaves a dip.
+/// module doc), and either
+///
+/// - of a radius of [`OPEN_RADII`] times the frame's edge blur or more (`blur`: σ px, asked
+///   for at most once, only for such a hole; [`edge_blur`]), and wide enough that its border,
+///   its edge [`HOLE_EDGE`] inside, passes the border filter of the frame's tracing
+///   ([`Sight::filter`]): a blur
+///   that soft cannot close a hole that wide, so the mask would show it, and the tracing would
+///   keep it (print over a bore keeps it solid however far its grey lies from the face's), or
+/// - the difference `d` (a sampler of `|D|` at a sub-pixel position) at its centre and halfway
+///   to its edge still [`SOLID_KEEPS`] of the part's face around it (sampled on a ring at 1.6
+///   radii, where that ring lies on the part): a hole that blur nearly closed, or that shows a
+///   wall, still leaves a dip.
+///
+/// A part without the template's bore is not the part with it, however well its outline fits
+/// (a smooth blob fitted a cam or a hex nut).
 ///
 /// ```
-/// use vorl_core::pose::holes::{solid_where_a_hole_is, Hole, Holes};
+/// use vorl_core::borders::contour::BorderFilter;
+/// use vorl_core::pose::holes::{solid_where_a_hole_is, Hole, Holes, Sight};
 /// use vorl_core::pose::refine::Pose;
 /// let mut template = Holes::new();
 /// template.insert(Hole { centre: [0.0, 0.0], area: 300.0 }); // a bore, radius 9.8 px
 /// let pose = Pose { x: 50.0, y: 50.0, angle: 0.0, scale: 1.0 };
 /// let inside = |_x: f32, _y: f32| true;
+/// let sharp = || Some(0.5); // the frame's edges: σ 0.5 px
+/// let f = Sight { hidden: 0.0, filter: BorderFilter { min_points: 16, min_area: 64.0 } };
 /// // A solid disc of contrast 80: no trace of the bore.
-/// assert!(solid_where_a_hole_is(&template, &pose, &Holes::new(), 0.0, |_, _| 80.0, inside));
-/// // The bore there (the platform shows: D = 0 within 9.8 px of the centre).
+/// assert!(solid_where_a_hole_is(&template, &pose, &Holes::new(), &f, sharp, |_, _| 80.0, inside));
+/// // The bore there (the platform shows: D = 0 within 9.8 px of the centre), but its mask
+/// // hole not passed in: the dip says it is there.
 /// let d = |x: f32, y: f32| if (x - 50.0).hypot(y - 50.0) < 9.8 { 0.0 } else { 80.0 };
-/// assert!(!solid_where_a_hole_is(&template, &pose, &Holes::new(), 0.0, d, inside));
+/// assert!(!solid_where_a_hole_is(&template, &pose, &Holes::new(), &f, || Some(4.0), d, inside));
+/// // A label of half the contrast over the bore's place: under sharp edges a bore that wide
+/// // would show in the mask, and no part hole is near it.
+/// let label = |x: f32, y: f32| if (x - 50.0).hypot(y - 50.0) < 12.0 { 40.0 } else { 80.0 };
+/// assert!(solid_where_a_hole_is(&template, &pose, &Holes::new(), &f, sharp, label, inside));
+/// // The same label under a tracing that drops borders under 400 px² (no hole of that size
+/// // would reach the recognizer): only the dip counts, and the label's keeps half the face.
+/// let coarse = Sight { hidden: 0.0, filter: BorderFilter { min_points: 16, min_area: 400.0 } };
+/// assert!(!solid_where_a_hole_is(&template, &pose, &Holes::new(), &coarse, sharp, label, inside));
 /// ```
 pub fn solid_where_a_hole_is(
     template: &Holes,
     pose: &Pose,
     part: &Holes,
-    hidden: f32,
+    sight: &Sight,
+    blur: impl FnOnce() -> Option<f32>,
     d: impl Fn(f32, f32) -> f32,
     inside: impl Fn(f32, f32) -> bool,
 ) -> bool {
     let scale = pose.scale;
+    // The frame's edge blur, measured once, the first time a hole needs it.
+    let mut blur = Some(blur);
+    let mut sigma: Option<f32> = None;
     template.as_slice().iter().any(|h| {
         let area = h.area * scale * scale;
-        if !resolvable(area) || radius(area) <= hidden {
+        if !resolvable(area) || radius(area) <= sight.hidden {
             return false;
         }
         let at = pose.apply(h.centre);
@@ -419,8 +444,126 @@ pub fn solid_where_a_hole_is(
         if count < 4 || !(top > 0.0) {
             return false;
         }
-        centre >= SOLID_KEEPS * (sum / count as f32)
+        if centre >= SOLID_KEEPS * (sum / count as f32) {
+            return true;
+        }
+        // A dip, but no hole in the mask: whether the blur could have closed one that wide.
+        if !traced(r, &sight.filter) {
+            return false;
+        }
+        if let Some(measure) = blur.take() {
+            sigma = measure();
+        }
+        sigma.is_some_and(|s| r >= OPEN_RADII * s)
     })
+}
+
+/// How many times the frame's edge blur σ a hole's radius must be for the blur to leave it
+/// open in the mask ([`solid_where_a_hole_is`]): a disc of platform of radius `r` blurred by a
+/// Gaussian of σ keeps `exp(−r²/2σ²)` of the face's contrast at its centre, 1.1 % at 3σ, below
+/// any threshold the mask uses short of 1/90 of the contrast.
+pub const OPEN_RADII: f32 = 3.0;
+
+/// What a frame can show of a template's hole in a part ([`solid_where_a_hole_is`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sight {
+    /// The widest wall a thick part's side may show inside a hole, px: a hole no wider may be
+    /// hidden by it (the caller's bound).
+    pub hidden: f32,
+    /// The border filter of the frame's tracing ([`crate::Params::filter`]): a hole whose
+    /// border it drops never reaches the recognizer.
+    pub filter: BorderFilter,
+}
+
+/// Whether a hole of radius `r` px leaves a border that `filter` keeps with its edge
+/// [`HOLE_EDGE`] inside: a disc of radius `ρ = r − HOLE_EDGE`, of area `πρ²`, whose
+/// 8-connected border has about `4√2·ρ` points.
+fn traced(r: f32, filter: &BorderFilter) -> bool {
+    let rho = r - HOLE_EDGE;
+    rho > 0.0
+        && core::f32::consts::PI * rho * rho >= filter.min_area
+        && 4.0 * core::f32::consts::SQRT_2 * rho >= filter.min_points as f32
+}
+
+/// Most outline points [`edge_blur`] samples.
+const BLUR_PROFILES: usize = 16;
+
+/// Half the length of each profile of [`edge_blur`], px, and its step.
+const BLUR_REACH: f32 = 6.0;
+const BLUR_STEP: f32 = 0.5;
+
+/// The blur of the frame's edges, σ px, from `|D|` (`d`, a sub-pixel sampler) across an
+/// outline: `points` of it (each a frame position and a unit normal, either way; at most
+/// [`BLUR_PROFILES`] of the `count` used, spread evenly). Along each normal, from the highest
+/// value on the face's side to the lowest on the other, how far the difference takes to fall
+/// from ¾ to ¼ of the way, which for a step blurred by a Gaussian of σ is `2 · 0.674 · σ`; the
+/// median over the profiles (a corner, a touching neighbour or a shadow spoil a few). `None`
+/// when no profile shows a fall.
+///
+/// ```
+/// use vorl_core::pose::holes::edge_blur;
+/// // A vertical edge at x = 20 blurred linearly over 4 px (x 18 → 22): the ¾-to-¼ fall
+/// // takes 2 px, σ ≈ 1.48 px.
+/// let d = |x: f32, _y: f32| (80.0 * (22.0 - x) / 4.0).clamp(0.0, 80.0);
+/// let points = (0..8).map(|i| ([20.0, 10.0 + i as f32], [1.0, 0.0]));
+/// let s = edge_blur(points, 8, d).unwrap();
+/// assert!((s - 2.0 / 1.349).abs() < 0.05, "{s}");
+/// ```
+pub fn edge_blur(
+    points: impl Iterator<Item = ([f32; 2], [f32; 2])>,
+    count: usize,
+    d: impl Fn(f32, f32) -> f32,
+) -> Option<f32> {
+    const N: usize = (2.0 * BLUR_REACH / BLUR_STEP) as usize + 1;
+    let every = count.div_ceil(BLUR_PROFILES).max(1);
+    let mut widths = [0.0f32; BLUR_PROFILES];
+    let mut len = 0;
+    for (p, n) in points.step_by(every).take(BLUR_PROFILES) {
+        let mut f = [0.0f32; N];
+        for (k, v) in f.iter_mut().enumerate() {
+            let t = k as f32 * BLUR_STEP - BLUR_REACH;
+            *v = d(p[0] + t * n[0], p[1] + t * n[1]);
+        }
+        // From the face's side out.
+        if f.first() < f.last() {
+            f.reverse();
+        }
+        if let (Some(w), Some(slot)) = (fall_width(&f), widths.get_mut(len)) {
+            *slot = w * BLUR_STEP;
+            len += 1;
+        }
+    }
+    let widths = widths.get_mut(..len)?;
+    let w = crate::math::select_nth(widths, len.checked_sub(1)? / 2)?;
+    Some(w / (2.0 * 0.674_49))
+}
+
+/// Along a profile `f` from inside out: from the highest value of its inner half to the lowest
+/// of its outer half, the distance (in samples, interpolated) between where it falls below ¾
+/// and below ¼ of the way. `None` without a fall.
+fn fall_width(f: &[f32]) -> Option<f32> {
+    let half = f.len() / 2;
+    let (peak, top) =
+        f.get(..=half)?.iter().enumerate().fold(
+            (0, f32::NEG_INFINITY),
+            |(i, m), (k, &v)| if v > m { (k, v) } else { (i, m) },
+        );
+    let low = f.get(half..)?.iter().fold(f32::INFINITY, |m, &v| m.min(v));
+    if !(top > low) {
+        return None;
+    }
+    let cross = |level: f32| {
+        let mut prev = top;
+        for (k, &v) in f.iter().enumerate().skip(peak + 1) {
+            if v < level {
+                return Some(k.saturating_sub(1) as f32 + (prev - level) / (prev - v));
+            }
+            prev = v;
+        }
+        None
+    };
+    let (hi, lo) = (low + 0.75 * (top - low), low + 0.25 * (top - low));
+    Some(cross(lo)? - cross(hi)?)
 }
 
 /// The pose that puts `template`'s two largest holes (centres as offsets from its area
@@ -481,4 +624,77 @@ pub fn pose_from_holes(template: &Holes, part: &Holes) -> Option<Pose> {
         }
     }
     best.map(|(_, p)| p)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `|D|` of a straight edge through (`x0`, ·) with the part on its left, contrast 80,
+    /// blurred by a Gaussian of `sigma` px: `40·(1 − erf((x − x0)/(σ√2)))`.
+    fn blurred_edge(x0: f32, sigma: f32) -> impl Fn(f32, f32) -> f32 {
+        move |x, _y| 40.0 * (1.0 - libm::erff((x - x0) / (sigma * core::f32::consts::SQRT_2)))
+    }
+
+    #[test]
+    fn edge_blur_recovers_a_gaussian_blur() {
+        for sigma in [0.7f32, 1.0, 2.0] {
+            // Normals either way.
+            for n in [[1.0, 0.0], [-1.0, 0.0]] {
+                let points = (0..40).map(|i| ([30.0, i as f32], n));
+                let s = edge_blur(points, 40, blurred_edge(30.0, sigma)).expect("a fall");
+                assert!((s - sigma).abs() < 0.05 * sigma, "σ {sigma}: measured {s}");
+            }
+        }
+    }
+
+    #[test]
+    fn edge_blur_takes_the_median_over_spoilt_profiles() {
+        // A third of the profiles on a neighbour's flat face (no fall: left out) and two on a
+        // softer stretch: the median is the edge's.
+        let d = |x: f32, y: f32| {
+            if y < 12.0 {
+                60.0
+            } else if y < 14.0 {
+                blurred_edge(30.0, 3.0)(x, y)
+            } else {
+                blurred_edge(30.0, 1.0)(x, y)
+            }
+        };
+        let points = (0..36).map(|i| ([30.0, i as f32], [1.0, 0.0]));
+        let s = edge_blur(points, 36, d).expect("a fall");
+        assert!((s - 1.0).abs() < 0.05, "{s}");
+    }
+
+    #[test]
+    fn edge_blur_without_a_fall_is_none() {
+        let points = (0..8).map(|i| ([30.0, i as f32], [1.0, 0.0]));
+        assert_eq!(edge_blur(points, 8, |_, _| 50.0), None);
+        assert_eq!(edge_blur(core::iter::empty(), 0, |_, _| 50.0), None);
+    }
+
+    #[test]
+    fn a_hole_is_traced_when_its_border_passes_the_filter() {
+        let f = BorderFilter {
+            min_points: 16,
+            min_area: 64.0,
+        };
+        // ρ = r − 1.5 must give πρ² ≥ 64 (ρ ≥ 4.51) and 4√2·ρ ≥ 16 (ρ ≥ 2.83).
+        assert!(!traced(5.9, &f));
+        assert!(traced(6.1, &f));
+        let few = BorderFilter {
+            min_points: 40,
+            min_area: 0.0,
+        };
+        // 4√2·ρ ≥ 40: ρ ≥ 7.07.
+        assert!(!traced(8.5, &few));
+        assert!(traced(8.6, &few));
+        assert!(!traced(
+            1.0,
+            &BorderFilter {
+                min_points: 0,
+                min_area: 0.0
+            }
+        ));
+    }
 }

@@ -122,6 +122,9 @@ pub struct Recognizer<const T: usize, const M: usize, const P: usize, const C: u
     assignment: [u16; M],
     table: [f32; D],
     part_edges: [[f32; 2]; M],
+    /// The blur of the part's edge (σ px, [`crate::pose::holes::edge_blur`] over
+    /// `part_edges`): `None` until a verification asks for it, then kept until the next part.
+    part_blur: core::cell::Cell<Option<Option<f32>>>,
     /// The mirror image of template `mirror_of` ([`Template::mirrored`]), made when a part is
     /// matched against it.
     mirror: Template<M>,
@@ -160,6 +163,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             assignment: [0; M],
             table: [0.0; D],
             part_edges: [[0.0; 2]; M],
+            part_blur: core::cell::Cell::new(None),
             mirror: Template::empty(),
             mirror_of: None,
             arc_points: [[0.0; 2]; BLOB_POINTS],
@@ -626,6 +630,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
     /// The part's sub-pixel edge at each resampled point (NaN where none is found).
     fn part_edge<B: AsRef<[u8]>>(&mut self, n: usize, counter_clockwise: bool, diff: &Difference<'_, B>) {
         let finder = diff.edge_finder(&RefineParams::DEFAULT);
+        self.part_blur.set(None);
         let points = self.points.get(..n).unwrap_or(&[]);
         for k in 0..n {
             let e = points

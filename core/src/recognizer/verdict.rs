@@ -28,7 +28,7 @@
 use crate::library::template::Template;
 use crate::math;
 use crate::params::Params;
-use crate::pose::holes::{agreement, pose_from_holes, solid_where_a_hole_is, HoleAgreement, Holes};
+use crate::pose::holes::{agreement, edge_blur, pose_from_holes, solid_where_a_hole_is, HoleAgreement, Holes, Sight};
 use crate::pose::refine::{
     align_recording, edge_distances_walled, wall_facing, Alignment, Difference, Outline, Pose, RefineParams,
     VERIFY_KEPT,
@@ -117,15 +117,21 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 holes: agreement(t.holes(), &pose, part_holes),
                 family,
                 wall,
-                // (A fit with a wall: the walls may hide a hole; its veto is left out.)
+                // (A fit with a wall: the walls may hide a hole; its veto is left out. A fit
+                // NEAR_MISS times its limit or more is not accepted anyway.)
                 solid_hole: wall == 0.0
+                    && verify < NEAR_MISS * limit_at(pose.scale)
                     && solid_where_a_hole_is(
                         t.holes(),
                         &pose,
                         part_holes,
                         // The widest wall the alignment admits (WALL_FACTOR times the offset's
                         // limit) may hide a hole of up to that radius.
-                        WALL_FACTOR * params.offset_relative * t.size() * pose.scale,
+                        &Sight {
+                            hidden: WALL_FACTOR * params.offset_relative * t.size() * pose.scale,
+                            filter: params.filter(),
+                        },
+                        || self.part_blur(part_edges, diff),
                         |x, y| diff.bilinear(x, y).abs(),
                         |x, y| x >= 0.0 && y >= 0.0 && x <= w - 1.0 && y <= h - 1.0,
                     ),
@@ -232,6 +238,17 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             &mut row,
         )
         .unwrap_or(false)
+    }
+
+    /// The blur of the part's edge, σ px ([`edge_blur`] across `part_edges`, the part's sub-pixel
+    /// edge points), measured the first time a verification of this part asks for it.
+    fn part_blur<B: AsRef<[u8]>>(&self, part_edges: &[[f32; 2]], diff: &Difference<'_, B>) -> Option<f32> {
+        if let Some(known) = self.part_blur.get() {
+            return known;
+        }
+        let blur = edge_blur(across(part_edges), part_edges.len(), |x, y| diff.bilinear(x, y).abs());
+        self.part_blur.set(Some(blur));
+        blur
     }
 
     /// How far beyond the scale range's end an outline grown by walls may be and still be
@@ -355,10 +372,12 @@ impl Fit {
 ///
 /// A template hole that the part shows no trace of ([`Fit::solid_hole`]: resolvable at the
 /// part's scale, wider than the widest wall the alignment admits, no part hole near where it
-/// should be, and the difference there as high as on the face around it) vetoes the fit, however well the outline verifies: a smooth blob is not
-/// a cam without its bore. A hole that is merely not found (it closed in the mask under blur,
-/// or a close lens's walls shrink and move it) still leaves a dip in the difference and does
-/// not veto; it ranks the candidates ([`Fit::better_than`]).
+/// should be, and either the difference there as high as on the face around it, or the hole
+/// so wide against the blur of the part's edge that the mask would show it) vetoes the fit,
+/// however well the outline verifies: a smooth blob is not a cam without its bore, nor a solid
+/// nut with a label where the bore should be. A hole that is merely not found (it closed in
+/// the mask under blur, or a close lens's walls shrink and move it) still leaves a dip in the
+/// difference and does not veto; it ranks the candidates ([`Fit::better_than`]).
 pub(super) fn accepted(fit: Fit) -> bool {
     if fit.solid_hole {
         return false;
@@ -366,6 +385,19 @@ pub(super) fn accepted(fit: Fit) -> bool {
     let r = fit.ratio();
     // A fit that took a wall to get there has used its freedom: the outline alone decides.
     r < 1.0 || (fit.wall == 0.0 && fit.family && fit.holes.off_centre > 0 && fit.holes.all_found() && r < NEAR_MISS)
+}
+
+/// Each point of a closed outline (NaN where it has none: left out) with the unit normal of the
+/// chord between its neighbours (its side not known).
+fn across(outline: &[[f32; 2]]) -> impl Iterator<Item = ([f32; 2], [f32; 2])> + '_ {
+    // Each point's neighbours: the last before the first, the first after the last.
+    let before = outline.last().into_iter().chain(outline);
+    let after = outline.iter().skip(1).chain(outline.first());
+    outline.iter().zip(before).zip(after).filter_map(|((&p, a), b)| {
+        let (tx, ty) = (b[0] - a[0], b[1] - a[1]);
+        let len = math::hypot(tx, ty);
+        (p[0].is_finite() && len > 0.0).then(|| (p, [ty / len, -tx / len]))
+    })
 }
 
 /// The alignment's start: the part's centroid, the DP's signed angle (degrees), the scale of the
@@ -431,12 +463,14 @@ fn verify_score<const M: usize, B: AsRef<[u8]>>(
         // pose) and scaled back, so the template outline needs no mapping.
         let scale = pose.scale;
         let cap = params.cap / scale;
-        // The template's outline moved by the fitted offset (in its own frame: over the scale).
-        let mut moved = [[0.0f32; 2]; M];
+        // The template's outline moved by the fitted offset (in its own frame: over the scale;
+        // the buffer set only where it is used).
+        let mut moved: [[f32; 2]; M];
         let sc = math::sin_cos(pose.angle);
         let edge = if a.offset == 0.0 && a.wall == 0.0 {
             edge
         } else {
+            moved = [[0.0f32; 2]; M];
             let toward = params.wall_toward;
             let (s, c) = sc;
             for ((slot, e), nrm) in moved.iter_mut().zip(edge).zip(t.normals()) {
