@@ -5,7 +5,8 @@
 # are processed; replay of examples/plant by default, or --source gen) on loopback ports, with
 #   - a robot client sending TRG in a loop (and LAST and PING between), every answer checked:
 #     `RES <frame> <n>`, exactly n part lines of six fields, `END`; `PONG`;
-#   - a page's traffic: GET /api/last and /api/overlay.png every 150 ms, as the page polls;
+#   - a page's traffic every 150 ms, as the page polls: GET /api/last, then for its version
+#     /api/overlay.json (the overlay's shapes) and /api/frame.bmp (the frame, 8-bit gray);
 # and samples the server's resident memory (VmRSS in /proc/PID/status) every 5 s.
 #
 # Fails (exit 1) when: an answer is ERR, malformed or missing, the robot connection drops, an
@@ -168,11 +169,17 @@ def page_client():
     try:
         while not stop.is_set():
             status, body = get("/api/last")
-            if status != 200 or json.loads(body).get("error"):
+            last = json.loads(body) if status == 200 else {}
+            if status != 200 or last.get("error"):
                 raise RuntimeError(f"/api/last: {status} {body[:200]!r}")
-            status, png = get("/api/overlay.png")
-            if status != 200 or not png.startswith(b"\x89PNG"):
-                raise RuntimeError(f"/api/overlay.png: {status}")
+            v = last["version"]
+            status, body = get(f"/api/overlay.json?v={v}")
+            shapes = json.loads(body) if status == 200 else {}
+            if status != 200 or not isinstance(shapes.get("parts"), list):
+                raise RuntimeError(f"/api/overlay.json: {status} {body[:200]!r}")
+            status, bmp = get(f"/api/frame.bmp?v={shapes['version']}")
+            if status != 200 or not bmp.startswith(b"BM"):
+                raise RuntimeError(f"/api/frame.bmp: {status}")
             counts["pages"] += 1
             time.sleep(0.15)
     except Exception as e:  # noqa: BLE001
