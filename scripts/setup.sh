@@ -91,6 +91,20 @@ else
     $BSUDO apt-get install -y -qq --no-install-recommends chromium chromium-driver >/dev/null
     say "chromium: $(chromium --version 2>/dev/null | head -n 1)"
 fi
+# netcat: the README talks to `vorl serve`'s robot port with `nc` (no test needs it, so a
+# user who cannot install it is told and set-up goes on).
+if command -v nc >/dev/null 2>&1; then
+    say "nc: present"
+elif [ "$(id -u)" = "0" ] || command -v sudo >/dev/null 2>&1; then
+    NSUDO=""
+    [ "$(id -u)" = "0" ] || NSUDO="sudo"
+    say "installing netcat-openbsd (apt-get), for the README's robot-port example"
+    export DEBIAN_FRONTEND=noninteractive
+    $NSUDO apt-get update -qq
+    $NSUDO apt-get install -y -qq --no-install-recommends netcat-openbsd >/dev/null
+else
+    say "nc: missing and this user cannot install it; the robot port answers any TCP client"
+fi
 # libclang: the V4L2 bindings of `vorl serve`'s camera feature (the v4l crate) are generated
 # when it is built (bindgen); scripts/test.sh lints that feature.
 have_libclang() {
