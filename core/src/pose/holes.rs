@@ -486,7 +486,7 @@ fn traced(r: f32, filter: &BorderFilter) -> bool {
 }
 
 /// Most outline points [`edge_blur`] samples.
-const BLUR_PROFILES: usize = 16;
+pub const BLUR_PROFILES: usize = 16;
 
 /// Half the length of each profile of [`edge_blur`], px, and its step.
 const BLUR_REACH: f32 = 6.0;
