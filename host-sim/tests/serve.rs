@@ -901,6 +901,18 @@ fn expected_row(p: &Value) -> Vec<String> {
     ]
 }
 
+/// A copy of `examples/plant` in a scratch folder tagged `tag`, its washer template removed (the
+/// page teaches it), with the set's folder and its truth.
+fn plant_without_washer(tag: &str) -> (Scratch, PathBuf, Value) {
+    let dir = Scratch::new(tag);
+    let set = dir.join("set");
+    copy_dir(&plant(), &set);
+    std::fs::remove_file(set.join("templates/washer.png")).expect("washer template");
+    let truth: Value =
+        serde_json::from_str(&std::fs::read_to_string(set.join("truth.json")).expect("truth")).expect("json");
+    (dir, set, truth)
+}
+
 const ROWS: &str =
     "return [...document.querySelectorAll('#parts tbody tr')].map(r => [...r.cells].map(c => c.textContent))";
 
@@ -909,12 +921,7 @@ fn the_page_in_a_browser_shows_teaches_tunes_saves_and_calibrates() {
     let Some(browser) = Browser::start() else {
         return;
     };
-    let dir = Scratch::new("serve-page");
-    let set = dir.join("set");
-    copy_dir(&plant(), &set);
-    std::fs::remove_file(set.join("templates/washer.png")).expect("washer template");
-    let truth: Value =
-        serde_json::from_str(&std::fs::read_to_string(set.join("truth.json")).expect("truth")).expect("json");
+    let (dir, set, truth) = plant_without_washer("serve-page");
     let washer = truth["frames"]["f000.png"]
         .as_array()
         .and_then(|a| a.iter().find(|p| p["class"] == "washer"))
@@ -1446,13 +1453,9 @@ fn the_page_adds_another_example_of_a_class() {
     let Some(browser) = Browser::start() else {
         return;
     };
-    let dir = Scratch::new("serve-page-add");
-    let set = dir.join("set");
-    copy_dir(&plant(), &set);
     // The washer is not taught; f000 holds two, taught here as examples of one class "ring".
-    std::fs::remove_file(set.join("templates/washer.png")).expect("washer template");
-    let truth: Value =
-        serde_json::from_str(&std::fs::read_to_string(set.join("truth.json")).expect("truth")).expect("json");
+    // (The scratch folder lives to the test's end.)
+    let (_dir, set, truth) = plant_without_washer("serve-page-add");
     let washers: Vec<(f64, f64)> = truth["frames"]["f000.png"]
         .as_array()
         .map(|a| {
