@@ -343,20 +343,20 @@ pub fn agreement(template: &Holes, pose: &Pose, part: &Holes) -> HoleAgreement {
 pub const SOLID_KEEPS: f32 = 0.75;
 
 /// Whether `template` has a hole that the part, at `pose`, shows no trace of: resolvable at
-/// the pose's scale ([`resolvable`]) and of a radius above [`Sight::hidden`], its disc and the ring of face around it inside the frame
-/// (`inside`), no part hole of any size within reach of where the pose puts it (see the
-/// module doc), and either
+/// the pose's scale ([`resolvable`]) and of a radius above [`Sight::hidden`], its disc and the
+/// ring of face around it inside the frame (`inside`), no part hole of any size within reach
+/// of where the pose puts it (see the module doc), and either
 ///
-/// - of a radius of [`OPEN_RADII`] times the frame's edge blur or more (`blur`: σ px, asked
-///   for at most once, only for such a hole; [`edge_blur`]), and wide enough that its border,
-///   its edge [`HOLE_EDGE`] inside, passes the border filter of the frame's tracing
-///   ([`Sight::filter`]): a blur
-///   that soft cannot close a hole that wide, so the mask would show it, and the tracing would
-///   keep it (print over a bore keeps it solid however far its grey lies from the face's), or
 /// - the difference `d` (a sampler of `|D|` at a sub-pixel position) at its centre and halfway
 ///   to its edge still [`SOLID_KEEPS`] of the part's face around it (sampled on a ring at 1.6
 ///   radii, where that ring lies on the part): a hole that blur nearly closed, or that shows a
-///   wall, still leaves a dip.
+///   wall, still leaves a dip; or
+/// - a dip, but a radius of [`OPEN_RADII`] times the blur of the part's edge or more (`blur`:
+///   σ px, asked for at most once, only for such a hole; [`edge_blur`]), and wide enough that
+///   its border, its edge [`HOLE_EDGE`] inside, passes the border filter of the frame's
+///   tracing ([`Sight::filter`]): a blur that soft cannot close a hole that wide, so the mask
+///   would show it and the tracing keep it (print over a bore keeps it solid however far its
+///   grey lies from the face's).
 ///
 /// A part without the template's bore is not the part with it, however well its outline fits
 /// (a smooth blob fitted a cam or a hex nut).
@@ -488,8 +488,11 @@ fn traced(r: f32, filter: &BorderFilter) -> bool {
 /// Most outline points [`edge_blur`] samples.
 pub const BLUR_PROFILES: usize = 16;
 
-/// Half the length of each profile of [`edge_blur`], px, and its step.
+/// Half the length of each profile of [`edge_blur`], px: both plateaus of a step blurred by up
+/// to σ = 2 px lie within it (3σ each side).
 const BLUR_REACH: f32 = 6.0;
+
+/// The step between the samples of a profile of [`edge_blur`], px.
 const BLUR_STEP: f32 = 0.5;
 
 /// The blur of the frame's edges, σ px, from `|D|` (`d`, a sub-pixel sampler) across an
@@ -498,7 +501,8 @@ const BLUR_STEP: f32 = 0.5;
 /// value on the face's side to the lowest on the other, how far the difference takes to fall
 /// from ¾ to ¼ of the way, which for a step blurred by a Gaussian of σ is `2 · 0.674 · σ`; the
 /// median over the profiles (a corner, a touching neighbour or a shadow spoil a few). `None`
-/// when no profile shows a fall.
+/// when no profile shows a fall. A blur above 2 px σ is measured low: its profiles end before
+/// its plateaus ([`BLUR_PROFILES`] profiles of ±6 px).
 ///
 /// ```
 /// use vorl_core::pose::holes::edge_blur;
