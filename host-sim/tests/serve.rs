@@ -570,10 +570,7 @@ fn teach_and_save_give_what_detect_then_finds() {
     // The next frame matches it too.
     let (head, lines) = robot.ask("TRG");
     assert_eq!(res_frame(&head), "f001.png");
-    let want_lines: Vec<String> = want["f001.png"]
-        .as_array()
-        .map(|a| a.iter().map(expected_line).collect())
-        .unwrap_or_default();
+    let want_lines = lines_of(&want["f001.png"]);
     assert_eq!(lines, want_lines);
     assert_eq!(server.terminate(), Some(0));
 }
@@ -622,10 +619,7 @@ fn calibration_from_the_page_is_what_vorl_calibrate_makes() {
     let want = detect_json(&set, &["--calibration", cal.to_str().unwrap_or_default()]);
     let (head, lines) = robot.ask("LAST");
     assert_eq!(res_frame(&head), "f000.png");
-    let want_lines: Vec<String> = want["f000.png"]
-        .as_array()
-        .map(|a| a.iter().map(expected_line).collect())
-        .unwrap_or_default();
+    let want_lines = lines_of(&want["f000.png"]);
     assert!(want["f000.png"][0].get("robot").is_some());
     assert_eq!(lines, want_lines);
     assert_eq!(server.terminate(), Some(0));
@@ -901,6 +895,24 @@ fn expected_row(p: &Value) -> Vec<String> {
     ]
 }
 
+/// The robot port's part lines for one frame of `vorl detect --json` ([`expected_line`] of
+/// each part; none for a frame it does not hold).
+fn lines_of(frame: &Value) -> Vec<String> {
+    frame
+        .as_array()
+        .map(|a| a.iter().map(expected_line).collect())
+        .unwrap_or_default()
+}
+
+/// The page's table rows for one frame of `vorl detect --json` ([`expected_row`] of each
+/// part; none for a frame it does not hold).
+fn rows_of(frame: &Value) -> Vec<Vec<String>> {
+    frame
+        .as_array()
+        .map(|a| a.iter().map(expected_row).collect())
+        .unwrap_or_default()
+}
+
 /// A copy of `examples/plant` in a scratch folder tagged `tag`, its washer template removed (the
 /// page teaches it), with the set's folder and its truth.
 fn plant_without_washer(tag: &str) -> (Scratch, PathBuf, Value) {
@@ -937,10 +949,7 @@ fn the_page_in_a_browser_shows_teaches_tunes_saves_and_calibrates() {
     assert_eq!(width, json!(640));
     let want = detect_json(&set, &[]);
     let rows = browser.exec(ROWS);
-    let want_rows: Vec<Vec<String>> = want["f000.png"]
-        .as_array()
-        .map(|a| a.iter().map(expected_row).collect())
-        .unwrap_or_default();
+    let want_rows = rows_of(&want["f000.png"]);
     assert_eq!(rows, json!(want_rows));
     let core: f64 = browser
         .exec("return document.getElementById('core').textContent")
@@ -980,10 +989,7 @@ fn the_page_in_a_browser_shows_teaches_tunes_saves_and_calibrates() {
         "const rows = {}; return rows.some(r => r[0] === 'ring') && rows",
         ROWS.trim_start_matches("return ")
     ));
-    let want_rows: Vec<Vec<String>> = want["f000.png"]
-        .as_array()
-        .map(|a| a.iter().map(expected_row).collect())
-        .unwrap_or_default();
+    let want_rows = rows_of(&want["f000.png"]);
     assert_eq!(rows, json!(want_rows));
     assert!(want_rows.iter().any(|r| r[0] == "ring"));
     // Calibrate: marks clicked on the frame, their robot coordinates typed, saved; the set's
@@ -1032,10 +1038,7 @@ fn the_page_in_a_browser_shows_teaches_tunes_saves_and_calibrates() {
     let want = detect_json(&set, &["--calibration", cal.to_str().unwrap_or_default()]);
     let (head, lines) = server.robot().ask("LAST");
     assert_eq!(res_frame(&head), "f000.png");
-    let want_lines: Vec<String> = want["f000.png"]
-        .as_array()
-        .map(|a| a.iter().map(expected_line).collect())
-        .unwrap_or_default();
+    let want_lines = lines_of(&want["f000.png"]);
     assert_eq!(lines, want_lines);
     drop(browser);
     assert_eq!(server.terminate(), Some(0));
@@ -1420,10 +1423,7 @@ fn the_threshold_slider_changes_the_overlay() {
     );
     let (_, shapes) = server.get(&format!("/api/overlay.json?v={}", mid["version"]));
     assert_overlay_matches(&shapes, &want["f000.png"]);
-    let want_rows: Vec<Vec<String>> = want["f000.png"]
-        .as_array()
-        .map(|a| a.iter().map(expected_row).collect())
-        .unwrap_or_default();
+    let want_rows = rows_of(&want["f000.png"]);
     let rows = browser.wait_for(&format!(
         "const rows = {}; return rows.length === {} && rows",
         ROWS.trim_start_matches("return "),
@@ -1433,10 +1433,7 @@ fn the_threshold_slider_changes_the_overlay() {
     // The next frames run with it too.
     let (head, lines) = server.robot().ask("TRG");
     assert_eq!(res_frame(&head), "f001.png");
-    let want_lines: Vec<String> = want["f001.png"]
-        .as_array()
-        .map(|a| a.iter().map(expected_line).collect())
-        .unwrap_or_default();
+    let want_lines = lines_of(&want["f001.png"]);
     assert_eq!(lines, want_lines);
     drop(browser);
     assert_eq!(server.terminate(), Some(0));
@@ -1543,10 +1540,7 @@ fn the_page_adds_another_example_of_a_class() {
     let want = detect_json(&set, &[]);
     assert_eq!(after["frames"]["f000.png"], want["f000.png"]);
     assert_eq!(rings(&after), 2, "both washers are rings: {after}");
-    let want_rows: Vec<Vec<String>> = want["f000.png"]
-        .as_array()
-        .map(|a| a.iter().map(expected_row).collect())
-        .unwrap_or_default();
+    let want_rows = rows_of(&want["f000.png"]);
     let rows = browser.wait_for(&format!(
         "const rows = {}; return rows.filter(r => r[0] === 'ring').length === 2 && rows",
         ROWS.trim_start_matches("return ")
