@@ -5,6 +5,8 @@
 #   - qemu-system-arm (to run the firmware example), via apt-get, when it is missing;
 #   - chromium and chromium-driver (the browser test of `vorl serve`), via apt-get, when missing;
 #   - libclang (the camera feature's V4L2 bindings are generated at build), via apt-get, when missing;
+#   - netcat-openbsd (`nc`, the README's robot-port example), via apt-get, when missing and this
+#     user can install it;
 #   - the nightly toolchain (minimal profile) and cargo-fuzz, for the fuzz targets
 #     (scripts/fuzz.sh), unless VORL_SKIP_FUZZ=1;
 #   - for the Python package (python/): a virtual environment of the project's own, .venv/, with
@@ -14,6 +16,26 @@
 set -euo pipefail
 
 say() { printf '[setup] %s\n' "$*"; }
+
+# Whether this user can apt-get install: root, or sudo at hand.
+can_apt() { [ "$(id -u)" = "0" ] || command -v sudo >/dev/null 2>&1; }
+
+# apt_install WHAT HINT PACKAGE...: installs Debian packages (through sudo unless root). A user
+# who cannot is told that WHAT is missing, then HINT (how to go on without it), and set-up stops.
+apt_install() {
+    local what=$1 hint=$2
+    shift 2
+    if ! can_apt; then
+        echo "[setup] error: ${what} missing and this user cannot apt-get install it (no root, no sudo)${hint:+; ${hint}}" >&2
+        exit 1
+    fi
+    local sudo=""
+    [ "$(id -u)" = "0" ] || sudo="sudo"
+    say "installing $* (apt-get)"
+    export DEBIAN_FRONTEND=noninteractive
+    $sudo apt-get update -qq
+    $sudo apt-get install -y -qq --no-install-recommends "$@" >/dev/null
+}
 
 if ! command -v rustup >/dev/null 2>&1; then
     echo "[setup] error: rustup not found; install the Rust toolchain first (https://rustup.rs)" >&2
@@ -41,17 +63,7 @@ if command -v qemu-system-arm >/dev/null 2>&1; then
 elif [ "${VORL_SKIP_QEMU:-0}" = "1" ]; then
     say "qemu-system-arm: missing, skipped (VORL_SKIP_QEMU=1); the firmware run test will be skipped"
 else
-    SUDO=""
-    if [ "$(id -u)" != "0" ]; then
-        if command -v sudo >/dev/null 2>&1; then SUDO="sudo"; else
-            echo "[setup] error: qemu-system-arm is missing and this user cannot apt-get install it (no root, no sudo); set VORL_SKIP_QEMU=1 to go on without the firmware run" >&2
-            exit 1
-        fi
-    fi
-    say "installing qemu-system-arm (apt-get)"
-    export DEBIAN_FRONTEND=noninteractive
-    $SUDO apt-get update -qq
-    $SUDO apt-get install -y -qq --no-install-recommends qemu-system-arm >/dev/null
+    apt_install "qemu-system-arm is" "set VORL_SKIP_QEMU=1 to go on without the firmware run" qemu-system-arm
     say "qemu-system-arm: $(qemu-system-arm --version | head -n 1)"
 fi
 if [ "${VORL_SKIP_FUZZ:-0}" = "1" ]; then
@@ -78,30 +90,16 @@ if command -v chromium >/dev/null 2>&1 && command -v chromedriver >/dev/null 2>&
 elif [ "${VORL_SKIP_BROWSER:-0}" = "1" ]; then
     say "chromium, chromedriver: missing, skipped (VORL_SKIP_BROWSER=1); the browser test skips outside CI"
 else
-    BSUDO=""
-    if [ "$(id -u)" != "0" ]; then
-        if command -v sudo >/dev/null 2>&1; then BSUDO="sudo"; else
-            echo "[setup] error: chromium and chromedriver are missing and this user cannot apt-get install them (no root, no sudo); set VORL_SKIP_BROWSER=1 to go on without the browser test" >&2
-            exit 1
-        fi
-    fi
-    say "installing chromium and chromium-driver (apt-get)"
-    export DEBIAN_FRONTEND=noninteractive
-    $BSUDO apt-get update -qq
-    $BSUDO apt-get install -y -qq --no-install-recommends chromium chromium-driver >/dev/null
+    apt_install "chromium and chromedriver are" "set VORL_SKIP_BROWSER=1 to go on without the browser test" \
+        chromium chromium-driver
     say "chromium: $(chromium --version 2>/dev/null | head -n 1)"
 fi
 # netcat: the README talks to `vorl serve`'s robot port with `nc` (no test needs it, so a
 # user who cannot install it is told and set-up goes on).
 if command -v nc >/dev/null 2>&1; then
     say "nc: present"
-elif [ "$(id -u)" = "0" ] || command -v sudo >/dev/null 2>&1; then
-    NSUDO=""
-    [ "$(id -u)" = "0" ] || NSUDO="sudo"
-    say "installing netcat-openbsd (apt-get), for the README's robot-port example"
-    export DEBIAN_FRONTEND=noninteractive
-    $NSUDO apt-get update -qq
-    $NSUDO apt-get install -y -qq --no-install-recommends netcat-openbsd >/dev/null
+elif can_apt; then
+    apt_install "nc is" "" netcat-openbsd
 else
     say "nc: missing and this user cannot install it; the robot port answers any TCP client"
 fi
@@ -117,17 +115,7 @@ have_libclang() {
 if have_libclang; then
     say "libclang: present"
 else
-    CSUDO=""
-    if [ "$(id -u)" != "0" ]; then
-        if command -v sudo >/dev/null 2>&1; then CSUDO="sudo"; else
-            echo "[setup] error: libclang is missing and this user cannot apt-get install it (no root, no sudo)" >&2
-            exit 1
-        fi
-    fi
-    say "installing libclang-dev (apt-get)"
-    export DEBIAN_FRONTEND=noninteractive
-    $CSUDO apt-get update -qq
-    $CSUDO apt-get install -y -qq --no-install-recommends libclang-dev >/dev/null
+    apt_install "libclang is" "" libclang-dev
 fi
 if [ "${VORL_SKIP_PYTHON:-0}" = "1" ]; then
     say "python: skipped (VORL_SKIP_PYTHON=1); scripts/test.sh skips the Python package"
@@ -135,17 +123,7 @@ else
     root="$(cd "$(dirname "$0")/.." && pwd)"
     venv="${root}/.venv"
     apt_python() {
-        local sudo=""
-        if [ "$(id -u)" != "0" ]; then
-            if command -v sudo >/dev/null 2>&1; then sudo="sudo"; else
-                echo "[setup] error: $* missing and this user cannot apt-get install it (no root, no sudo); set VORL_SKIP_PYTHON=1 to go on without the Python package" >&2
-                exit 1
-            fi
-        fi
-        say "installing $* (apt-get)"
-        export DEBIAN_FRONTEND=noninteractive
-        $sudo apt-get update -qq
-        $sudo apt-get install -y -qq --no-install-recommends "$@" >/dev/null
+        apt_install "$*" "set VORL_SKIP_PYTHON=1 to go on without the Python package" "$@"
     }
     command -v python3 >/dev/null 2>&1 || apt_python python3 python3-venv
     if [ ! -x "${venv}/bin/python" ]; then
