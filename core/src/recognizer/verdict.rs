@@ -30,8 +30,8 @@ use crate::math;
 use crate::params::Params;
 use crate::pose::holes::{agreement, edge_blur, pose_from_holes, solid_where_a_hole_is, HoleAgreement, Holes, Sight};
 use crate::pose::refine::{
-    align_recording, edge_distances_walled, wall_facing, Alignment, Difference, Outline, Pose, RefineParams,
-    VERIFY_KEPT,
+    align_recording, edge_distances_walled, outward_normal, wall_facing, Alignment, Difference, Outline, Pose,
+    RefineParams, VERIFY_KEPT,
 };
 use crate::recognizer::Recognizer;
 use crate::shape::matching::{starts_reach, Match};
@@ -388,15 +388,11 @@ pub(super) fn accepted(fit: Fit) -> bool {
 }
 
 /// Each point of a closed outline (NaN where it has none: left out) with the unit normal of the
-/// chord between its neighbours (its side not known).
+/// chord between its neighbours ([`outward_normal`]; which side is out does not matter here).
 fn across(outline: &[[f32; 2]]) -> impl Iterator<Item = ([f32; 2], [f32; 2])> + '_ {
-    // Each point's neighbours: the last before the first, the first after the last.
-    let before = outline.last().into_iter().chain(outline);
-    let after = outline.iter().skip(1).chain(outline.first());
-    outline.iter().zip(before).zip(after).filter_map(|((&p, a), b)| {
-        let (tx, ty) = (b[0] - a[0], b[1] - a[1]);
-        let len = math::hypot(tx, ty);
-        (p[0].is_finite() && len > 0.0).then(|| (p, [ty / len, -tx / len]))
+    outline.iter().enumerate().filter_map(|(k, &p)| {
+        let n = outward_normal(outline, k, false).filter(|_| p[0].is_finite())?;
+        Some((p, n))
     })
 }
 
