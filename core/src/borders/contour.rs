@@ -4,8 +4,11 @@
 //! foreground), labelled in place as the algorithm goes: a traced border's pixels get its number
 //! `NBD`, or `−NBD` where the pixel's right neighbour is background that the trace examined.
 //! The plane is `u8`, so a label is `NBD` (2..=127) or `0x80 | NBD`; after 126 borders in one
-//! frame the labels saturate: tracing goes on (nothing is dropped) but the parents of later
-//! borders are reported unknown and [`TraceStats::labels_saturated`] is set.
+//! frame the labels saturate: tracing goes on (nothing is dropped), [`TraceStats::labels_saturated`]
+//! is set, and a later border whose parent the labels no longer tell gets it by containment
+//! instead: the smallest border of the other kind kept before it that holds the point beside its
+//! start (print or texture on the platform easily makes hundreds of borders, and a part's holes
+//! must still be its own).
 //!
 //! Output: ordered border points in a [`ContourStore`] of fixed capacity, each border with its
 //! type (outer or hole) and parent. Borders with fewer than `min_points` points or a polygon area
@@ -100,7 +103,7 @@ pub struct TraceStats {
     pub skipped_capacity: usize,
     /// Borders whose trace was abandoned by the iteration guard (never on a valid plane).
     pub aborted: usize,
-    /// More than 126 borders: parents of later ones are unknown.
+    /// More than 126 borders: parents of later ones were found by containment.
     pub labels_saturated: bool,
 }
 
@@ -149,6 +152,35 @@ impl<const P: usize, const C: usize> ContourStore<P, C> {
                 self.points.get(s..s + c.len as usize).unwrap_or(&[])
             }
             None => &[],
+        }
+    }
+
+    /// Sets the parent of border `index`, traced from pixel `(x, y)`, where the labels ran out
+    /// ([`TraceStats::labels_saturated`]): the smallest kept border of the other kind, found
+    /// before it, whose polygon holds the point half a pixel beside the start towards the
+    /// background the trace began at (left of an outer border's start pixel, right of a hole's).
+    /// That point lies inside the parent's region and off every border's polygon; a hole's
+    /// parent always encloses it, so its parent is found whenever it was kept. An outer border
+    /// that no hole holds stays at the top level.
+    fn parent_by_containment(&mut self, index: usize, x: usize, y: usize) {
+        let Some(&child) = self.contours.get(index) else {
+            return;
+        };
+        let hole = child.kind == BorderKind::Hole;
+        let q = [x as f32 + if hole { 0.5 } else { -0.5 }, y as f32];
+        let want = if hole { BorderKind::Outer } else { BorderKind::Hole };
+        let mut best: Option<(u64, u16)> = None;
+        for (i, c) in self.contours.iter().enumerate().take(index) {
+            let size = c.area2.unsigned_abs();
+            if c.kind != want || size <= child.area2.unsigned_abs() || best.is_some_and(|(b, _)| size >= b) {
+                continue;
+            }
+            if polygon_holds(self.points(i), q) {
+                best = Some((size, i as u16));
+            }
+        }
+        if let Some(slot) = self.contours.get_mut(index) {
+            slot.parent = best.map(|(_, i)| i);
         }
     }
 
@@ -219,6 +251,29 @@ impl Plane<'_> {
             }
         }
     }
+}
+
+/// Whether the closed polygon through `points` holds `q` (crossing number: a ray from `q`
+/// towards +x crosses it an odd number of times; an edge counts where its ends lie on either
+/// side of `q`'s row, one end on the row counting as above it).
+fn polygon_holds(points: &[Point], q: [f32; 2]) -> bool {
+    let mut inside = false;
+    let Some(&last) = points.last() else {
+        return false;
+    };
+    let mut a = last;
+    for &b in points {
+        let (ay, by) = (f32::from(a.y), f32::from(b.y));
+        if (ay > q[1]) != (by > q[1]) {
+            let (ax, bx) = (f32::from(a.x), f32::from(b.x));
+            let cross = ax + (q[1] - ay) * (bx - ax) / (by - ay);
+            if q[0] < cross {
+                inside = !inside;
+            }
+        }
+        a = b;
+    }
+    inside
 }
 
 /// Signed label value: positive NBD, negative NBD, or the plain 0/1.
@@ -377,6 +432,11 @@ pub fn trace_borders_in<const P: usize, const C: usize>(
                 };
                 stats.found += 1;
                 let stored = follow(&mut plane, x, y, from, nbd, hole, parent, filter, store, &mut stats);
+                if !parent_known {
+                    if let Some(index) = stored {
+                        store.parent_by_containment(index as usize, x, y);
+                    }
+                }
                 if !saturated {
                     if let Some(slot) = nbds.get_mut(nbd as usize) {
                         *slot = Nbd {
@@ -845,6 +905,13 @@ mod tests {
                     };
                     stats.found += 1;
                     let stored = reference_follow(&mut plane, x, y, from, nbd, hole, parent, filter, store, &mut stats);
+                    // (The parents the labels no longer tell: the same containment rule; the
+                    // host's `borders_parents` test holds it against imageproc's tracing.)
+                    if !parent_known {
+                        if let Some(index) = stored {
+                            store.parent_by_containment(index as usize, x as usize, y as usize);
+                        }
+                    }
                     if !saturated {
                         if let Some(slot) = nbds.get_mut(nbd as usize) {
                             *slot = Nbd {
