@@ -625,6 +625,7 @@ pub const FOREGROUND_NOTE_SHARE: f64 = 0.5;
 ///
 /// - each border skipped as degenerate or without area;
 /// - the parts beyond [`vorl_core::recognizer::MAX_DETECTIONS`], in one line;
+/// - blobs too thin to hold any taught part ([`vorl_core::recognizer::Report::thin`]), in one line;
 /// - skips beyond [`vorl_core::recognizer::MAX_SKIPS`] that the report could not list;
 /// - borders not kept because the contour store ([`HOST_CONTOURS`] borders, [`HOST_POINTS`]
 ///   points) was full, and borders kept subsampled;
@@ -645,6 +646,13 @@ pub fn frame_notes(result: &FrameResult) -> Vec<String> {
         notes.push(format!(
             "{too_many} outer border(s) not reported as parts (nor looked at): a frame reports at most \
              {MAX_DETECTIONS} parts"
+        ));
+    }
+    if r.thin > 0 {
+        notes.push(format!(
+            "{} stroke(s) thinner than any taught part could be (print, scratches, threads): not parts, \
+             not looked at",
+            r.thin
         ));
     }
     if r.skips_lost > 0 {

@@ -440,6 +440,35 @@ impl<const M: usize> Template<M> {
         crate::math::sqrt(self.area.max(0.0) / core::f32::consts::PI)
     }
 
+    /// The template's mean thickness, px: `2·area / perimeter` of its outline (the resampled
+    /// points' polygon), the width of a strip of that area and outline. A disc of radius `r`
+    /// has `r`, a long bar its width. 0 for an empty or degenerate template.
+    ///
+    /// ```
+    /// use vorl_core::{borders::contour::ContourStore, Frame, Params, Template};
+    /// // A 40×10 bar: 2·400 / 100 = 8 px (a little more: the polygon cuts its corners).
+    /// let (w, h) = (60, 30);
+    /// let mut px = vec![0u8; w * h];
+    /// for y in 10..20 { for x in 10..50 { px[y * w + x] = 255; } }
+    /// let mut labels = vec![0u8; w * h];
+    /// let mut store = ContourStore::<1024, 8>::new();
+    /// let t = Template::<96>::from_silhouette(&Frame::new_checked(&px[..], w, h).unwrap(), &Params::DEFAULT, &mut labels, &mut store).unwrap();
+    /// assert!((t.thickness() - 8.0).abs() < 1.0, "{}", t.thickness());
+    /// ```
+    pub fn thickness(&self) -> f32 {
+        let points = self.points();
+        let perimeter: f32 = points
+            .iter()
+            .zip(points.iter().cycle().skip(1))
+            .map(|(a, b)| crate::math::hypot(b[0] - a[0], b[1] - a[1]))
+            .sum();
+        if perimeter > 0.0 && self.area.is_finite() {
+            2.0 * self.area.max(0.0) / perimeter
+        } else {
+            0.0
+        }
+    }
+
     /// A template from a silhouette image (part > 127): its largest outer border.
     /// `labels` (`width·height` bytes) and `store` are scratch.
     ///

@@ -57,7 +57,7 @@
 //! the constants of the decision); [`split`] the partial search of blobs that hold several
 //! parts.
 
-use crate::borders::contour::{clear_labels, trace_borders_in, BorderKind, ContourStore};
+use crate::borders::contour::{clear_labels, trace_borders_in, BorderKind, ContourStore, Point};
 use crate::borders::resample::resample;
 use crate::error::{Error, Result};
 use crate::library::template::Template;
@@ -89,6 +89,24 @@ pub use report::{Detection, Report, Skip, SkipReason, Stage, MAX_DETECTIONS, MAX
 pub use verdict::{
     CONFIDENT, FLIP_EVIDENCE, HALF_TURN_AMBIGUOUS, HALF_TURN_SYMMETRIC, NEAR_MISS, WALL_FACTOR, WALL_SIGNIFICANT,
 };
+
+/// The share of the thinnest taught part's thickness, at its smallest scale, below which a
+/// blob holds no part ([`Report::thin`]): half, the width a part keeps when the frame's edge
+/// cuts it lengthwise to the least share a cut part is searched with.
+pub const THIN_SHARE: f32 = 0.5;
+
+/// A blob below [`THIN_SHARE`] of the taught parts is print only where it is also a stroke:
+/// its mean thickness under this many times the narrowest stroke the mask's clean-up keeps
+/// ([`crate::pixels::mask::Cleanup::narrowest_kept`], 3 px after the default opening). Print
+/// and scratches are strokes of about one width, so the opening leaves them 3–5 px thick; an
+/// untaught object smaller than every taught part (a star, a crescent beside a large part) is
+/// thicker, and is still looked at and reported, unknown.
+pub const STROKE_WIDTHS: f32 = 2.0;
+
+/// Border points per chord when a blob's perimeter is measured for its thickness: a chord over
+/// 4 pixel steps follows a straight edge at any slope within a few per cent, where the steps
+/// themselves would add up to 8 % more for a staircase.
+pub const THIN_CHORD: usize = 4;
 
 /// The recognizer: parameters, template library and working buffers of fixed capacity.
 ///
@@ -347,6 +365,9 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         // From here on the label plane is the plain 0/1 mask (the partial-volume centroid uses
         // its other bits as scratch and clears them again).
         clear_labels(labels, w, h, &spans);
+        // Only a blob thinner than a stroke needs the templates' bound, worked out once.
+        let stroke = STROKE_WIDTHS * params.cleanup.narrowest_kept();
+        let mut thinnest_part: Option<f32> = None;
         for index in 0..self.store.contours().len() {
             let Some(contour) = self.store.contours().get(index).copied() else {
                 continue;
@@ -361,6 +382,13 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 .is_some_and(|p| p.kind == BorderKind::Hole);
             if in_hole && !self.params.nested_parts {
                 report.skip(index, SkipReason::InsideHole);
+                continue;
+            }
+            // Print, scratches, threads: thinner than any taught part could be, even half of
+            // one at its smallest scale. Counted, not looked at, and no part's place taken.
+            let thickness = if in_hole { f32::INFINITY } else { self.blob_thickness(index) };
+            if thickness < stroke && thickness < *thinnest_part.get_or_insert_with(|| self.thinnest_part()) {
+                report.thin += 1;
                 continue;
             }
             // A full report takes no more parts: those are not worked out, only counted.
@@ -386,6 +414,64 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         }
         observe(Stage::Parts);
         Ok(report)
+    }
+
+    /// The least mean thickness (`2·area / perimeter`, [`Template::thickness`]) a blob must
+    /// have to hold a taught part: half the thinnest template's thickness at the smallest
+    /// scale its class may be seen at (the parameters' range, or the class's own). 0 without
+    /// templates.
+    ///
+    /// A blob is a stroke of print (a scratch, a thread), counted in [`Report::thin`] and not
+    /// looked at, when it is below both this bound and [`STROKE_WIDTHS`] times the narrowest
+    /// stroke the mask keeps:
+    ///
+    /// - half, because a part cut lengthwise by the frame's edge to the least share the search
+    ///   accepts (half of it) keeps half its width; a whole part, or one cut across, keeps all
+    ///   of it, and a part touching another lies in a thicker blob. So no taught part is lost
+    ///   to the rule;
+    /// - a blob thicker than a stroke is an object, and an object no template can be is still
+    ///   looked at and reported, unknown.
+    ///
+    /// `docs/accuracy.md`, "Parts over half of the frame, on printed paper", has the figures.
+    fn thinnest_part(&self) -> f32 {
+        let p = &self.params;
+        let least = self
+            .templates
+            .iter()
+            .map(|t| t.thickness() * t.tolerance().scale_range(p.scale_min, p.scale_max).0)
+            .fold(f32::INFINITY, f32::min);
+        if least.is_finite() {
+            THIN_SHARE * least
+        } else {
+            0.0
+        }
+    }
+
+    /// The mean thickness of outer border `index` (`2·area / perimeter`), its perimeter
+    /// measured along chords of [`THIN_CHORD`] border points, so that the pixel border's
+    /// staircase does not lengthen it; infinite for a border without points.
+    fn blob_thickness(&self, index: usize) -> f32 {
+        let Some(contour) = self.store.contours().get(index) else {
+            return f32::INFINITY;
+        };
+        let border = self.store.points(index);
+        let Some(first) = border.first() else {
+            return f32::INFINITY;
+        };
+        let chord =
+            |a: &Point, b: &Point| math::hypot(f32::from(b.x) - f32::from(a.x), f32::from(b.y) - f32::from(a.y));
+        let mut prev = first;
+        let mut perimeter = 0.0f32;
+        for p in border.iter().step_by(THIN_CHORD).skip(1) {
+            perimeter += chord(prev, p);
+            prev = p;
+        }
+        perimeter += chord(prev, first);
+        if perimeter > 0.0 {
+            2.0 * contour.area() / perimeter
+        } else {
+            0.0
+        }
     }
 
     /// One outer border (store index `index`) through resampling, description, matching,
@@ -693,6 +779,78 @@ mod tests {
             assert_eq!(report.mask, stats);
             assert!(labels[..n] == mask[..], "case {case}: {w}×{h}");
         }
+    }
+
+    /// Print on the platform (strokes 3 px wide, as wide as the mask's opening lets through)
+    /// is thinner than half the taught part at its smallest scale: counted in
+    /// [`Report::thin`], never a part, and it takes no part's place. The taught part is found,
+    /// whole and cut in half by the frame's edge (the least share a cut part is searched with).
+    #[test]
+    fn print_thinner_than_any_taught_part_is_not_a_part() {
+        let (w, h) = (200usize, 120usize);
+        let bg_px = std::vec![200u8; w * h];
+        // A disc of radius 22 (thickness 22), taught from its own silhouette.
+        let disc = |x: usize, y: usize, cx: f32, cy: f32| {
+            let (dx, dy) = (x as f32 - cx, y as f32 - cy);
+            dx * dx + dy * dy < 22.0 * 22.0
+        };
+        let mut tpl = std::vec![0u8; w * h];
+        let mut px = bg_px.clone();
+        for y in 0..h {
+            for x in 0..w {
+                if disc(x, y, 60.0, 60.0) {
+                    tpl[y * w + x] = 255;
+                }
+                // The same disc at x = 60, and one cut in half by the right edge.
+                let part = disc(x, y, 60.0, 60.0) || disc(x, y, 199.5, 60.0);
+                // Twelve rows of print between them: a line 3 px high with strokes 3 px wide
+                // and 3 px apart hanging from it, each row a blob of its own.
+                let print = (90..170).contains(&x) && (y % 10 < 3 || (y % 10 < 6 && x % 6 < 3));
+                if part {
+                    px[y * w + x] = 30;
+                } else if print {
+                    px[y * w + x] = 60;
+                }
+            }
+        }
+        let mut bg = Background::new(std::vec![0u8; w * h], w, h).unwrap();
+        bg.set_from_frame(&Frame::new_checked(&bg_px[..], w, h).unwrap(), Params::DEFAULT.alpha())
+            .unwrap();
+        let mut rec: std::boxed::Box<Recognizer<4, 96, 8192, 128, 2112>> = std::boxed::Box::default();
+        rec.set_params(Params::DEFAULT).unwrap();
+        let mut labels = std::vec![0u8; w * h];
+        rec.teach(&Frame::new_checked(&tpl[..], w, h).unwrap(), &mut labels)
+            .unwrap();
+        let least = 0.5 * rec.templates()[0].thickness() * Params::DEFAULT.scale_min;
+        assert!((least - 0.5 * 22.0 / 1.4).abs() < 1.5, "{least}");
+        let report = rec
+            .process(&Frame::new_checked(&px[..], w, h).unwrap(), &bg, &mut labels)
+            .unwrap();
+        let found = |x: f32, y: f32| {
+            report
+                .detections
+                .iter()
+                .any(|d| d.template == Some(0) && (d.x - x).abs() < 3.0 && (d.y - y).abs() < 3.0)
+        };
+        assert!(found(60.0, 60.0), "{:?}", report.detections);
+        assert!(
+            report
+                .detections
+                .iter()
+                .any(|d| d.template == Some(0) && d.y > 55.0 && d.x > 170.0),
+            "the cut disc: {:?}",
+            report.detections
+        );
+        assert_eq!(report.detections.len(), 2, "{:?}", report.detections);
+        assert_eq!(report.thin, 12, "{:?}", report.trace);
+        // Without a template every blob is looked at (nothing is known to be too thin).
+        let mut bare: std::boxed::Box<Recognizer<4, 96, 8192, 128, 2112>> = std::boxed::Box::default();
+        bare.set_params(Params::DEFAULT).unwrap();
+        let all = bare
+            .process(&Frame::new_checked(&px[..], w, h).unwrap(), &bg, &mut labels)
+            .unwrap();
+        assert_eq!(all.thin, 0);
+        assert!(all.detections.len() > 2, "{:?}", all.detections.len());
     }
 
     /// A dark ring on a bright platform with a dark square (print, or a small part) inside its

@@ -149,6 +149,12 @@ pub struct Report {
     /// Blobs whose whole-border match failed and that were too long for the partial search
     /// ([`crate::recognizer::split::BLOB_POINTS`]): reported whole, as unknown parts.
     pub unsplit: usize,
+    /// Outer borders that are strokes thinner than any taught part could be (half the
+    /// thinnest template's thickness at its smallest scale, [`crate::recognizer::THIN_SHARE`],
+    /// and [`crate::recognizer::STROKE_WIDTHS`] times the narrowest stroke the mask keeps):
+    /// print on the platform, scratches, threads. Counted, not looked at; they take no part's
+    /// place.
+    pub thin: usize,
 }
 
 impl Report {
