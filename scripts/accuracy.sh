@@ -76,3 +76,14 @@ for s in 1 2 3 4; do
     echo "### lookalike, seed $s"
     "$VORL" eval "$OUT/lookalike-$s"
 done
+# A large part (26-45 % of the frame) on printed paper, with and without an empty shot: seed 1
+# chose the print rule (strokes thinner than any taught part) and the containment parents;
+# seeds 2 and 3 were not looked at before their figures were taken.
+for s in 1 2 3; do
+    "$VORL" gen "$OUT/large-$s" --seed "$s" --frames 20 --variant large >/dev/null
+    echo "### large, seed $s"
+    "$VORL" eval "$OUT/large-$s"
+    "$VORL" gen "$OUT/large-$s-noshot" --seed "$s" --frames 20 --variant large --no-background >/dev/null
+    echo "### large without an empty shot, seed $s"
+    "$VORL" eval "$OUT/large-$s-noshot"
+done
