@@ -1574,21 +1574,7 @@ fn look_alikes_are_unknown(seed: &str) {
 #[test]
 fn print_on_the_platform_is_not_parts() {
     let scratch = Scratch::new("large_print");
-    let set = scratch.join("set");
-    vorl([
-        OsStr::new("gen"),
-        set.as_os_str(),
-        OsStr::new("--seed"),
-        OsStr::new("1"),
-        OsStr::new("--frames"),
-        OsStr::new("10"),
-        OsStr::new("--variant"),
-        OsStr::new("large"),
-        OsStr::new("--no-background"),
-    ])
-    .success();
-    let out = vorl([OsStr::new("eval"), set.as_os_str(), OsStr::new("--json")]).success();
-    let score: Value = serde_json::from_str(&out.stdout).expect("json");
+    let (_, score, out) = gen_and_eval_with(&scratch, "large", 1, 10, &["--no-background"]);
     let n = |k: &str| score[k].as_u64().unwrap_or(0);
     assert_eq!(n("predictions"), n("true_predictions"), "{}", out.stdout);
     assert_eq!(n("detected"), n("truth_parts"), "{}", out.stdout);
@@ -1701,9 +1687,20 @@ fn teach_add_makes_a_class_of_several_examples_at_one_reference_pose() {
 /// `vorl gen` of `variant` (seed, frames) into a scratch folder, then `vorl eval --json` of it:
 /// the set's folder, the eval's JSON and the run (for messages).
 fn gen_and_eval(scratch: &Scratch, variant: &str, seed: u32, frames: u32) -> (PathBuf, Value, Out) {
+    gen_and_eval_with(scratch, variant, seed, frames, &[])
+}
+
+/// [`gen_and_eval`] with further `vorl gen` flags (`--no-background`).
+fn gen_and_eval_with(
+    scratch: &Scratch,
+    variant: &str,
+    seed: u32,
+    frames: u32,
+    gen_flags: &[&str],
+) -> (PathBuf, Value, Out) {
     let set = scratch.join(variant);
     let (seed, frames) = (seed.to_string(), frames.to_string());
-    vorl([
+    let mut args = vec![
         OsStr::new("gen"),
         set.as_os_str(),
         OsStr::new("--seed"),
@@ -1712,8 +1709,9 @@ fn gen_and_eval(scratch: &Scratch, variant: &str, seed: u32, frames: u32) -> (Pa
         OsStr::new(&frames),
         OsStr::new("--variant"),
         OsStr::new(variant),
-    ])
-    .success();
+    ];
+    args.extend(gen_flags.iter().map(OsStr::new));
+    vorl(args).success();
     let out = vorl([OsStr::new("eval"), set.as_os_str(), OsStr::new("--json")]).success();
     let v: Value = serde_json::from_str(&out.stdout).unwrap_or_else(|e| panic!("{e}: {}", out.dump()));
     (set, v, out)
