@@ -650,8 +650,8 @@ pub fn frame_notes(result: &FrameResult) -> Vec<String> {
     }
     if r.thin > 0 {
         notes.push(format!(
-            "{} stroke(s) thinner than any taught part could be (print, scratches, threads): not parts, \
-             not looked at",
+            "{} speck(s) or stroke(s) thinner than any taught part could be (print, dust, scratches): \
+             not parts, not looked at",
             r.thin
         ));
     }

@@ -232,8 +232,9 @@ fn all_foreground_and_a_part_larger_than_the_frame() {
 /// A checkerboard of 12 px squares over the whole frame (the dark squares touch at their
 /// corners, so they are one 8-connected region with 1 000 holes): more borders than the host's
 /// contour store holds (512). One part is reported, the region, unknown and partial; a note
-/// says how many borders were found and how many were not kept. The same board with the
-/// squares apart (1 080 separate blobs): the 32 parts a frame reports, the skipped ones said.
+/// says how many borders were found and how many were not kept. A board of 14 px squares
+/// 2 px apart (600 separate blobs, each thicker than the specks and strokes the mask's opening
+/// leaves, so objects, not print): the 32 parts a frame reports, the skipped ones said.
 #[test]
 fn checkerboard_overflows_the_contour_store() {
     let bench = Bench::new("checker");
@@ -242,7 +243,7 @@ fn checkerboard_overflows_the_contour_store() {
         Luma([if dark { PART } else { platform(x, y) }])
     });
     let apart = GrayImage::from_fn(W, H, |x, y| {
-        let dark = (x / 12 + y / 12) % 2 == 0 && x % 12 >= 2 && y % 12 >= 2;
+        let dark = (x / 16 + y / 16) % 2 == 0 && x % 16 >= 2 && y % 16 >= 2;
         Luma([if dark { PART } else { platform(x, y) }])
     });
     let (a, b) = (bench.frame("touching.png", &touching), bench.frame("apart.png", &apart));
@@ -274,7 +275,7 @@ fn checkerboard_overflows_the_contour_store() {
     );
     let (dropped, found) = store_note("apart.png");
     assert!(
-        found >= 1000 && dropped > 0 && dropped + 512 <= found,
+        found >= 600 && dropped > 0 && dropped + 512 <= found,
         "{dropped} of {found}"
     );
     assert_eq!(
@@ -393,7 +394,9 @@ fn lighting_change_of_30_percent() {
 /// platform's marks (the rail, the bolt heads, the seam) now differs from the empty shot in a
 /// band 2 px wide, which the 3×3 opening of the mask removes, so the part is found as before, at
 /// the same pose, and nothing else. At 3 px the rail's bands (3 px × the frame's width) survive
-/// the opening and come up as unknown parts beside the L bracket, which is still found.
+/// the opening; they came up as unknown parts beside the L bracket until strokes thinner than
+/// any taught part counted as print: now they are noted, not parts, and the L bracket is found
+/// at its pose.
 #[test]
 fn camera_bumped_by_two_pixels() {
     let bench = Bench::new("bump");
@@ -420,13 +423,13 @@ fn camera_bumped_by_two_pixels() {
     assert_ell_at(&got[0], c, "bumped 2 px");
     assert!(foreground_note(&out, "bumped2.png").is_none(), "{}", out.dump());
     let got = parts(&json, "bumped3.png");
-    assert!(got.len() > 1, "3 px: {json}");
-    let ells: Vec<&Value> = got.iter().filter(|p| class(p).is_some()).collect();
-    assert_eq!(ells.len(), 1, "3 px: {json}");
-    assert_ell_at(ells[0], c, "bumped 3 px");
-    assert!(
-        got.iter().filter(|p| class(p).is_none()).all(|p| num(p, "y") < 50.0),
-        "3 px: an unknown part off the rail: {json}"
+    assert_eq!(got.len(), 1, "3 px: {json}");
+    assert_ell_at(&got[0], c, "bumped 3 px");
+    assert_eq!(
+        notes(&out, "bumped3.png", "stroke(s) thinner than any taught part").len(),
+        1,
+        "3 px: the rail's bands not said:\n{}",
+        out.dump()
     );
 }
 

@@ -95,12 +95,13 @@ pub use verdict::{
 /// cuts it lengthwise to the least share a cut part is searched with.
 pub const THIN_SHARE: f32 = 0.5;
 
-/// A blob below [`THIN_SHARE`] of the taught parts is print only where it is also a stroke:
-/// its mean thickness under this many times the narrowest stroke the mask's clean-up keeps
-/// ([`crate::pixels::mask::Cleanup::narrowest_kept`], 3 px after the default opening). Print
-/// and scratches are strokes of about one width, so the opening leaves them 3–5 px thick; an
-/// untaught object smaller than every taught part (a star, a crescent beside a large part) is
-/// thicker, and is still looked at and reported, unknown.
+/// A blob below [`THIN_SHARE`] of the taught parts is print only where it is also a stroke or
+/// a speck: its mean thickness under this many times the narrowest stroke the mask's clean-up
+/// keeps ([`crate::pixels::mask::Cleanup::narrowest_kept`], 3 px after the default opening).
+/// Print and scratches are strokes of about one width, so the opening leaves them 3–5 px
+/// thick; a speck (a disc `d` px across has mean thickness `d/2`) counts under 12 px across.
+/// An untaught object smaller than every taught part (a star, a crescent beside a large part)
+/// is thicker, and is still looked at and reported, unknown.
 pub const STROKE_WIDTHS: f32 = 2.0;
 
 /// Border points per chord when a blob's perimeter is measured for its thickness: a chord over
@@ -386,7 +387,11 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             }
             // Print, scratches, threads: thinner than any taught part could be, even half of
             // one at its smallest scale. Counted, not looked at, and no part's place taken.
-            let thickness = if in_hole { f32::INFINITY } else { self.blob_thickness(index) };
+            let thickness = if in_hole {
+                f32::INFINITY
+            } else {
+                self.blob_thickness(index)
+            };
             if thickness < stroke && thickness < *thinnest_part.get_or_insert_with(|| self.thinnest_part()) {
                 report.thin += 1;
                 continue;
