@@ -29,6 +29,12 @@ pub fn sin_cos(x: f32) -> (f32, f32) {
     libm::sincosf(x)
 }
 
+/// `x` to the power `y`.
+#[inline]
+pub fn powf(x: f32, y: f32) -> f32 {
+    libm::powf(x, y)
+}
+
 /// Round half away from zero.
 #[inline]
 pub fn round(x: f32) -> f32 {

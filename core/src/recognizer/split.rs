@@ -38,9 +38,11 @@
 //! **Hypotheses.** Each template that fits in the blob (its area at the least scale, plus half
 //! the smallest template's inside the frame) is matched against arcs of the blob's border
 //! ([`crate::shape::arcs`]: the paper's order-preserving DP, open instead of cyclic, on turning
-//! angles, at every [`STRIDE`]-th template point and the border at that step). Each of the
-//! best runs ([`RUNS_PER_TEMPLATE`] of a template, [`MAX_HYPOTHESES`] over all) seeds a pose:
-//! the similarity that maps the run's template points onto its border points (least squares).
+//! angles, at every [`STRIDE`]-th template point and the border at that step, the border
+//! resampled at the template's step at [`SCALE_STEPS`] scales over its scale range). Each of
+//! the best runs ([`RUNS_PER_TEMPLATE`] of a template at a scale, [`MAX_HYPOTHESES`] over all,
+//! their scores per length of border at the range's middle) seeds a pose: the similarity that
+//! maps the run's template points onto its border points (least squares).
 //!
 //! **Fits.** The template is aligned on the frame from there as a whole part is
 //! ([`crate::pose::refine`], up to [`PARTIAL_ITERATIONS`] steps), and verified on the **visible edge
@@ -61,10 +63,12 @@
 //! and [`MIN_VISIBLE_PINNED`] of its border (two real rods lying against each other, each a few
 //! per cent off its template's outline). An alignment gives up early where its mean distance
 //! says less of the border could be confirmed than the fit would need. Kept fits are taken
-//! best first (the larger visible share, then the lower score) unless their centre falls
-//! within half a size of one taken already (the same part matched twice, from both sides of
-//! the blob or by two templates); a pose whose seed falls on a part taken in the first round
-//! is not aligned in the second.
+//! best first (the more of its template's holes found, as a whole part's fits are ranked: a
+//! rod with two eyes is the two-eyed template's even where the one-eyed template's outline
+//! fits as much of it; then the larger visible share, then the lower score) unless their
+//! centre falls within half a size of one taken already (the same part matched twice, from
+//! both sides of the blob or by two templates); a pose whose seed falls on a part taken in the
+//! first round is not aligned in the second.
 //!
 //! **Two rounds.** When the parts taken leave [`REST_SHARE`] of the border unexplained (farther
 //! than [`EXPLAINED_PX`] from every taken part's outline), the hypotheses are made once more with
@@ -72,7 +76,13 @@
 //! runs all lie on the rest. What is still unexplained then is reported as one more, unknown
 //! part, so nothing is silently lost: at the area centroid of the longest unexplained run
 //! closed across its ends (the outline of the part no template explains, cut where it meets
-//! the parts found).
+//! the parts found). That run is a part of its own when it is [`REST_SHARE`] of the border
+//! itself (not scattered stretches where fits fall a little short of a part's outline), its
+//! centroid lies outside every part found (not the end of a part longer than its template),
+//! and the area it closes exceeds the band the verification lets an outline lie off its
+//! template along it (its length times the parts' largest limit) by [`crate::Params::min_area`],
+//! the least a blob is a part at: an untaught part smaller than every template is reported
+//! too.
 //!
 //! Positions of parts found this way are their aligned template's (the pose applied to the
 //! template's position offset, [`crate::Detection::position_from_pose`]): the partial-volume
@@ -81,7 +91,8 @@
 //! **Bounds.** A blob longer than [`BLOB_POINTS`] points at a template's step is not searched
 //! for it (when no template could be, the whole-border result stands and
 //! [`crate::recognizer::Report::unsplit`] counts the blob); each template's DP visits
-//! `(n + m′ − 1)·m′` cells (`m′ = m / STRIDE`, `n` the border's points at its step), at most
+//! `(n + m′ − 1)·m′` cells at each of its [`SCALE_STEPS`] scales (`m′ = m / STRIDE`, `n` the
+//! border's points at that step), at most
 //! [`MAX_HYPOTHESES`] alignments run a round, two rounds a blob, and at most
 //! [`MAX_BLOB_PARTS`] parts come out of one. Memory: the recognizer's `arc_points` and
 //! `arc_turning` ([`BLOB_POINTS`] each), `arc_template` (`M`) and `arc_rows`
@@ -107,6 +118,10 @@ pub const MAX_HYPOTHESES: usize = 16;
 pub const RUNS_PER_TEMPLATE: usize = 3;
 /// The partial DP takes every `STRIDE`-th template point, and the border at that step.
 pub const STRIDE: usize = 2;
+/// Scales a blob's border is resampled at for each template: the points that divide the
+/// template's scale range into `SCALE_STEPS + 1` equal (geometric) parts (1: the range's
+/// geometric middle, 1 for the default 1/1.4–1.4).
+pub const SCALE_STEPS: usize = 1;
 /// Neighbourhood of the turning angle, points each way (at the DP's step).
 pub const TURN_K: usize = 3;
 /// An edge point is confirmed when its profile finds the edge this close (px, times the
@@ -130,7 +145,8 @@ pub const PARTIAL_ITERATIONS: usize = 30;
 /// The turning angle given to border points a part found explains: no template point has it,
 /// so no run of the second round passes them.
 pub const EXPLAINED_TURN: f32 = 1.0e3;
-/// The unexplained share of the border from which the rest is reported as a part.
+/// The unexplained share of the border from which a second round searches the rest, and the
+/// share the rest's longest run must be to be reported as a part.
 pub const REST_SHARE: f32 = 0.15;
 /// The least concave turn (radians) taken for a junction of a blob's border, where it passes
 /// from one part's outline to another's ("Blobs of one part" in the module doc):
@@ -186,8 +202,6 @@ fn pinned(holes: &HoleAgreement) -> bool {
 /// [`HoleAgreement::matched`]) has its centre inside the template's outline at `pose`: the
 /// part there is not this template (another one's holes fall in it).
 fn foreign_hole<const M: usize>(t: &Template<M>, pose: &Pose, part_holes: &Holes, matched: u8) -> bool {
-    let outline = t.edge();
-    let n = outline.len();
     part_holes.as_slice().iter().enumerate().any(|(j, hole)| {
         let explained = u8::try_from(j)
             .ok()
@@ -196,27 +210,48 @@ fn foreign_hole<const M: usize>(t: &Template<M>, pose: &Pose, part_holes: &Holes
         if explained {
             return false;
         }
-        // Even–odd crossings of a ray from the hole's centre along +x.
-        let [x, y] = hole.centre;
-        let mut inside = false;
-        for i in 0..n {
-            let (Some(a), Some(b)) = (outline.get(i), outline.get((i + 1) % n)) else {
-                continue;
-            };
-            let ([x0, y0], [x1, y1]) = (pose.apply(*a), pose.apply(*b));
-            if (y0 > y) != (y1 > y) && x < x0 + (y - y0) / (y1 - y0) * (x1 - x0) {
-                inside = !inside;
-            }
-        }
-        inside
+        inside_outline(t, pose, hole.centre)
     })
 }
 
-/// Where the rest of a blob lies: the area centroid of the longest run of unexplained border
-/// points (`marks` 0) closed by the chord across its ends — the outline of the part that no
-/// template explains, cut where it meets the parts found — or the run's mean where that
-/// polygon has no area.
-fn rest_centroid(points: &[[f32; 2]], marks: &[f32]) -> [f32; 2] {
+/// Whether `point` lies inside template `t`'s outline at `pose` (even–odd crossings of a ray
+/// from it along +x).
+fn inside_outline<const M: usize>(t: &Template<M>, pose: &Pose, point: [f32; 2]) -> bool {
+    let outline = t.edge();
+    let n = outline.len();
+    let [x, y] = point;
+    let mut inside = false;
+    for i in 0..n {
+        let (Some(a), Some(b)) = (outline.get(i), outline.get((i + 1) % n)) else {
+            continue;
+        };
+        let ([x0, y0], [x1, y1]) = (pose.apply(*a), pose.apply(*b));
+        if (y0 > y) != (y1 > y) && x < x0 + (y - y0) / (y1 - y0) * (x1 - x0) {
+            inside = !inside;
+        }
+    }
+    inside
+}
+
+/// The rest of a blob: the longest run of unexplained border points (`marks` 0) closed by the
+/// chord across its ends — the outline of the part that no template explains, cut where it
+/// meets the parts found.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+struct Rest {
+    /// The border points no part explains, over the whole border.
+    unexplained: usize,
+    /// Points in the longest run of them.
+    run: usize,
+    /// The area centroid of the run closed by its chord (the run's mean where that polygon has
+    /// no area).
+    at: [f32; 2],
+    /// The area of that polygon, px².
+    area: f32,
+}
+
+/// The longest run of unexplained border points (`marks` 0) as a [`Rest`] (its `unexplained`
+/// left 0).
+fn rest_centroid(points: &[[f32; 2]], marks: &[f32]) -> Rest {
     let n = points.len().min(marks.len());
     let unexplained = |i: usize| marks.get(i % n.max(1)).is_some_and(|m| *m == 0.0);
     // The longest cyclic run: start after an explained point (anywhere when none is).
@@ -244,12 +279,18 @@ fn rest_centroid(points: &[[f32; 2]], marks: &[f32]) -> [f32; 2] {
         mx += p[0];
         my += p[1];
     }
-    if a2.abs() > 1.0 {
+    let at = if a2.abs() > 1.0 {
         [cx / (3.0 * a2), cy / (3.0 * a2)]
     } else if best.1 > 0 {
         [mx / best.1 as f32, my / best.1 as f32]
     } else {
         [0.0, 0.0]
+    };
+    Rest {
+        unexplained: 0,
+        run: best.1,
+        at,
+        area: 0.5 * a2.abs(),
     }
 }
 
@@ -498,7 +539,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         // The rest of the border that no part found explains, over `count` points: measured
         // whenever a round takes a part.
         let count = BLOB_POINTS.min(math::round(chain / 2.0).max(8.0) as usize);
-        let (mut rest, mut rest_at) = (0usize, [0.0f32; 2]);
+        let mut rest = Rest::default();
         for round in 0..2 {
             let before = taken.len();
             let (hyps, s, too_long) = self.hypotheses(index, whole, least, chain, part_holes, &taken);
@@ -510,29 +551,29 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             if taken.len() == before {
                 break;
             }
-            (rest, rest_at) = self.unexplained(index, count, &taken);
-            if (rest as f32) < REST_SHARE * count as f32 {
+            rest = self.unexplained(index, count, &taken);
+            if (rest.unexplained as f32) < REST_SHARE * count as f32 {
                 break;
             }
         }
         if taken.is_empty() {
             return Ok(found);
         }
-        // The blob's area less the parts' (their overlaps counted twice).
-        let holes: f32 = self
-            .store
-            .holes_of(index)
-            .filter_map(|h| self.store.contours().get(h).map(|c| c.area()))
-            .sum();
-        let blob = whole.area - holes;
-        let mut left_over = blob;
-        for f in &taken {
-            if let Some(t) = self.templates.get(f.template) {
-                left_over -= t.area() * f.pose.scale * f.pose.scale;
-            }
-        }
-        // A rest: enough of the border unexplained, and the area of a part that shows half.
-        let rest_part = rest as f32 >= REST_SHARE * count as f32 && left_over >= least;
+        // A rest: one run of unexplained border long enough, outside every part found (a part
+        // of its own, not the end of a found part longer than its template), and enclosing
+        // more than the band the verification lets an outline lie off its template along the
+        // run (the run's length times the largest limit of the parts found), by the least
+        // area a part is reported at.
+        let limit = taken.iter().map(|f| f.limit).fold(0.0f32, f32::max);
+        let run_len = rest.run as f32 * chain / count.max(1) as f32;
+        let outside = !taken.iter().any(|f| {
+            self.templates
+                .get(f.template)
+                .is_some_and(|t| inside_outline(t, &f.pose, rest.at))
+        });
+        let rest_part = rest.run as f32 >= REST_SHARE * count as f32
+            && outside
+            && rest.area - run_len * limit >= self.params.min_area;
         let several = taken.len() > 1 || rest_part;
         for f in &taken {
             let Some(t) = self.templates.get(f.template) else {
@@ -561,8 +602,8 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             };
             let _ = found.push(d);
         }
-        if rest_part && rest > 0 {
-            let [x, y] = rest_at;
+        if rest_part && rest.run > 0 {
+            let [x, y] = rest.at;
             // Unknown: no template's pose or verification (the whole blob's were not the
             // rest's); the blob's DP diagnostics stay.
             let d = Detection {
@@ -626,30 +667,9 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             // Every STRIDE-th template point, the border at the same step.
             let m = t.len();
             let coarse = m / STRIDE;
-            // At the middle of the scale range, the geometric one (scale is a factor: 1 for the
-            // default 1/1.4–1.4).
-            let (lo_s, hi_s) = t.tolerance().scale_range(params.scale_min, params.scale_max);
-            let step =
-                math::sqrt(lo_s * hi_s) * STRIDE as f32 * perimeter(t.points().iter().copied()) / m.max(1) as f32;
-            let count = if step > 0.0 { math::round(chain / step) } else { 0.0 };
-            if !(count >= 8.0) || coarse < 8 {
+            if coarse < 8 {
                 continue;
             }
-            if count > BLOB_POINTS as f32 {
-                too_long = true;
-                continue;
-            }
-            let count = count as usize;
-            let pts = self.arc_points.get_mut(..count).unwrap_or(&mut []);
-            if resample(border, pts).is_err() {
-                continue;
-            }
-            let kappa = self.arc_turning.get_mut(..count).unwrap_or(&mut []);
-            if turning(pts, TURN_K, kappa).is_err() {
-                continue;
-            }
-            // Explained points: a turning no template point has, so no run passes them.
-            mark_explained(&self.templates, taken, pts, kappa, EXPLAINED_TURN);
             let tp = self.points.get_mut(..coarse).unwrap_or(&mut []);
             for (slot, p) in tp.iter_mut().zip(t.points().iter().step_by(STRIDE)) {
                 *slot = *p;
@@ -658,49 +678,89 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             if turning(tp, TURN_K, tk).is_err() {
                 continue;
             }
-            let mut runs: heapless::Vec<ArcMatch, RUNS_PER_TEMPLATE> = heapless::Vec::new();
             let arc_params = ArcParams {
                 min_template: coarse / 3,
                 ..ArcParams::DEFAULT
             };
-            let rows = self.arc_rows.as_flattened_mut();
-            if best_arcs(kappa, tk, &arc_params, rows, &mut runs).is_err() {
-                continue;
-            }
-            searched += 1;
-            let pts = self.arc_points.get(..count).unwrap_or(&[]);
-            for run in &runs {
-                // Back to the template's own points.
-                let run = ArcMatch {
-                    template_start: run.template_start * STRIDE,
-                    template_len: (run.template_len - 1) * STRIDE + 1,
-                    ..*run
-                };
-                let Some(seed) = pose_from_run(&run, pts, t) else {
+            // The border at each of SCALE_STEPS scales over the range (scale is a factor: the
+            // points dividing it into equal geometric parts), as the template's step there.
+            let (lo_s, hi_s) = t.tolerance().scale_range(params.scale_min, params.scale_max);
+            let (middle, span) = (math::sqrt(lo_s * hi_s), hi_s / lo_s);
+            let template_step = STRIDE as f32 * perimeter(t.points().iter().copied()) / m.max(1) as f32;
+            let mut dp_ran = false;
+            let mut last_count = 0usize;
+            for s in 0..SCALE_STEPS {
+                let at = (s + 1) as f32 / (SCALE_STEPS + 1) as f32 - 0.5;
+                let scale = middle * math::powf(span, at);
+                let step = scale * template_step;
+                let count = if step > 0.0 { math::round(chain / step) } else { 0.0 };
+                if !(count >= 8.0) {
                     continue;
-                };
-                let h = Hypothesis {
-                    template: ti,
-                    seed,
-                    score: run.score,
-                };
-                if hyps.push(h).is_err() {
-                    let low = hyps
-                        .iter_mut()
-                        .min_by(|a, b| a.score.total_cmp(&b.score))
-                        .filter(|l| l.score < h.score);
-                    if let Some(l) = low {
-                        *l = h;
+                }
+                if count > BLOB_POINTS as f32 {
+                    too_long = true;
+                    continue;
+                }
+                let count = count as usize;
+                // (A narrow range gives the same points twice: searched once.)
+                if count == last_count {
+                    continue;
+                }
+                last_count = count;
+                let pts = self.arc_points.get_mut(..count).unwrap_or(&mut []);
+                if resample(border, pts).is_err() {
+                    continue;
+                }
+                let kappa = self.arc_turning.get_mut(..count).unwrap_or(&mut []);
+                if turning(pts, TURN_K, kappa).is_err() {
+                    continue;
+                }
+                // Explained points: a turning no template point has, so no run passes them.
+                mark_explained(&self.templates, taken, pts, kappa, EXPLAINED_TURN);
+                let mut runs: heapless::Vec<ArcMatch, RUNS_PER_TEMPLATE> = heapless::Vec::new();
+                let rows = self.arc_rows.as_flattened_mut();
+                let tk = self.arc_template.get(..coarse).unwrap_or(&[]);
+                if best_arcs(kappa, tk, &arc_params, rows, &mut runs).is_err() {
+                    continue;
+                }
+                dp_ran = true;
+                let pts = self.arc_points.get(..count).unwrap_or(&[]);
+                for run in &runs {
+                    // Back to the template's own points.
+                    let run = ArcMatch {
+                        template_start: run.template_start * STRIDE,
+                        template_len: (run.template_len - 1) * STRIDE + 1,
+                        ..*run
+                    };
+                    let Some(seed) = pose_from_run(&run, pts, t) else {
+                        continue;
+                    };
+                    // A run's score sums over its border points, more of them the smaller the
+                    // step: per length of border at the middle scale, to compare the steps'.
+                    let h = Hypothesis {
+                        template: ti,
+                        seed,
+                        score: run.score * scale / middle,
+                    };
+                    if hyps.push(h).is_err() {
+                        let low = hyps
+                            .iter_mut()
+                            .min_by(|a, b| a.score.total_cmp(&b.score))
+                            .filter(|l| l.score < h.score);
+                        if let Some(l) = low {
+                            *l = h;
+                        }
                     }
                 }
             }
+            searched += usize::from(dp_ran);
         }
         (hyps, searched, too_long)
     }
 
     /// Each pose aligned and verified on the visible edge ([`Self::partial_fit`]); the fits
-    /// taken into `taken` best first (the larger visible share, then the lower score), unless
-    /// their centre falls within half a size of one taken already.
+    /// taken into `taken` best first (the more holes found, then the larger visible share, then
+    /// the lower score), unless their centre falls within half a size of one taken already.
     fn take_fits<B: AsRef<[u8]>>(
         &self,
         hyps: &[Hypothesis],
@@ -744,8 +804,14 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 });
             }
         }
-        // Best first: the larger visible share, then the lower score.
+        // Best first: the more of its template's holes found (as a whole part's fits are
+        // ranked: a rod with two eyes is the two-eyed template's, even where the one-eyed
+        // template's outline fits as much of it), then the larger visible share, then the
+        // lower score.
         let before = |a: &PartFit, b: &PartFit| {
+            if a.holes.found != b.holes.found {
+                return a.holes.found > b.holes.found;
+            }
             a.visible > b.visible || (a.visible == b.visible && a.distance / a.limit < b.distance / b.limit)
         };
         for i in 1..fits.len() {
@@ -777,19 +843,22 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
     }
 
     /// How many of `count` points along blob `index`'s border no part in `taken` explains
-    /// (farther than [`EXPLAINED_PX`] from each one's aligned outline), and where their
-    /// longest run lies ([`rest_centroid`]).
-    fn unexplained(&mut self, index: usize, count: usize, taken: &[PartFit]) -> (usize, [f32; 2]) {
+    /// (farther than [`EXPLAINED_PX`] from each one's aligned outline), and their longest run
+    /// ([`rest_centroid`]).
+    fn unexplained(&mut self, index: usize, count: usize, taken: &[PartFit]) -> Rest {
         let border = self.store.points(index);
         let pts = self.arc_points.get_mut(..count).unwrap_or(&mut []);
         if resample(border, pts).is_err() {
-            return (0, [0.0, 0.0]);
+            return Rest::default();
         }
         // 1 marks a point some part explains.
         let marks = self.arc_turning.get_mut(..count).unwrap_or(&mut []);
         marks.fill(0.0);
         mark_explained(&self.templates, taken, pts, marks, 1.0);
-        (marks.iter().filter(|m| **m == 0.0).count(), rest_centroid(pts, marks))
+        Rest {
+            unexplained: marks.iter().filter(|m| **m == 0.0).count(),
+            ..rest_centroid(pts, marks)
+        }
     }
 
     /// The least area a part may show: half of the smallest template at its least scale.
