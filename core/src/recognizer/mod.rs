@@ -387,11 +387,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             }
             // Print, scratches, threads: thinner than any taught part could be, even half of
             // one at its smallest scale. Counted, not looked at, and no part's place taken.
-            let thickness = if in_hole {
-                f32::INFINITY
-            } else {
-                self.blob_thickness(index)
-            };
+            let thickness = self.blob_thickness(index);
             if thickness < stroke && thickness < *thinnest_part.get_or_insert_with(|| self.thinnest_part()) {
                 report.thin += 1;
                 continue;
