@@ -57,6 +57,53 @@ pub fn hypot(x: f32, y: f32) -> f32 {
     sqrt(x * x + y * y)
 }
 
+/// Length of the closed polygon through `points` (the last point joined to the first); 0 for
+/// none.
+///
+/// ```
+/// use vorl_core::math::perimeter;
+/// let square = [[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]];
+/// assert_eq!(perimeter(square.into_iter()), 8.0);
+/// ```
+pub fn perimeter(points: impl Iterator<Item = [f32; 2]> + Clone) -> f32 {
+    let mut it = points.clone();
+    let Some(first) = it.next() else {
+        return 0.0;
+    };
+    let (mut len, mut last) = (0.0f32, first);
+    for p in it.chain(core::iter::once(first)) {
+        len += hypot(p[0] - last[0], p[1] - last[1]);
+        last = p;
+    }
+    len
+}
+
+/// Whether the closed polygon through `points` holds `q`: a ray from `q` along +x crosses it
+/// an odd number of times (an edge counts where its ends lie on either side of `q`'s row, an
+/// end on the row counting as below it). False for no points.
+///
+/// ```
+/// use vorl_core::math::polygon_holds;
+/// let square = [[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]];
+/// assert!(polygon_holds(square.into_iter(), [1.0, 1.0]));
+/// assert!(!polygon_holds(square.into_iter(), [3.0, 1.0]));
+/// ```
+pub fn polygon_holds(points: impl Iterator<Item = [f32; 2]> + Clone, q: [f32; 2]) -> bool {
+    let Some(mut a) = points.clone().last() else {
+        return false;
+    };
+    let [x, y] = q;
+    let mut inside = false;
+    for b in points {
+        let ([x0, y0], [x1, y1]) = (a, b);
+        if (y0 > y) != (y1 > y) && x < x0 + (y - y0) / (y1 - y0) * (x1 - x0) {
+            inside = !inside;
+        }
+        a = b;
+    }
+    inside
+}
+
 /// Degrees from radians.
 #[inline]
 pub fn degrees(rad: f32) -> f32 {

@@ -175,7 +175,8 @@ impl<const P: usize, const C: usize> ContourStore<P, C> {
             if c.kind != want || size <= child.area2.unsigned_abs() || best.is_some_and(|(b, _)| size >= b) {
                 continue;
             }
-            if polygon_holds(self.points(i), q) {
+            let polygon = self.points(i).iter().map(|p| [f32::from(p.x), f32::from(p.y)]);
+            if crate::math::polygon_holds(polygon, q) {
                 best = Some((size, i as u16));
             }
         }
@@ -251,29 +252,6 @@ impl Plane<'_> {
             }
         }
     }
-}
-
-/// Whether the closed polygon through `points` holds `q` (crossing number: a ray from `q`
-/// towards +x crosses it an odd number of times; an edge counts where its ends lie on either
-/// side of `q`'s row, one end on the row counting as above it).
-fn polygon_holds(points: &[Point], q: [f32; 2]) -> bool {
-    let mut inside = false;
-    let Some(&last) = points.last() else {
-        return false;
-    };
-    let mut a = last;
-    for &b in points {
-        let (ay, by) = (f32::from(a.y), f32::from(b.y));
-        if (ay > q[1]) != (by > q[1]) {
-            let (ax, bx) = (f32::from(a.x), f32::from(b.x));
-            let cross = ax + (q[1] - ay) * (bx - ax) / (by - ay);
-            if q[0] < cross {
-                inside = !inside;
-            }
-        }
-        a = b;
-    }
-    inside
 }
 
 /// Signed label value: positive NBD, negative NBD, or the plain 0/1.

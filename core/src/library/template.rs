@@ -456,12 +456,7 @@ impl<const M: usize> Template<M> {
     /// assert!((t.thickness() - 8.0).abs() < 1.0, "{}", t.thickness());
     /// ```
     pub fn thickness(&self) -> f32 {
-        let points = self.points();
-        let perimeter: f32 = points
-            .iter()
-            .zip(points.iter().cycle().skip(1))
-            .map(|(a, b)| crate::math::hypot(b[0] - a[0], b[1] - a[1]))
-            .sum();
+        let perimeter = crate::math::perimeter(self.points().iter().copied());
         if perimeter > 0.0 && self.area.is_finite() {
             2.0 * self.area.max(0.0) / perimeter
         } else {

@@ -57,7 +57,7 @@
 //! the constants of the decision); [`split`] the partial search of blobs that hold several
 //! parts.
 
-use crate::borders::contour::{clear_labels, trace_borders_in, BorderKind, ContourStore, Point};
+use crate::borders::contour::{clear_labels, trace_borders_in, BorderKind, ContourStore};
 use crate::borders::resample::resample;
 use crate::error::{Error, Result};
 use crate::library::template::Template;
@@ -456,18 +456,11 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             return f32::INFINITY;
         };
         let border = self.store.points(index);
-        let Some(first) = border.first() else {
+        if border.is_empty() {
             return f32::INFINITY;
-        };
-        let chord =
-            |a: &Point, b: &Point| math::hypot(f32::from(b.x) - f32::from(a.x), f32::from(b.y) - f32::from(a.y));
-        let mut prev = first;
-        let mut perimeter = 0.0f32;
-        for p in border.iter().step_by(THIN_CHORD).skip(1) {
-            perimeter += chord(prev, p);
-            prev = p;
         }
-        perimeter += chord(prev, first);
+        let along = border.iter().step_by(THIN_CHORD);
+        let perimeter = math::perimeter(along.map(|p| [f32::from(p.x), f32::from(p.y)]));
         if perimeter > 0.0 {
             2.0 * contour.area() / perimeter
         } else {

@@ -217,20 +217,7 @@ fn foreign_hole<const M: usize>(t: &Template<M>, pose: &Pose, part_holes: &Holes
 /// Whether `point` lies inside template `t`'s outline at `pose` (even–odd crossings of a ray
 /// from it along +x).
 fn inside_outline<const M: usize>(t: &Template<M>, pose: &Pose, point: [f32; 2]) -> bool {
-    let outline = t.edge();
-    let n = outline.len();
-    let [x, y] = point;
-    let mut inside = false;
-    for i in 0..n {
-        let (Some(a), Some(b)) = (outline.get(i), outline.get((i + 1) % n)) else {
-            continue;
-        };
-        let ([x0, y0], [x1, y1]) = (pose.apply(*a), pose.apply(*b));
-        if (y0 > y) != (y1 > y) && x < x0 + (y - y0) / (y1 - y0) * (x1 - x0) {
-            inside = !inside;
-        }
-    }
-    inside
+    math::polygon_holds(t.edge().iter().map(|a| pose.apply(*a)), point)
 }
 
 /// The rest of a blob: the longest run of unexplained border points (`marks` 0) closed by the
@@ -315,20 +302,6 @@ fn mark_explained<const M: usize>(
             }
         }
     }
-}
-
-/// Closed polygon length.
-fn perimeter(points: impl Iterator<Item = [f32; 2]> + Clone) -> f32 {
-    let mut it = points.clone();
-    let Some(first) = it.next() else {
-        return 0.0;
-    };
-    let (mut len, mut last) = (0.0f32, first);
-    for p in it.chain(core::iter::once(first)) {
-        len += math::hypot(p[0] - last[0], p[1] - last[1]);
-        last = p;
-    }
-    len
 }
 
 /// The deepest concave turn of the closed polyline `points`: the largest angle (radians) by
@@ -496,7 +469,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             return false;
         }
         let border = self.store.points(index);
-        let chain = perimeter(border.iter().map(|p| [p.x as f32, p.y as f32]));
+        let chain = math::perimeter(border.iter().map(|p| [p.x as f32, p.y as f32]));
         let diff = Difference::new(frame, background, self.params.alpha());
         let holes = Holes::from_borders(self.store.holes_of(index).map(|i| self.store.points(i)), 0.0);
         match self.split_blob(index, chain, &diff, &holes, whole) {
@@ -686,7 +659,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             // points dividing it into equal geometric parts), as the template's step there.
             let (lo_s, hi_s) = t.tolerance().scale_range(params.scale_min, params.scale_max);
             let (middle, span) = (math::sqrt(lo_s * hi_s), hi_s / lo_s);
-            let template_step = STRIDE as f32 * perimeter(t.points().iter().copied()) / m.max(1) as f32;
+            let template_step = STRIDE as f32 * math::perimeter(t.points().iter().copied()) / m.max(1) as f32;
             let mut dp_ran = false;
             let mut last_count = 0usize;
             for s in 0..SCALE_STEPS {
@@ -898,7 +871,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         // (The border's length only where the area alone would leave the blob to the search.)
         excess > least && {
             let border = self.store.points(usize::from(whole.contour));
-            let chain = perimeter(border.iter().map(|p| [p.x as f32, p.y as f32]));
+            let chain = math::perimeter(border.iter().map(|p| [p.x as f32, p.y as f32]));
             excess > least + chain * whole.verify_limit
         }
     }
@@ -1322,7 +1295,7 @@ mod tests {
             .find(|&i| rec.store.contours().get(i).is_some_and(|c| c.kind == BorderKind::Outer))
             .unwrap();
         let border = rec.store.points(index);
-        let chain = perimeter(border.iter().map(|p| [p.x as f32, p.y as f32]));
+        let chain = math::perimeter(border.iter().map(|p| [p.x as f32, p.y as f32]));
         let whole = Detection {
             touches_edge: false,
             area: rec.store.contours()[index].area(),
