@@ -14,7 +14,7 @@
 //! | label plane | `w·h` |
 //! | contour points | `4·P` |
 //! | contour records | `C·size_of::<Contour>()` + the vector's length word + the store's counter |
-//! | templates | `T·size_of::<Template<M>>()` + the vector's length word, `size_of::<Template<M>>() = word + 32·M + 40 + 100 + 12` (the holes, [`HOLES_BYTES`], and the class's tolerance) rounded up to the word |
+//! | templates | `T·size_of::<Template<M>>()` + the vector's length word, `size_of::<Template<M>>() = word + 32·M + 56 + 100 + 12` (the holes, [`HOLES_BYTES`], and the class's tolerance) rounded up to the word |
 //! | DP table | `4·D` (`D ≥ n·(m − n + 1)`) |
 //! | part buffers | `22·M`: points `8·M`, descriptor `4·M`, correspondence `2·M`, sub-pixel edge `8·M`; one template, the mirror image a part upside down is matched against; the partial search's blob border and open DP, `12·BLOB_POINTS + 4·M·(ARC_ROWS + 2)` ([`split_buffer_bytes`]) |
 //! | parameters, padding | `size_of::<Params>()` and the rounding of the recognizer to its alignment |
@@ -177,14 +177,14 @@ const fn vec_bytes(layout: Layout, size: usize, align: usize, cap: usize) -> usi
 /// `size_of::<Template<M>>()`: `m` (a word); `8·M` points, `4·M` descriptor, `4·M` sorted
 /// descriptor, `8·M` sub-pixel
 /// edge points and `8·M` normals; centroid (8), area centroid (8), area (4) and position offset
-/// (8), half-turn distance (4), mirror gap and score (8), holes and tolerance (12); rounded up to
-/// the word.
+/// (8), half-turn distance (4), near turn (16: turn, gap, score, whether the holes repeat, the
+/// flag padded to 4), mirror gap and score (8), holes and tolerance (12); rounded up to the word.
 pub const fn template_bytes(layout: Layout, m: usize) -> usize {
     round_up(
         layout
             .word
             .saturating_add(m.saturating_mul(32))
-            .saturating_add(40 + HOLES_BYTES + 12),
+            .saturating_add(56 + HOLES_BYTES + 12),
         max(layout.word, 4),
     )
 }
@@ -368,14 +368,14 @@ mod tests {
             // gate, the part's edge blur) and the rounding to the alignment.
             assert!(b.other >= fixed + 13 && b.other < fixed + 13 + 8, "{}", b.other - fixed);
         }
-        // 32-bit: 8 templates of (4 + 32·96 + 40 + 100 for the holes + 12 for the tolerance)
+        // 32-bit: 8 templates of (4 + 32·96 + 56 + 100 for the holes + 12 for the tolerance)
         // bytes and the length word.
-        assert_eq!(budget(Layout::CORTEX_M, caps).templates, 4 + 8 * 3228);
+        assert_eq!(budget(Layout::CORTEX_M, caps).templates, 4 + 8 * 3244);
         // The part buffers: 22 bytes per point and one template, the mirror image; the partial
         // search's 512 border points (8 + 4 bytes) and 15 rows of 96 cells.
         assert_eq!(
             budget(Layout::CORTEX_M, caps).part_buffers,
-            22 * 96 + 3228 + 512 * 12 + 15 * 96 * 4
+            22 * 96 + 3244 + 512 * 12 + 15 * 96 * 4
         );
     }
 

@@ -87,7 +87,7 @@ extern crate self as vorl_core;
 mod test_support;
 
 pub use error::{Error, Result};
-pub use library::template::{Template, Tolerance};
+pub use library::template::{NearTurn, Template, Tolerance};
 pub use params::{AngleEstimator, Params, Position, Refine};
 pub use pixels::background::Background;
 pub use pixels::frame::{Frame, FrameBuffer};

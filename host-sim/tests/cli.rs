@@ -1578,11 +1578,9 @@ fn print_on_the_platform_is_not_parts() {
     let n = |k: &str| score[k].as_u64().unwrap_or(0);
     assert_eq!(n("predictions"), n("true_predictions"), "{}", out.stdout);
     assert_eq!(n("detected"), n("truth_parts"), "{}", out.stdout);
-    assert!(
-        n("known") >= 6 && n("known_correct") + 1 >= n("known"),
-        "{}",
-        out.stdout
-    );
+    // Every known part named: the nearly 3-fold pick among them, which the DP put a third of
+    // a turn off in two of these frames (one then unknown) before its near turn was aligned.
+    assert!(n("known") >= 6 && n("known_correct") == n("known"), "{}", out.stdout);
     assert!(
         out.stderr.contains("stroke(s) thinner than any taught part"),
         "{}",

@@ -37,8 +37,37 @@ const HOLE_GRID_SLACK: f32 = 1.0;
 const MIRROR_GRID: usize = 90;
 /// Lowest local minima of the coarse grid that [`Template::mirror_gap`] refines.
 const MIRROR_MINIMA: usize = 3;
-/// Golden-section steps refining a coarse minimum of [`Template::mirror_gap`] (±4° to 0.004°).
+/// Golden-section steps refining a coarse minimum of [`Template::mirror_gap`] or
+/// [`Template::near_turn`] (±4° to 0.004°).
 const MIRROR_REFINE_STEPS: usize = 16;
+/// Turns of the coarse grid of [`Template::near_turn`] over half a turn (4° apart, as
+/// [`MIRROR_GRID`]'s).
+const TURN_GRID: usize = MIRROR_GRID / 2;
+
+/// The lowest value of `f` over `[a, b]` and where it is, by [`MIRROR_REFINE_STEPS`] steps of
+/// golden-section search (`f` taken to have one minimum there).
+fn golden_minimum(f: impl Fn(f32) -> f32, a: f32, b: f32) -> (f32, f32) {
+    const INV_PHI: f32 = 0.618_034;
+    let (mut a, mut b) = (a, b);
+    let (mut x1, mut x2) = (b - INV_PHI * (b - a), a + INV_PHI * (b - a));
+    let (mut g1, mut g2) = (f(x1), f(x2));
+    for _ in 0..MIRROR_REFINE_STEPS {
+        if g1 <= g2 {
+            (b, x2, g2) = (x2, x1, g1);
+            x1 = b - INV_PHI * (b - a);
+            g1 = f(x1);
+        } else {
+            (a, x1, g1) = (x1, x2, g2);
+            x2 = a + INV_PHI * (b - a);
+            g2 = f(x2);
+        }
+    }
+    if g1 <= g2 {
+        (g1, x1)
+    } else {
+        (g2, x2)
+    }
+}
 
 /// One taught part: `m` resampled border points, their descriptor and centroids, and the
 /// sub-pixel edge the refine stage aligns.
@@ -62,6 +91,9 @@ pub struct Template<const M: usize> {
     /// Mean distance of the edge turned by 180° about the area centroid to the edge itself,
     /// over [`Self::size`] (0 for a 2-fold symmetric part).
     half_turn: f32,
+    /// Where the outline turned nearly repeats other than none and half a turn: see
+    /// [`Self::near_turn`].
+    near_turn: NearTurn,
     /// Mean distance of the edge mirrored left-right and turned to where it fits best to the
     /// edge itself, over [`Self::size`] (0 for a part with a mirror axis): see
     /// [`Self::mirror_gap`].
@@ -112,6 +144,33 @@ impl Tolerance {
     }
 }
 
+/// Where a template's outline nearly repeats turned, other than none and half a turn
+/// ([`Template::near_turn`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NearTurn {
+    /// The turn, degrees in (0, 180) (the outline repeats about as closely the other way).
+    pub turn_deg: f32,
+    /// The mean distance of the edge turned by it to the edge itself, over
+    /// [`Template::size`] (infinite for [`NearTurn::NONE`]).
+    pub gap: f32,
+    /// The same over the nearest [`crate::pose::refine::VERIFY_KEPT`] of the points, as the
+    /// verification scores an alignment: about the score (over [`Template::size`]) a part
+    /// aligned that turn off would get. A part that fits much closer than this is not turned.
+    pub score: f32,
+    /// Whether every hole turned by it lands on a hole of like area (within a pixel).
+    pub holes_repeat: bool,
+}
+
+impl NearTurn {
+    /// No near turn.
+    pub const NONE: NearTurn = NearTurn {
+        turn_deg: 0.0,
+        gap: f32::INFINITY,
+        score: f32::INFINITY,
+        holes_repeat: false,
+    };
+}
+
 impl<const M: usize> Template<M> {
     /// An empty template (`const`, for `static` storage).
     pub const fn empty() -> Self {
@@ -127,6 +186,7 @@ impl<const M: usize> Template<M> {
             normals: [[0.0; 2]; M],
             position: [0.0; 2],
             half_turn: f32::INFINITY,
+            near_turn: NearTurn::NONE,
             mirror_gap: 0.0,
             mirror_score: 0.0,
             holes: Holes::new(),
@@ -200,6 +260,99 @@ impl<const M: usize> Template<M> {
         let cap = size;
         let sum: f32 = edge.iter().map(|e| outline.capped_distance([-e[0], -e[1]], cap)).sum();
         self.half_turn = sum / edge.len() as f32 / size;
+        self.near_turn = self.measure_near_turn(&outline);
+    }
+
+    /// [`Self::near_turn`] from the edge and the holes: the lowest local minimum of the turned
+    /// edge's mean distance to itself strictly between none and half a turn, away from either
+    /// by two steps of the grid (a k-fold outline, k ≥ 3, has one at 360°/k; a 2-fold one only
+    /// at half a turn, which [`Self::half_turn`] covers).
+    // (Out of line: its buffers then share the stack with the mirror gap's, not add to them.)
+    #[inline(never)]
+    fn measure_near_turn(&self, outline: &crate::pose::refine::Outline) -> NearTurn {
+        let edge = self.edge.get(..self.m).unwrap_or(&[]);
+        let size = self.size();
+        let turned = |theta: f32| {
+            let (s, c) = math::sin_cos(theta);
+            move |e: [f32; 2]| [e[0] * c - e[1] * s, e[0] * s + e[1] * c]
+        };
+        let gap = |theta: f32| -> f32 {
+            let map = turned(theta);
+            let sum: f32 = edge.iter().map(|e| outline.capped_distance(map(*e), size)).sum();
+            sum / edge.len().max(1) as f32
+        };
+        let step = core::f32::consts::PI / TURN_GRID as f32;
+        let mut coarse = [0.0f32; TURN_GRID + 1];
+        for (k, g) in coarse.iter_mut().enumerate().skip(1) {
+            *g = gap(k as f32 * step);
+        }
+        let mut lowest = (f32::INFINITY, 0usize);
+        for (k, w) in coarse.windows(3).enumerate().skip(1).take(TURN_GRID.saturating_sub(3)) {
+            if let [before, v, after] = *w {
+                if v <= before && v <= after && v < lowest.0 {
+                    lowest = (v, k + 1);
+                }
+            }
+        }
+        if !lowest.0.is_finite() {
+            return NearTurn::NONE;
+        }
+        let k = lowest.1 as f32;
+        let (g, theta) = golden_minimum(gap, (k - 1.0) * step, (k + 1.0) * step);
+        let map = turned(theta);
+        let (gap, score) = (g / size, self.trimmed_self_distance(outline, map));
+        if !(gap.is_finite() && score.is_finite()) {
+            return NearTurn::NONE;
+        }
+        NearTurn {
+            turn_deg: math::degrees(theta),
+            gap,
+            score,
+            holes_repeat: self.holes_gap(map) == 0.0,
+        }
+    }
+
+    /// The farthest a hole mapped by `map` (a turn, or a mirror image and a turn, about the
+    /// area centroid) lies from a hole of like area, less a pixel ([`HOLE_GRID_SLACK`]), px,
+    /// at most [`Self::size`]: 0 where the holes repeat under `map`.
+    fn holes_gap(&self, map: impl Fn([f32; 2]) -> [f32; 2]) -> f32 {
+        let holes = self.holes.as_slice();
+        let size = self.size();
+        let mut gap = 0.0f32;
+        for h in holes {
+            let p = map(h.centre);
+            let nearest = holes
+                .iter()
+                .filter(|q| q.area <= 1.5 * h.area && h.area <= 1.5 * q.area)
+                .map(|q| math::hypot(q.centre[0] - p[0], q.centre[1] - p[1]))
+                .fold(f32::INFINITY, f32::min);
+            // (A hole's centre on the pixel grid may sit half a pixel off the axis, and its
+            // image half a pixel off the other way.)
+            gap = gap.max((nearest - HOLE_GRID_SLACK).clamp(0.0, size));
+        }
+        gap
+    }
+
+    /// The mean distance of the edge mapped by `map` to `outline` (the edge's own), over its
+    /// nearest [`crate::pose::refine::VERIFY_KEPT`] points, as the verification scores an
+    /// alignment, over [`Self::size`] (0 where that is not a number).
+    fn trimmed_self_distance(&self, outline: &crate::pose::refine::Outline, map: impl Fn([f32; 2]) -> [f32; 2]) -> f32 {
+        let edge = self.edge.get(..self.m).unwrap_or(&[]);
+        let size = self.size();
+        let mut distances = [0.0f32; M];
+        let count = edge.len().min(M);
+        for (d, e) in distances.iter_mut().zip(edge) {
+            *d = outline.capped_distance(map(*e), size);
+        }
+        let kept = distances.get_mut(..count).unwrap_or(&mut []);
+        crate::shape::matching::sort_total(kept);
+        let keep = ((count as f32 * crate::pose::refine::VERIFY_KEPT) as usize).clamp(1, count.max(1));
+        let score = kept.iter().take(keep).sum::<f32>() / keep as f32 / size;
+        if score.is_finite() {
+            score
+        } else {
+            0.0
+        }
     }
 
     /// [`Self::mirror_gap`] from the edge and the holes.
@@ -250,55 +403,18 @@ impl<const M: usize> Template<M> {
             if !v.is_finite() {
                 continue;
             }
-            let (mut a, mut b) = ((k as f32 - 1.0) * step, (k as f32 + 1.0) * step);
-            const INV_PHI: f32 = 0.618_034;
-            let (mut x1, mut x2) = (b - INV_PHI * (b - a), a + INV_PHI * (b - a));
-            let (mut g1, mut g2) = (gap(x1), gap(x2));
-            for _ in 0..MIRROR_REFINE_STEPS {
-                if g1 <= g2 {
-                    (b, x2, g2) = (x2, x1, g1);
-                    x1 = b - INV_PHI * (b - a);
-                    g1 = gap(x1);
-                } else {
-                    (a, x1, g1) = (x1, x2, g2);
-                    x2 = a + INV_PHI * (b - a);
-                    g2 = gap(x2);
-                }
-            }
-            let (g, theta) = if g1 <= g2 { (g1, x1) } else { (g2, x2) };
+            let (g, theta) = golden_minimum(gap, (k as f32 - 1.0) * step, (k as f32 + 1.0) * step);
             if g < best.0 {
                 best = (g, theta);
             }
         }
         // The holes at that turn: each mirrored hole needs a hole of like area near it.
         let (s, c) = math::sin_cos(best.1);
-        let holes = self.holes.as_slice();
-        let mut hole_gap = 0.0f32;
-        for h in holes {
-            let f = [-h.centre[0], h.centre[1]];
-            let p = [f[0] * c + f[1] * s, -f[0] * s + f[1] * c];
-            let nearest = holes
-                .iter()
-                .filter(|q| q.area <= 1.5 * h.area && h.area <= 1.5 * q.area)
-                .map(|q| math::hypot(q.centre[0] - p[0], q.centre[1] - p[1]))
-                .fold(f32::INFINITY, f32::min);
-            // (A hole's centre on the pixel grid may sit half a pixel off the axis, and its
-            // mirror image half a pixel off the other way.)
-            hole_gap = hole_gap.max((nearest - HOLE_GRID_SLACK).clamp(0.0, size));
-        }
-        let g = best.0.max(hole_gap) / size;
+        let map = |e: [f32; 2]| [-e[0] * c + e[1] * s, e[0] * s + e[1] * c];
+        let g = best.0.max(self.holes_gap(map)) / size;
         self.mirror_gap = if g.is_finite() { g } else { 0.0 };
         // The trimmed mean at that turn, as the verification takes it.
-        let mut distances = [0.0f32; M];
-        let count = edge.len().min(M);
-        for (d, e) in distances.iter_mut().zip(edge) {
-            let f = [-e[0], e[1]];
-            *d = outline.capped_distance([f[0] * c + f[1] * s, -f[0] * s + f[1] * c], size);
-        }
-        let kept = distances.get_mut(..count).unwrap_or(&mut []);
-        crate::shape::matching::sort_total(kept);
-        let keep = ((count as f32 * crate::pose::refine::VERIFY_KEPT) as usize).clamp(1, count.max(1));
-        let score = kept.iter().take(keep).sum::<f32>() / keep as f32 / size;
+        let score = self.trimmed_self_distance(&outline, map);
         self.mirror_score = if score.is_finite() { score } else { 0.0 };
     }
 
@@ -387,6 +503,7 @@ impl<const M: usize> Template<M> {
         self.area = src.area;
         self.position = flip0(src.position);
         self.half_turn = src.half_turn;
+        self.near_turn = src.near_turn;
         self.mirror_gap = src.mirror_gap;
         self.mirror_score = src.mirror_score;
         self.holes = src.holes.mirrored_x();
@@ -399,6 +516,15 @@ impl<const M: usize> Template<M> {
     /// both ways.
     pub fn half_turn(&self) -> f32 {
         self.half_turn
+    }
+
+    /// Where the outline comes nearest to itself turned, other than none and half a turn
+    /// ([`NearTurn`]; [`NearTurn::NONE`] where the turned edge's distance has no minimum
+    /// strictly between: a 2-fold outline). A nearly 3-fold outline (a rounded triangle) gives
+    /// about 120° and a small gap: the DP's correspondence may then be that turn off either
+    /// way, and the recognizer aligns those poses too.
+    pub fn near_turn(&self) -> NearTurn {
+        self.near_turn
     }
 
     /// The template's holes (the largest, each at least [`MIN_HOLE_FRACTION`] of its area),
@@ -824,5 +950,61 @@ mod tests {
         for t in [&off, &blob] {
             assert!(t.is_chiral(), "{}", t.mirror_gap());
         }
+    }
+
+    /// A rounded triangle nearly repeats at a third of a turn (the DP may take it that far
+    /// off); a bar only at half a turn (no near turn); a square plate with a hole in each
+    /// corner repeats at a quarter turn, holes and all; the same plate with one corner's hole
+    /// missing repeats in its outline only.
+    #[test]
+    fn the_near_turn_is_where_the_outline_nearly_repeats() {
+        let disc = |x: usize, y: usize, cx: f32, cy: f32, r: f32| {
+            let (dx, dy) = (x as f32 - cx, y as f32 - cy);
+            dx * dx + dy * dy < r * r
+        };
+        // Three discs' hull, one a little larger: nearly 3-fold.
+        let corners = [(40.0f32, 16.0f32, 11.0f32), (17.5, 53.0, 8.0), (62.5, 53.0, 8.0)];
+        let triangle = taught(|x, y| {
+            let (px, py) = (x as f32, y as f32);
+            // Inside when on the inner side of each edge of the corners' outer tangents (near
+            // enough: the triangle of the centres grown by the radius), or in a corner's disc.
+            let inside_edges = corners.iter().enumerate().all(|(k, a)| {
+                let b = corners[(k + 1) % 3];
+                let (ex, ey) = (b.0 - a.0, b.1 - a.1);
+                let len = libm::hypotf(ex, ey);
+                // The edge's outward normal (the corners run counter-clockwise on screen).
+                let (nx, ny) = (-ey / len, ex / len);
+                (px - a.0) * nx + (py - a.1) * ny <= 8.0
+            });
+            inside_edges || corners.iter().any(|c| disc(x, y, c.0, c.1, c.2))
+        });
+        let near = triangle.near_turn();
+        assert!((near.turn_deg - 120.0).abs() < 6.0, "{near:?}");
+        assert!(near.gap < 0.2 && near.gap > 0.02, "{near:?}");
+        assert!(triangle.half_turn() > near.gap, "{} {near:?}", triangle.half_turn());
+        let bar = taught(|x, y| (10..70).contains(&x) && (32..48).contains(&y));
+        assert!(bar.half_turn() < 0.02, "{}", bar.half_turn());
+        let bar_near = bar.near_turn();
+        assert!(bar_near.gap > 0.2, "{bar_near:?}");
+        // (About the plate's centre, 39.5: pixel centres.)
+        let holes = [(24.5f32, 24.5f32), (54.5, 24.5), (24.5, 54.5), (54.5, 54.5)];
+        let plate = |missing: usize| {
+            taught(move |x, y| {
+                (15..65).contains(&x)
+                    && (15..65).contains(&y)
+                    && !holes.iter().take(4 - missing).any(|h| disc(x, y, h.0, h.1, 4.0))
+            })
+        };
+        let (all, three) = (plate(0), plate(1));
+        let (a, b) = (all.near_turn(), three.near_turn());
+        assert!(
+            (a.turn_deg - 90.0).abs() < 2.0 && a.gap < 0.01 && a.holes_repeat,
+            "{a:?}"
+        );
+        // (Its area centroid, about which it turns, lies 0.6 px off the square's centre.)
+        assert!(
+            (b.turn_deg - 90.0).abs() < 2.0 && b.gap < 0.05 && !b.holes_repeat,
+            "{b:?}"
+        );
     }
 }

@@ -10,15 +10,17 @@
 //! - **Retries.** A near miss ([`NEAR_MISS`]) that is not [`CONFIDENT`] is aligned again with
 //!   the outline offset free, and an outline grown beyond the scale range with a wall too
 //!   ([`WALL_FACTOR`]); a nearly 2-fold outline is aligned half a turn on too
-//!   ([`HALF_TURN_AMBIGUOUS`]); a template with holes whose holes are not found is aligned
-//!   once more from the pose its holes give.
+//!   ([`HALF_TURN_AMBIGUOUS`]), and an outline that nearly repeats at another turn (a rounded
+//!   triangle's third) that turn on either way, unless the fit is far closer than a part that
+//!   turn off could come ([`NEAR_TURN_EVIDENCE`]); a template with holes whose holes are not
+//!   found is aligned once more from the pose its holes give.
 //! - **The decision.** A fit is the part when its score is below its limit — or, for a
 //!   template with holes, all found and one off its centre, and the DP's `f' < ε`, below
 //!   [`NEAR_MISS`] times it. Fits are ranked by their holes, then their score over its limit;
 //!   between a template and its own mirror image the upside-down reading needs clear evidence
 //!   ([`FLIP_EVIDENCE`]).
 //!
-//! Cost: up to three starts a candidate, each aligned once or twice (an alignment is
+//! Cost: up to five starts a candidate, each aligned once or twice (an alignment is
 //! `O(iterations · m · search/step)`), and the part → template distances, `n` queries of an
 //! [`Outline`]. Memory: on the stack, `M` distances and the template outline moved by the
 //! fitted offset (`12·M` bytes). Guards: a scale outside the template's range scores
@@ -50,7 +52,11 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
     /// holes decide where they can, a rod's two eyes of different size) — unless the first fit
     /// is confident with its holes all found and the DP's match `dp` (its start and cost; `None`
     /// where the DP is no evidence, a part the frame's edge cuts) rules the other way round out
-    /// ([`HALF_TURN_DP_RATIO`]).
+    /// ([`HALF_TURN_DP_RATIO`]). A template whose outline nearly repeats at another turn
+    /// ([`Template::near_turn`]: a rounded triangle at about 120°, gap below
+    /// [`HALF_TURN_AMBIGUOUS`], and not the same pose there, holes and all) is aligned that turn
+    /// on either way too, unless the fit so far scores below [`NEAR_TURN_EVIDENCE`] of the
+    /// template's own score at that turn.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn align_and_verify<B: AsRef<[u8]>>(
         &self,
@@ -199,6 +205,28 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             let second = once(seed_pose(position, signed + 180.0, area, t), !settled(&best));
             if second.beats_half_turn(&best, t.holes().is_empty()) {
                 best = second;
+            }
+        }
+        // An outline that nearly repeats at a turn other than half a turn (a rounded triangle at
+        // 120°) is aligned that turn on either way too — unless it repeats there with its holes
+        // (the same pose), the fit is far closer than the template turned by it comes to
+        // itself ([`NEAR_TURN_EVIDENCE`]: a part that turn off could not fit so well), or the
+        // fit is no near miss ([`NEAR_MISS`]). Only in the DP's family (`f' < ε`): outside it
+        // the DP's correspondence is no evidence of a turn.
+        let near = t.near_turn();
+        let repeats = near.gap < HALF_TURN_SYMMETRIC && near.holes_repeat;
+        if family && near.gap < HALF_TURN_AMBIGUOUS && !repeats {
+            for turn in [near.turn_deg, -near.turn_deg] {
+                // (A fit that is no near miss is of another part, or of several touching: the
+                // DP's correspondence is no evidence of a turn there.)
+                let turned_score = near.score * t.size() * best.pose.scale;
+                if best.verify < NEAR_TURN_EVIDENCE * turned_score || !(best.verify < NEAR_MISS * best.limit) {
+                    break;
+                }
+                let second = once(seed_pose(position, signed + turn, area, t), !settled(&best));
+                if second.beats_half_turn(&best, t.holes().is_empty()) {
+                    best = second;
+                }
             }
         }
         // Holes that are not where the outline's pose puts them, or a pose that does not
@@ -547,6 +575,12 @@ pub const WALL_SIGNIFICANT: f32 = 0.5;
 /// [`Template::half_turn`] below which the outline counts as nearly 2-fold: the DP's
 /// correspondence may then be half a turn off, and both are aligned.
 pub const HALF_TURN_AMBIGUOUS: f32 = 0.2;
+
+/// The fraction of the score a part aligned a near turn off would get (the template's
+/// [`crate::library::template::NearTurn::score`] at the fit's size) below which a fit rules
+/// that turn out without aligning it: half, where the alignment's freedom of position and scale
+/// may bring a turned part's score under the template's own at a fixed centre.
+pub const NEAR_TURN_EVIDENCE: f32 = 0.5;
 
 /// [`Template::half_turn`] below which the outline is 2-fold symmetric: half a turn on is the
 /// same pose, and it is not aligned twice.
