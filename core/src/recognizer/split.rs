@@ -119,9 +119,13 @@ pub const RUNS_PER_TEMPLATE: usize = 3;
 /// The partial DP takes every `STRIDE`-th template point, and the border at that step.
 pub const STRIDE: usize = 2;
 /// Scales a blob's border is resampled at for each template: the points that divide the
-/// template's scale range into `SCALE_STEPS + 1` equal (geometric) parts (1: the range's
-/// geometric middle, 1 for the default 1/1.4–1.4).
-pub const SCALE_STEPS: usize = 1;
+/// template's scale range into `SCALE_STEPS + 1` equal (geometric) parts, its middle among
+/// them (0.845, 1 and 1.183 for the default 1/1.4–1.4; 0.917, 1.058 and 1.217 for 0.8–1.4).
+/// Every scale from the first to the last lies within `(hi/lo)^(1/8)` of one of them (±9 %
+/// for the default range), which the DP's stretch steps follow; a part's size is not known
+/// before its fit, and parts of one type lie all over a range (rods at 0.9–1.3× their
+/// template in 0.8–1.4), farther from its middle alone than the stretch steps follow.
+pub const SCALE_STEPS: usize = 3;
 /// Neighbourhood of the turning angle, points each way (at the DP's step).
 pub const TURN_K: usize = 3;
 /// An edge point is confirmed when its profile finds the edge this close (px, times the
