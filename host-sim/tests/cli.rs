@@ -1807,8 +1807,9 @@ fn gen_rods_are_told_apart_by_their_holes() {
 /// The `rods-touching` variant reproduces the real photo `rods/TESI50`: rods lying against
 /// one another, each off its template's outline. With the partial search (its `vorl.toml`),
 /// the requirement holds: at least 90 % of the parts that touch another are found and 90 % of
-/// the touching rods named (seed 3, held out while the search's three scales were chosen:
-/// 79/82 found, 71/76 named; 74/82 and 61/76 with the range's middle scale alone, 72/82 and
+/// the touching rods named (seed 3, held out while the search's scales were chosen: 78/82
+/// found, 71/76 named with the other scales where the middle's runs point to them, 79/82 and
+/// 71/76 at all three scales, 74/82 and 61/76 with the range's middle scale alone, 72/82 and
 /// 57/76 before the rest and the holes' ranking), no distractor is named, and the rods that
 /// touch nothing keep their classes.
 #[test]
