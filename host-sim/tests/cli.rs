@@ -1804,29 +1804,30 @@ fn gen_rods_are_told_apart_by_their_holes() {
 
 /// The `rods-touching` variant reproduces the real photo `rods/TESI50`: rods lying against
 /// one another, each off its template's outline. With the partial search (its `vorl.toml`),
-/// most touching rods are named (72 % here, where a search that held every fit to the rigid
-/// outline named 35 %: their ring holes now pin their poses, `split::MIN_VISIBLE_PINNED`), at
-/// least 90 % of the parts that touch another are found, as required (81 % before a screw or
-/// washer against a rod, smaller than half a rod, was reported as the blob's unknown rest),
-/// no distractor is named, and the rods that touch nothing keep their classes.
+/// the requirement holds: at least 90 % of the parts that touch another are found and 90 % of
+/// the touching rods named (seed 3, held out while the search's scales were chosen: 78/82
+/// found, 71/76 named with the other scales where the middle's runs point to them, 79/82 and
+/// 71/76 at all three scales, 74/82 and 61/76 with the range's middle scale alone, 72/82 and
+/// 57/76 before the rest and the holes' ranking), no distractor is named, and the rods that
+/// touch nothing keep their classes.
 #[test]
 fn gen_touching_rods_are_found_by_their_holes() {
     let scratch = Scratch::new("rods_touching");
-    let (set, v, out) = gen_and_eval(&scratch, "rods-touching", 2, 20);
+    let (set, v, out) = gen_and_eval(&scratch, "rods-touching", 3, 40);
     assert!(std::fs::read_to_string(set.join("vorl.toml"))
         .unwrap()
         .contains("touching_parts = true"));
     let t = &v["touching"];
     let (parts, detected) = (t["parts"].as_u64().unwrap(), t["detected"].as_u64().unwrap());
     let (known, correct) = (t["known"].as_u64().unwrap(), t["correct"].as_u64().unwrap());
-    assert!(known >= 30, "{}", out.dump());
+    assert!(known >= 60, "{}", out.dump());
     assert!(
         10 * detected >= 9 * parts,
         "touching parts found: {detected}/{parts}: {}",
         out.dump()
     );
     assert!(
-        3 * correct >= 2 * known,
+        10 * correct >= 9 * known,
         "touching rods named: {correct}/{known}: {}",
         out.dump()
     );

@@ -39,10 +39,11 @@
 //! the smallest template's inside the frame) is matched against arcs of the blob's border
 //! ([`crate::shape::arcs`]: the paper's order-preserving DP, open instead of cyclic, on turning
 //! angles, at every [`STRIDE`]-th template point and the border at that step, the border
-//! resampled at the template's step at [`SCALE_STEPS`] scales over its scale range). Each of
-//! the best runs ([`RUNS_PER_TEMPLATE`] of a template at a scale, [`MAX_HYPOTHESES`] over all,
-//! their scores per length of border at the range's middle) seeds a pose: the similarity that
-//! maps the run's template points onto its border points (least squares).
+//! resampled at the template's step at the middle of its scale range, and where that leaves
+//! the blob unexplained at the other of the [`SCALE_STEPS`] scale points its runs point to).
+//! Each of the best runs ([`RUNS_PER_TEMPLATE`] of a template at a scale, [`MAX_HYPOTHESES`]
+//! over all, their scores per length of border at the range's middle) seeds a pose: the
+//! similarity that maps the run's template points onto its border points (least squares).
 //!
 //! **Fits.** The template is aligned on the frame from there as a whole part is
 //! ([`crate::pose::refine`], up to [`PARTIAL_ITERATIONS`] steps), and verified on the **visible edge
@@ -91,9 +92,10 @@
 //! **Bounds.** A blob longer than [`BLOB_POINTS`] points at a template's step is not searched
 //! for it (when no template could be, the whole-border result stands and
 //! [`crate::recognizer::Report::unsplit`] counts the blob); each template's DP visits
-//! `(n + m′ − 1)·m′` cells at each of its [`SCALE_STEPS`] scales (`m′ = m / STRIDE`, `n` the
-//! border's points at that step), at most
-//! [`MAX_HYPOTHESES`] alignments run a round, two rounds a blob, and at most
+//! `(n + m′ − 1)·m′` cells at each scale it is searched at (the middle, and at most the other
+//! `SCALE_STEPS − 1` of [`SCALE_STEPS`]; `m′ = m / STRIDE`, `n` the border's points at that
+//! step), at most [`MAX_HYPOTHESES`] alignments run a pass (the middle's, then the other
+//! scales'), two passes a round, two rounds a blob, and at most
 //! [`MAX_BLOB_PARTS`] parts come out of one. Memory: the recognizer's `arc_points` and
 //! `arc_turning` ([`BLOB_POINTS`] each), `arc_template` (`M`) and `arc_rows`
 //! (`(`[`crate::shape::arcs::ARC_ROWS`]` + 1)·M`), counted by `vorl budget`; the search runs out of
@@ -118,10 +120,27 @@ pub const MAX_HYPOTHESES: usize = 16;
 pub const RUNS_PER_TEMPLATE: usize = 3;
 /// The partial DP takes every `STRIDE`-th template point, and the border at that step.
 pub const STRIDE: usize = 2;
-/// Scales a blob's border is resampled at for each template: the points that divide the
-/// template's scale range into `SCALE_STEPS + 1` equal (geometric) parts (1: the range's
-/// geometric middle, 1 for the default 1/1.4–1.4).
-pub const SCALE_STEPS: usize = 1;
+/// Scales a blob's border may be resampled at for each template: the points that divide the
+/// template's scale range into `SCALE_STEPS + 1` equal (geometric) parts, its middle among
+/// them (0.845, 1 and 1.183 for the default 1/1.4–1.4; 0.917, 1.058 and 1.217 for 0.8–1.4).
+/// Every scale from the first to the last lies within `(hi/lo)^(1/8)` of one of them (±9 %
+/// for the default range), which the DP's stretch steps follow; a part's size is not known
+/// before its fit, and parts of one type lie all over a range (rods at 0.9–1.3× their
+/// template in 0.8–1.4), farther from its middle alone than the stretch steps follow.
+///
+/// The middle ([`MIDDLE_STEP`]) is searched for every template; another point only in a round
+/// whose middle search leaves the blob unexplained ([`REST_SHARE`] of its border, or no part
+/// taken), and only for a template one of whose runs at the middle fits a pose
+/// (`pose_from_run`) whose scale lies nearer that point than the middle: the run found the
+/// outline there, drawn at another size than the step it was resampled at. The search at every
+/// point for every template named as many touching rods but cost the DP three times over in
+/// every searched blob, most of which (an unknown part, parts the middle explains) gain
+/// nothing from it.
+pub const SCALE_STEPS: usize = 3;
+/// The scale point at the range's middle, searched first ([`SCALE_STEPS`]).
+pub const MIDDLE_STEP: usize = SCALE_STEPS / 2;
+// An odd count keeps the middle among the points; a template's points are bits of a `u8`.
+const _: () = assert!(SCALE_STEPS % 2 == 1 && SCALE_STEPS <= 8);
 /// Neighbourhood of the turning angle, points each way (at the DP's step).
 pub const TURN_K: usize = 3;
 /// An edge point is confirmed when its profile finds the edge this close (px, times the
@@ -513,19 +532,36 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         // whenever a round takes a part.
         let count = BLOB_POINTS.min(math::round(chain / 2.0).max(8.0) as usize);
         let mut rest = Rest::default();
+        // Each round first at the middle of each template's scale range; where that leaves the
+        // blob unexplained, at the other scales its runs' own poses point to (the scale points
+        // nearest their fitted scales, [`Self::hypotheses`]), for those templates only.
+        let mut explained = false;
         for round in 0..2 {
             let before = taken.len();
-            let (hyps, s, too_long) = self.hypotheses(index, whole, least, chain, part_holes, &taken);
-            searched += s;
-            if round == 0 && too_long && hyps.is_empty() {
-                return Err(());
+            let mut steps = [1u8 << MIDDLE_STEP; T];
+            for pass in 0..2 {
+                let mut pointed = [0u8; T];
+                let (hyps, s, too_long) =
+                    self.hypotheses(index, whole, least, chain, part_holes, &taken, &steps, &mut pointed);
+                searched += s;
+                if round == 0 && pass == 0 && too_long && hyps.is_empty() {
+                    return Err(());
+                }
+                let after = taken.len();
+                self.take_fits(&hyps, diff, part_holes, !whole.touches_edge, &mut taken);
+                if taken.len() > after {
+                    rest = self.unexplained(index, count, &taken);
+                    explained = (rest.unexplained as f32) < REST_SHARE * count as f32;
+                }
+                for p in &mut pointed {
+                    *p &= !(1 << MIDDLE_STEP);
+                }
+                if explained || pass > 0 || pointed.iter().all(|p| *p == 0) {
+                    break;
+                }
+                steps = pointed;
             }
-            self.take_fits(&hyps, diff, part_holes, !whole.touches_edge, &mut taken);
-            if taken.len() == before {
-                break;
-            }
-            rest = self.unexplained(index, count, &taken);
-            if (rest.unexplained as f32) < REST_SHARE * count as f32 {
+            if taken.len() == before || explained {
                 break;
             }
         }
@@ -600,8 +636,11 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
 
     /// The poses to align for blob `index`: the best runs of each template along its border
     /// ([`best_arcs`]), at most [`MAX_HYPOTHESES`]; border points the parts in `taken`
-    /// explain take part in no run. Also the templates searched, and whether the blob was too
-    /// long for one of them.
+    /// explain take part in no run. Template `ti` is searched at the scale points (of
+    /// [`SCALE_STEPS`]) set in `steps[ti]` (bit `s` for point `s`); `pointed[ti]` gets the bit of
+    /// the scale point nearest (geometrically) each of its runs' fitted scales. Also the
+    /// templates searched, and whether the blob was too long for one of them.
+    #[allow(clippy::too_many_arguments)]
     fn hypotheses(
         &mut self,
         index: usize,
@@ -610,6 +649,8 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         chain: f32,
         part_holes: &Holes,
         taken: &[PartFit],
+        steps: &[u8; T],
+        pointed: &mut [u8; T],
     ) -> (heapless::Vec<Hypothesis, MAX_HYPOTHESES>, usize, bool) {
         let params = self.params;
         let border = self.store.points(index);
@@ -620,6 +661,10 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             let Some(t) = self.templates.get(ti) else {
                 continue;
             };
+            let want = steps.get(ti).copied().unwrap_or(0);
+            if want == 0 {
+                continue;
+            }
             let (lo, _) = t.tolerance().scale_range(params.scale_min, params.scale_max);
             // A blob inside the frame holds the template and another part (or a rest) that
             // shows at least `least`; one the frame's edge cuts, half of the template.
@@ -660,11 +705,21 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             let (lo_s, hi_s) = t.tolerance().scale_range(params.scale_min, params.scale_max);
             let (middle, span) = (math::sqrt(lo_s * hi_s), hi_s / lo_s);
             let template_step = STRIDE as f32 * math::perimeter(t.points().iter().copied()) / m.max(1) as f32;
+            // Neighbouring scale points lie `spacing` apart (a factor), and a fitted scale is
+            // nearest the point `s` within `spacing^±½` of it.
+            let spacing = math::powf(span, 1.0 / (SCALE_STEPS + 1) as f32);
+            let half = math::sqrt(spacing);
             let mut dp_ran = false;
             let mut last_count = 0usize;
             for s in 0..SCALE_STEPS {
-                let at = (s + 1) as f32 / (SCALE_STEPS + 1) as f32 - 0.5;
-                let scale = middle * math::powf(span, at);
+                if want & (1 << s) == 0 {
+                    continue;
+                }
+                let scale = if s == MIDDLE_STEP {
+                    middle
+                } else {
+                    middle * math::powf(span, (s + 1) as f32 / (SCALE_STEPS + 1) as f32 - 0.5)
+                };
                 let step = scale * template_step;
                 let count = if step > 0.0 { math::round(chain / step) } else { 0.0 };
                 if !(count >= 8.0) {
@@ -708,6 +763,19 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                     let Some(seed) = pose_from_run(&run, pts, t) else {
                         continue;
                     };
+                    // The scale point nearest the run's fitted scale.
+                    if let Some(p) = pointed.get_mut(ti) {
+                        let (mut nearest, mut at) = (s, scale);
+                        while nearest > 0 && seed.scale < at / half {
+                            nearest -= 1;
+                            at /= spacing;
+                        }
+                        while nearest + 1 < SCALE_STEPS && seed.scale > at * half {
+                            nearest += 1;
+                            at *= spacing;
+                        }
+                        *p |= 1u8.checked_shl(nearest as u32).unwrap_or(0);
+                    }
                     // A run's score sums over its border points, more of them the smaller the
                     // step: per length of border at the middle scale, to compare the steps'.
                     let h = Hypothesis {
@@ -1302,7 +1370,9 @@ mod tests {
             ..report.detections[0]
         };
         let least = rec.least_part_area();
-        let (_, searched, _) = rec.hypotheses(index, &whole, least, chain, &Holes::new(), &[]);
+        // At the middle of each template's range.
+        let middle = [1u8 << MIDDLE_STEP; 4];
+        let (_, searched, _) = rec.hypotheses(index, &whole, least, chain, &Holes::new(), &[], &middle, &mut [0; 4]);
         // The L and the T; not the ring.
         assert_eq!(searched, 2);
         let mut one = Holes::new();
@@ -1310,7 +1380,7 @@ mod tests {
             centre: [60.0, 60.0],
             area: 110.0,
         });
-        let (_, searched, _) = rec.hypotheses(index, &whole, least, chain, &one, &[]);
+        let (_, searched, _) = rec.hypotheses(index, &whole, least, chain, &one, &[], &middle, &mut [0; 4]);
         assert_eq!(searched, 3);
     }
 }
