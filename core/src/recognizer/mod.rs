@@ -397,8 +397,8 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 report.skip(index, SkipReason::TooManyParts);
                 continue;
             }
-            match self.part(index, frame, background.plane(), labels) {
-                Ok(detection) => {
+            match self.part(index, frame, background.plane()) {
+                Ok((mut detection, centroid_wanted)) => {
                     // A whole-border match that failed: the parts along the blob's border.
                     // Or one that explains too little of its blob: a part accepted on a blob
                     // that holds more (another part touching it) than its template covers.
@@ -406,8 +406,22 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                         && params.refine == Refine::Verify
                         && self.blob_not_explained(&detection)
                         && self.split_into(index, frame, background.plane(), &detection, &mut report);
-                    if !split && report.detections.push(detection).is_err() {
-                        report.skip(index, SkipReason::TooManyParts);
+                    if !split {
+                        // The partial-volume centroid only for a blob whose whole-border
+                        // result stands: the partial search places its parts by their poses.
+                        if let Some(part_holes) = centroid_wanted {
+                            self.partial_volume_position(
+                                index,
+                                frame,
+                                background.plane(),
+                                labels,
+                                &part_holes,
+                                &mut detection,
+                            );
+                        }
+                        if report.detections.push(detection).is_err() {
+                            report.skip(index, SkipReason::TooManyParts);
+                        }
                     }
                 }
                 Err(reason) => report.skip(index, reason),
@@ -469,14 +483,17 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
     }
 
     /// One outer border (store index `index`) through resampling, description, matching,
-    /// alignment, verification and position.
+    /// alignment, verification and the position from the pose where it is the pose's; with
+    /// the part's holes where its position is the partial-volume centroid's
+    /// ([`Self::partial_volume_position`], left to the caller: after the partial search, only
+    /// for a blob whose whole-border result stands; until then it is the border's area
+    /// centroid).
     fn part<B: AsRef<[u8]>>(
         &mut self,
         index: usize,
         frame: &Frame<B>,
         background: &[u8],
-        mask: &mut [u8],
-    ) -> core::result::Result<Detection, SkipReason> {
+    ) -> core::result::Result<(Detection, Option<Holes>), SkipReason> {
         let params = self.params;
         let n = params.n;
         let contour = self
@@ -488,18 +505,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let border = self.store.points(index);
         let holes = self.store.holes_of(index).map(|i| self.store.points(i));
         let [x, y] = area_centroid(border, holes).ok_or(SkipReason::NoArea)?;
-        let (mut x0, mut y0, mut x1, mut y1) = (usize::MAX, usize::MAX, 0usize, 0usize);
-        for p in border {
-            (x0, y0, x1, y1) = (
-                x0.min(p.x as usize),
-                y0.min(p.y as usize),
-                x1.max(p.x as usize + 1),
-                y1.max(p.y as usize + 1),
-            );
-        }
-        let bbox = Rect { x0, y0, x1, y1 };
         let part_holes = Holes::from_borders(self.store.holes_of(index).map(|i| self.store.points(i)), 0.0);
-        let seed_pixel = border.first().map(|p| (p.x as usize, p.y as usize));
         let points = self.points.get_mut(..n).unwrap_or(&mut []);
         let descriptor = self.descriptor.get_mut(..n).unwrap_or(&mut []);
         let centroid = resample(border, points)
@@ -589,50 +595,80 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 }
             }
         }
-        if params.position == Position::PartialVolume && !walled {
-            if let Some(seed) = seed_pixel {
-                if let Some(m) = partial_volume_moments(&diff, mask, seed, bbox) {
-                    // A known part's holes that its template does not have are print: they and
-                    // the weights they take from the part around them count as the part.
-                    let [px, py] = if detection.template.is_some() && detection.holes.all_found() {
-                        // Which of the part's hole borders its template's holes explain, once.
-                        let matched = detection.holes.matched;
-                        let mut explained = [false; C];
-                        for i in self.store.holes_of(index) {
-                            let hole = Hole::from_border(self.store.points(i));
-                            if let (Some(e), Some(h)) = (explained.get_mut(i), hole) {
-                                *e = part_holes
-                                    .as_slice()
-                                    .iter()
-                                    .enumerate()
-                                    .any(|(j, q)| matched & (1 << j) != 0 && *q == h);
-                            }
+        let centroid_wanted = params.position == Position::PartialVolume && !walled;
+        Ok((detection, centroid_wanted.then_some(part_holes)))
+    }
+
+    /// The partial-volume centroid ([`partial_volume_moments`]) as the position of detection
+    /// `detection` of outer border `index` (a known part's holes that its template does not
+    /// have count as the part, [`print_deficit`]; `part_holes` from its hole borders);
+    /// unchanged where the centroid has no contrast to weigh by. The label plane `mask` holds
+    /// the 0/1 mask; its other bits are scratch, cleared again. Kept out of line, so its
+    /// buffers take stack only while it runs (not under the partial search's).
+    #[inline(never)]
+    fn partial_volume_position<B: AsRef<[u8]>>(
+        &mut self,
+        index: usize,
+        frame: &Frame<B>,
+        background: &[u8],
+        mask: &mut [u8],
+        part_holes: &Holes,
+        detection: &mut Detection,
+    ) {
+        let border = self.store.points(index);
+        let (mut x0, mut y0, mut x1, mut y1) = (usize::MAX, usize::MAX, 0usize, 0usize);
+        for p in border {
+            (x0, y0, x1, y1) = (
+                x0.min(p.x as usize),
+                y0.min(p.y as usize),
+                x1.max(p.x as usize + 1),
+                y1.max(p.y as usize + 1),
+            );
+        }
+        let bbox = Rect { x0, y0, x1, y1 };
+        let seed_pixel = border.first().map(|p| (p.x as usize, p.y as usize));
+        let diff = Difference::new(frame, background, self.params.alpha());
+        if let Some(seed) = seed_pixel {
+            if let Some(m) = partial_volume_moments(&diff, mask, seed, bbox) {
+                // A known part's holes that its template does not have are print: they and
+                // the weights they take from the part around them count as the part.
+                let [px, py] = if detection.template.is_some() && detection.holes.all_found() {
+                    // Which of the part's hole borders its template's holes explain, once.
+                    let matched = detection.holes.matched;
+                    let mut explained = [false; C];
+                    for i in self.store.holes_of(index) {
+                        let hole = Hole::from_border(self.store.points(i));
+                        if let (Some(e), Some(h)) = (explained.get_mut(i), hole) {
+                            *e = part_holes
+                                .as_slice()
+                                .iter()
+                                .enumerate()
+                                .any(|(j, q)| matched & (1 << j) != 0 && *q == h);
                         }
-                        let is_explained = |i: &usize| explained.get(*i).copied().unwrap_or(false);
-                        let holes = self.store.holes_of(index);
-                        let print = holes.clone().filter(|i| !is_explained(i)).map(|i| self.store.points(i));
-                        let outer = self.store.points(index);
-                        let keep_off =
-                            core::iter::once(outer).chain(holes.filter(is_explained).map(|i| self.store.points(i)));
-                        let [dm, dx, dy] = print_deficit(&diff, mask, m.contrast, print, keep_off);
-                        let mass = m.mass + dm;
-                        if dm > 0.0 && mass > 0.0 {
-                            [
-                                (m.mass * m.centroid[0] + dx) / mass,
-                                (m.mass * m.centroid[1] + dy) / mass,
-                            ]
-                        } else {
-                            m.centroid
-                        }
+                    }
+                    let is_explained = |i: &usize| explained.get(*i).copied().unwrap_or(false);
+                    let holes = self.store.holes_of(index);
+                    let print = holes.clone().filter(|i| !is_explained(i)).map(|i| self.store.points(i));
+                    let outer = self.store.points(index);
+                    let keep_off =
+                        core::iter::once(outer).chain(holes.filter(is_explained).map(|i| self.store.points(i)));
+                    let [dm, dx, dy] = print_deficit(&diff, mask, m.contrast, print, keep_off);
+                    let mass = m.mass + dm;
+                    if dm > 0.0 && mass > 0.0 {
+                        [
+                            (m.mass * m.centroid[0] + dx) / mass,
+                            (m.mass * m.centroid[1] + dy) / mass,
+                        ]
                     } else {
                         m.centroid
-                    };
-                    detection.x = px;
-                    detection.y = py;
-                }
+                    }
+                } else {
+                    m.centroid
+                };
+                detection.x = px;
+                detection.y = py;
             }
         }
-        Ok(detection)
     }
 
     /// The paper's path (`refine = Off`) and `refine = Pose`: the DP's best template, `f' < ε`,
