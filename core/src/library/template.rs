@@ -328,7 +328,7 @@ impl<const M: usize> Template<M> {
                 .fold(f32::INFINITY, f32::min);
             // (A hole's centre on the pixel grid may sit half a pixel off the axis, and its
             // image half a pixel off the other way.)
-            gap = gap.max((nearest - HOLE_GRID_SLACK).clamp(0.0, size));
+            gap = gap.max(math::clamp(nearest - HOLE_GRID_SLACK, 0.0, size));
         }
         gap
     }
