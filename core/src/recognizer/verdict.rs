@@ -11,9 +11,10 @@
 //!   the outline offset free, and an outline grown beyond the scale range with a wall too
 //!   ([`WALL_FACTOR`]); a nearly 2-fold outline is aligned half a turn on too
 //!   ([`HALF_TURN_AMBIGUOUS`]), and an outline that nearly repeats at another turn (a rounded
-//!   triangle's third) that turn on either way, unless the fit is far closer than a part that
-//!   turn off could come ([`NEAR_TURN_EVIDENCE`]); a template with holes whose holes are not
-//!   found is aligned once more from the pose its holes give.
+//!   triangle's third) that turn on either way, for a near miss of the DP's family, unless the
+//!   fit is far closer than a part that turn off could come ([`NEAR_TURN_EVIDENCE`]); a
+//!   template with holes whose holes are not found is aligned once more from the pose its
+//!   holes give.
 //! - **The decision.** A fit is the part when its score is below its limit — or, for a
 //!   template with holes, all found and one off its centre, and the DP's `f' < ε`, below
 //!   [`NEAR_MISS`] times it. Fits are ranked by their holes, then their score over its limit;
@@ -55,8 +56,9 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
     /// ([`HALF_TURN_DP_RATIO`]). A template whose outline nearly repeats at another turn
     /// ([`Template::near_turn`]: a rounded triangle at about 120°, gap below
     /// [`HALF_TURN_AMBIGUOUS`], and not the same pose there, holes and all) is aligned that turn
-    /// on either way too, unless the fit so far scores below [`NEAR_TURN_EVIDENCE`] of the
-    /// template's own score at that turn.
+    /// on either way too, where the fit so far is of the DP's `family` and a near miss
+    /// ([`NEAR_MISS`]), unless it scores below [`NEAR_TURN_EVIDENCE`] of the template's own
+    /// score at that turn.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn align_and_verify<B: AsRef<[u8]>>(
         &self,
