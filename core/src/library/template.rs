@@ -257,9 +257,7 @@ impl<const M: usize> Template<M> {
             return;
         }
         let outline = crate::pose::refine::Outline::new(edge);
-        let cap = size;
-        let sum: f32 = edge.iter().map(|e| outline.capped_distance([-e[0], -e[1]], cap)).sum();
-        self.half_turn = sum / edge.len() as f32 / size;
+        self.half_turn = self.mean_self_distance(&outline, |e| [-e[0], -e[1]]) / size;
         self.near_turn = self.measure_near_turn(&outline);
     }
 
@@ -270,17 +268,12 @@ impl<const M: usize> Template<M> {
     // (Out of line: its buffers then share the stack with the mirror gap's, not add to them.)
     #[inline(never)]
     fn measure_near_turn(&self, outline: &crate::pose::refine::Outline) -> NearTurn {
-        let edge = self.edge.get(..self.m).unwrap_or(&[]);
         let size = self.size();
         let turned = |theta: f32| {
             let (s, c) = math::sin_cos(theta);
             move |e: [f32; 2]| [e[0] * c - e[1] * s, e[0] * s + e[1] * c]
         };
-        let gap = |theta: f32| -> f32 {
-            let map = turned(theta);
-            let sum: f32 = edge.iter().map(|e| outline.capped_distance(map(*e), size)).sum();
-            sum / edge.len().max(1) as f32
-        };
+        let gap = |theta: f32| self.mean_self_distance(outline, turned(theta));
         let step = core::f32::consts::PI / TURN_GRID as f32;
         let mut coarse = [0.0f32; TURN_GRID + 1];
         for (k, g) in coarse.iter_mut().enumerate().skip(1) {
@@ -333,6 +326,15 @@ impl<const M: usize> Template<M> {
         gap
     }
 
+    /// The mean distance of the edge mapped by `map` to `outline` (the edge's own), each capped
+    /// at [`Self::size`], px.
+    fn mean_self_distance(&self, outline: &crate::pose::refine::Outline, map: impl Fn([f32; 2]) -> [f32; 2]) -> f32 {
+        let edge = self.edge.get(..self.m).unwrap_or(&[]);
+        let size = self.size();
+        let sum: f32 = edge.iter().map(|e| outline.capped_distance(map(*e), size)).sum();
+        sum / edge.len().max(1) as f32
+    }
+
     /// The mean distance of the edge mapped by `map` to `outline` (the edge's own), over its
     /// nearest [`crate::pose::refine::VERIFY_KEPT`] points, as the verification scores an
     /// alignment, over [`Self::size`] (0 where that is not a number).
@@ -365,17 +367,12 @@ impl<const M: usize> Template<M> {
             return;
         }
         let outline = crate::pose::refine::Outline::new(edge);
-        // Mean capped distance of the mirrored edge turned by `theta`.
-        let gap = |theta: f32| -> f32 {
+        // The edge mirrored left-right and turned by `theta`, and its mean capped distance.
+        let mirrored = |theta: f32| {
             let (s, c) = math::sin_cos(theta);
-            let (mut sum, mut count) = (0.0f32, 0usize);
-            for e in edge {
-                let f = [-e[0], e[1]];
-                sum += outline.capped_distance([f[0] * c + f[1] * s, -f[0] * s + f[1] * c], size);
-                count += 1;
-            }
-            sum / count.max(1) as f32
+            move |e: [f32; 2]| [-e[0] * c + e[1] * s, e[0] * s + e[1] * c]
         };
+        let gap = |theta: f32| self.mean_self_distance(&outline, mirrored(theta));
         // A coarse turn grid, then its lowest local minima refined by golden-section search.
         // Every point counts on the grid too: a subsample of a gear's outline sees the same
         // place on every tooth and finds minima that are not there.
@@ -409,8 +406,7 @@ impl<const M: usize> Template<M> {
             }
         }
         // The holes at that turn: each mirrored hole needs a hole of like area near it.
-        let (s, c) = math::sin_cos(best.1);
-        let map = |e: [f32; 2]| [-e[0] * c + e[1] * s, e[0] * s + e[1] * c];
+        let map = mirrored(best.1);
         let g = best.0.max(self.holes_gap(map)) / size;
         self.mirror_gap = if g.is_finite() { g } else { 0.0 };
         // The trimmed mean at that turn, as the verification takes it.
