@@ -341,8 +341,9 @@ pub fn take_part(segmented: Segmented, image: &GrayImage, choice: &PartChoice, l
     let Some(&(sx, sy)) = part.border.first() else {
         return Err("the part has no border".into());
     };
-    // Cut at half the part's contrast along its outline, where detection puts a part's border
-    // (crate::teaching), rather than where the blurred edge first rises above τ.
+    // Cut along its outline where detection puts a part's border, midway between the part's
+    // and the platform's levels nearby (crate::teaching), rather than where the blurred edge
+    // first rises above τ.
     let silhouette = match engine.background().map(|b| b.plane()) {
         Some(platform) => {
             let blob = component_pixels(engine.labels(), w, h, sx as usize, sy as usize);
