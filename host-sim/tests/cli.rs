@@ -1914,3 +1914,40 @@ fn gen_sharp_distractors_with_a_central_hole_stay_unknown() {
     assert_eq!(v["unknown_rejection"].as_f64(), Some(1.0), "{}", out.dump());
     assert_eq!(v["classification"].as_f64(), Some(1.0), "{}", out.dump());
 }
+
+/// The `sharp` set teaches two gears of the same radii and flanks, 10 and 12 teeth, beside each
+/// other: the DP's `f′` of either part against the other's template is well below ε (the
+/// silhouettes differ only in their number of teeth), so they must be told apart by which
+/// template the scan aligns and how well it verifies. Every gear of either kind is named
+/// as its truth says, and no other part is called a gear.
+#[test]
+fn gen_sharp_gears_of_ten_and_twelve_teeth_are_told_apart() {
+    let scratch = Scratch::new("sharp_gears");
+    let (set, v, out) = gen_and_eval(&scratch, "sharp", 1, 30);
+    assert_eq!(v["unknown_rejection"].as_f64(), Some(1.0), "{}", out.dump());
+    let truth: Value =
+        serde_json::from_str(&std::fs::read_to_string(set.join("truth.json")).expect("truth.json")).expect("json");
+    let det = vorl([OsStr::new("detect"), set.as_os_str(), OsStr::new("--json")]).success();
+    let json = det.json();
+    let gears = ["gear_sharp_z10", "gear_sharp_z12"];
+    let mut seen = BTreeMap::new();
+    for frame in truth["frames"].as_object().expect("frames").keys() {
+        let found = parts_of(&json, frame);
+        for t in parts_of(&truth, frame) {
+            let (p, d) = nearest(&found, t.x, t.y).unwrap_or_else(|| panic!("{frame}: nothing found"));
+            assert!(d < 2.0, "{frame}: no part within 2 px of {t:?}");
+            let gear = |c: &Option<String>| c.as_deref().is_some_and(|c| gears.contains(&c));
+            if gear(&t.class) {
+                *seen.entry(t.class.clone()).or_insert(0) += 1;
+                assert_eq!(p.class, t.class, "{frame}: {t:?} taken for {p:?}");
+            } else {
+                assert!(!gear(&p.class), "{frame}: {t:?} taken for {p:?}");
+            }
+        }
+    }
+    // Both kinds are there, several times each.
+    for g in gears {
+        let n = seen.get(&Some(g.to_string())).copied().unwrap_or(0);
+        assert!(n >= 5, "{n} parts of {g}: {seen:?}");
+    }
+}

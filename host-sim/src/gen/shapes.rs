@@ -959,6 +959,7 @@ pub fn rods_catalogue() -> Vec<PartSpec> {
 pub fn sharp_catalogue() -> Vec<PartSpec> {
     vec![
         part("gear_sharp_z12", true, 12, gear_sharp(12)),
+        part("gear_sharp_z10", true, 10, gear_sharp(10)),
         part("cam_snail", true, 1, cam_snail()),
         part("l_square", true, 1, l_square()),
         part("hex_sharp", true, 6, hex_sharp()),
@@ -1127,6 +1128,7 @@ mod tests {
                 .count();
             let want = match p.name {
                 "gear_sharp_z12" => 48,
+                "gear_sharp_z10" => 40,
                 "cam_snail" => 2,
                 "hex_sharp" => 6,
                 "l_square" => 6,

@@ -199,8 +199,10 @@ fn gen_sharp_parts_centroids_and_silhouettes_match_truth() {
         let worst = worst_disagreement(&gray(&dir.join("frames").join(name)), &bg, parts, false);
         assert!(worst < 0.005, "{name}: {worst}");
     }
-    let t = gray(&dir.join("templates").join("gear_sharp_z12.png"));
-    assert!(t.pixels().all(|p| p.0[0] == 0 || p.0[0] == 255));
+    for name in ["gear_sharp_z12", "gear_sharp_z10"] {
+        let t = gray(&dir.join("templates").join(format!("{name}.png")));
+        assert!(t.pixels().all(|p| p.0[0] == 0 || p.0[0] == 255), "{name}");
+    }
     let _ = std::fs::remove_dir_all(dir);
 }
 
