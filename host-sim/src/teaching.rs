@@ -24,8 +24,7 @@
 //! edge profiles do, in the band along its outline only, so dark facets and print inside the
 //! part stay part of it. The levels are the local ones, within the profiles' reach: a front-lit
 //! screw's head is far brighter than its shaded shank, and one level for the whole part (half
-//! the median contrast) cut the shank thinner than detection sees it, so the taught template
-//! fitted its own photo at 1.04 times its size with the head 12 px off.
+//! its median contrast) is not where detection's profiles cross along the shank.
 
 use std::collections::VecDeque;
 
