@@ -344,9 +344,15 @@ pub const SOLID_KEEPS: f32 = 0.75;
 
 /// Whether `template` has a hole that the part, at `pose`, shows no trace of: resolvable at
 /// the pose's scale ([`resolvable`]) and of a radius above [`Sight::hidden`], its disc and the
-/// ring of face around it inside the frame (`inside`), no part hole of any size within reach
-/// of where the pose puts it (see the module doc), and either
+/// ring of face around it inside the frame (`inside`), no part hole within reach of where the
+/// pose puts it (see the module doc) of a size it could be found at (a radius at least the
+/// lower end of [`HOLE_AREA_RATIO`]'s band, less [`HOLE_EDGE`]), and either
 ///
+/// - a smaller part hole there, and the difference midway between that hole's radius and the
+///   template hole's still [`SOLID_KEEPS`] of the face in all eight directions: the template's
+///   hole seen past a wall on one side, or partly covered, would open its rim somewhere; a
+///   solid rim all round is another part's smaller hole (a cam's bore where a hex nut's, twice
+///   as wide, should be); or
 /// - the difference `d` (a sampler of `|D|` at a sub-pixel position) at its centre and halfway
 ///   to its edge still [`SOLID_KEEPS`] of the part's face around it (sampled on a ring at 1.6
 ///   radii, where that ring lies on the part): a hole that blur nearly closed, or that shows a
@@ -407,12 +413,20 @@ pub fn solid_where_a_hole_is(
         let at = pose.apply(h.centre);
         let r = radius(area);
         let reach = reach(h, scale);
-        let near = part.as_slice().iter().any(|q| {
+        // A part hole within reach is the hole's trace when it is of a size the hole could be
+        // found at ([`radius_fits`]' lower end); a smaller one only when the hole's rim shows
+        // an opening somewhere (below).
+        let found_at = r / crate::math::sqrt(HOLE_AREA_RATIO) - HOLE_EDGE;
+        let mut smaller: Option<f32> = None;
+        for q in part.as_slice() {
             let (dx, dy) = (q.centre[0] - at[0], q.centre[1] - at[1]);
-            dx * dx + dy * dy <= reach * reach
-        });
-        if near {
-            return false;
+            if dx * dx + dy * dy <= reach * reach {
+                let rq = radius(q.area);
+                if !(rq < found_at) {
+                    return false;
+                }
+                smaller = Some(smaller.map_or(rq, |s: f32| s.max(rq)));
+            }
         }
         // Eight directions, 45° apart.
         const D: f32 = core::f32::consts::FRAC_1_SQRT_2;
@@ -444,7 +458,18 @@ pub fn solid_where_a_hole_is(
         if count < 4 || !(top > 0.0) {
             return false;
         }
-        if centre >= SOLID_KEEPS * (sum / count as f32) {
+        let face = sum / count as f32;
+        // A smaller hole where the template's is: the template's hole seen through a wall on
+        // one side, or partly covered, still opens its rim on the other side; one whose rim is
+        // solid all round, midway between the two radii, is another part's hole (a cam's bore
+        // where a hex nut's, twice as wide, should be).
+        if let Some(rq) = smaller {
+            let mid = 0.5 * (rq + r);
+            return DIRS
+                .iter()
+                .all(|u| d(at[0] + mid * u[0], at[1] + mid * u[1]) >= SOLID_KEEPS * face);
+        }
+        if centre >= SOLID_KEEPS * face {
             return true;
         }
         // A dip, but no hole in the mask: whether the blur could have closed one that wide.
@@ -700,5 +725,53 @@ mod tests {
                 min_area: 0.0
             }
         ));
+    }
+
+    #[test]
+    fn a_smaller_hole_is_the_bore_only_where_the_bore_opens_its_rim() {
+        // A template bore of radius 9.8 px (area 300) at the part's centre (50, 50), the face's
+        // contrast 80; the tracing keeps any hole, the edges are sharp.
+        let mut template = Holes::new();
+        template.insert(Hole {
+            centre: [0.0, 0.0],
+            area: 300.0,
+        });
+        let pose = Pose {
+            x: 50.0,
+            y: 50.0,
+            angle: 0.0,
+            scale: 1.0,
+        };
+        let sight = Sight {
+            hidden: 0.0,
+            filter: BorderFilter {
+                min_points: 0,
+                min_area: 0.0,
+            },
+        };
+        let inside = |_x: f32, _y: f32| true;
+        let solid = |part: &Holes, d: &dyn Fn(f32, f32) -> f32| {
+            solid_where_a_hole_is(&template, &pose, part, &sight, || Some(0.5), d, inside)
+        };
+        let hole = |centre: [f32; 2], area: f32| {
+            let mut h = Holes::new();
+            h.insert(Hole { centre, area });
+            h
+        };
+        // Another part's bore, half as wide, where the template's is: the face all round it.
+        let small = |x: f32, y: f32| if (x - 50.0).hypot(y - 50.0) < 4.9 { 0.0 } else { 80.0 };
+        assert!(solid(&hole([50.0, 50.0], 75.4), &small));
+        // The template's bore seen past a wall 8 px wide on its right: the mask's hole is as
+        // small, off the bore's centre, but the bore's rim is open on its left.
+        let walled = |x: f32, y: f32| {
+            if (x - 50.0).hypot(y - 50.0) < 9.8 && x < 51.8 {
+                0.0
+            } else {
+                80.0
+            }
+        };
+        assert!(!solid(&hole([46.0, 50.0], 75.4), &walled));
+        // A hole of a size the bore could be found at is its trace, whatever the face shows.
+        assert!(!solid(&hole([50.0, 50.0], 160.0), &small));
     }
 }
