@@ -69,8 +69,9 @@ echo "### rods-touching, seed 1"
 echo "### border, seed 2, --touching-parts true"
 "$VORL" eval "$OUT/border-touching" --touching-parts true
 # Untaught look-alikes that lack a template's hole (a cam, hex nut, 12-tooth gear, disc and oval
-# flange drawn solid, some with a label over the bore's place): seed 1 chose the hole veto,
-# seed 2 its blur rule; seeds 3 and 4 were not looked at before the figures were taken.
+# flange drawn solid, some with a label over the bore's place; a hex nut and a washer with a bore
+# half as wide): seed 1 chose the hole veto, seed 2 its blur rule; seeds 3 and 4 were not looked
+# at before the figures were taken; the small bores' rule was made on a frontlit scene.
 for s in 1 2 3 4; do
     "$VORL" gen "$OUT/lookalike-$s" --seed "$s" --frames 60 --variant lookalike >/dev/null
     echo "### lookalike, seed $s"

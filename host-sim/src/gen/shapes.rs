@@ -1009,7 +1009,8 @@ pub fn catalogue() -> Vec<PartSpec> {
 /// The standard [`catalogue`] with untaught look-alikes among its distractors: templates with
 /// a bore or holes drawn solid (their outer outline only, so a template fits their outline and
 /// not their holes): a cam, a hex nut, a 12-tooth gear, a disc the washer's size and an oval
-/// flange, each without a hole.
+/// flange, each without a hole; and a hex nut and a washer whose bore is half as wide as the
+/// template's (a hole where the template's is, of a size it could not be found at).
 pub fn lookalike_catalogue() -> Vec<PartSpec> {
     let solid = |rings: Vec<Vec<P>>| {
         let outer = rings
@@ -1025,8 +1026,21 @@ pub fn lookalike_catalogue() -> Vec<PartSpec> {
         part("gear_z12_solid", false, 12, solid(gear(12))),
         part("disc", false, 0, solid(washer())),
         part("flange_oval_solid", false, 2, solid(flange_oval())),
+        part("hex_small_bore", false, 6, small_bore(hex_nut())),
+        part("washer_small_bore", false, 0, small_bore(washer())),
     ]);
     cat
+}
+
+/// A part whose rings are an outline and a round bore centred on the origin, with the bore's
+/// radius halved (its area a quarter).
+fn small_bore(mut rings: Vec<Vec<P>>) -> Vec<Vec<P>> {
+    if let Some(bore) = rings.get_mut(1) {
+        for p in bore.iter_mut() {
+            *p = [p[0] * 0.5, p[1] * 0.5];
+        }
+    }
+    rings
 }
 
 /// A guitar pick: the convex hull of a 12 mm tip circle and two 24 mm shoulder circles (a
