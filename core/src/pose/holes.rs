@@ -761,16 +761,17 @@ mod tests {
         // Another part's bore, half as wide, where the template's is: the face all round it.
         let small = |x: f32, y: f32| if (x - 50.0).hypot(y - 50.0) < 4.9 { 0.0 } else { 80.0 };
         assert!(solid(&hole([50.0, 50.0], 75.4), &small));
-        // The template's bore seen past a wall 8 px wide on its right: the mask's hole is as
-        // small, off the bore's centre, but the bore's rim is open on its left.
+        // The template's bore seen past a wall on its right that leaves only its left 3.6 px
+        // open: the mask's hole is a segment of 41 px² (a radius of 3.6 px as a disc's),
+        // 7.6 px off the bore's centre, but the bore's rim is open on its left.
         let walled = |x: f32, y: f32| {
-            if (x - 50.0).hypot(y - 50.0) < 9.8 && x < 51.8 {
+            if (x - 50.0).hypot(y - 50.0) < 9.8 && x < 44.0 {
                 0.0
             } else {
                 80.0
             }
         };
-        assert!(!solid(&hole([46.0, 50.0], 75.4), &walled));
+        assert!(!solid(&hole([42.4, 50.0], 41.1), &walled));
         // A hole of a size the bore could be found at is its trace, whatever the face shows.
         assert!(!solid(&hole([50.0, 50.0], 160.0), &small));
     }
