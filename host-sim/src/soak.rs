@@ -209,11 +209,9 @@ fn run_here(opts: &SoakOptions, mut progress: impl FnMut(&str)) -> Result<SoakRe
     let mut rec: Box<HostRecognizer> = Box::default();
     rec.set_params(Params::DEFAULT).map_err(|e| e.to_string())?;
     let mut labels = vec![0u8; w * h];
-    // Templates: one group per catalogue and scale (the variants share most), all in the one
-    // recognizer; a silhouette byte for byte the same as one taught already (the standard
-    // parts that the `flipped` and `lookalike` catalogues repeat) is the same template, taught
-    // once.
-    let mut taught: Vec<(&str, u64)> = Vec::new();
+    // Templates: every variant's, all in the one recognizer; a silhouette byte for byte the
+    // same as one taught already (the variants share most of their catalogues and scales) is
+    // the same template, taught once.
     let mut silhouettes: Vec<(u32, u32, Vec<u8>)> = Vec::new();
     let mut sources = Vec::new();
     for (k, &(variant, shot)) in plan.iter().enumerate() {
@@ -226,26 +224,17 @@ fn run_here(opts: &SoakOptions, mut progress: impl FnMut(&str)) -> Result<SoakRe
             background: Some(shot),
         };
         let set = MemorySet::new(&gen).map_err(|e| e.to_string())?;
-        let px = match variant {
-            Variant::Small => crate::gen::SMALL_PX_PER_MM,
-            Variant::Stereo => crate::gen::STEREO_F_PX / crate::gen::STEREO_PLATFORM_Z_MM,
-            _ => crate::gen::PX_PER_MM,
-        };
-        let group = (variant.catalogue_name(), px.to_bits());
-        if !taught.contains(&group) {
-            for (name, img) in set.templates() {
-                let key = (img.width(), img.height(), img.as_raw().clone());
-                if silhouettes.contains(&key) {
-                    continue;
-                }
-                silhouettes.push(key);
-                let (tw, th) = (img.width() as usize, img.height() as usize);
-                let frame = Frame::new_checked(img.as_raw().as_slice(), tw, th).map_err(|e| e.to_string())?;
-                let mut scratch = vec![0u8; tw * th];
-                rec.teach(&frame, &mut scratch)
-                    .map_err(|e| format!("template {name} of {variant}: {e}"))?;
+        for (name, img) in set.templates() {
+            let key = (img.width(), img.height(), img.as_raw().clone());
+            if silhouettes.contains(&key) {
+                continue;
             }
-            taught.push(group);
+            silhouettes.push(key);
+            let (tw, th) = (img.width() as usize, img.height() as usize);
+            let frame = Frame::new_checked(img.as_raw().as_slice(), tw, th).map_err(|e| e.to_string())?;
+            let mut scratch = vec![0u8; tw * th];
+            rec.teach(&frame, &mut scratch)
+                .map_err(|e| format!("template {name} of {variant}: {e}"))?;
         }
         let background = if shot {
             let captures = set.backgrounds();
