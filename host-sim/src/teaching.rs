@@ -79,15 +79,7 @@ pub fn measure_polarity(
     pixels: &[usize],
     tau: u8,
 ) -> Option<PolarityEvidence> {
-    let (mut up, mut down) = (0f64, 0f64);
-    for &i in pixels {
-        let d = f64::from(*frame.get(i)?) - f64::from(*platform.get(i)?);
-        if d > 0.0 {
-            up += d;
-        } else {
-            down -= d;
-        }
-    }
+    let (up, down) = contrast_sums(frame, platform, pixels)?;
     if up + down <= 0.0 || w == 0 || h == 0 {
         return None;
     }
@@ -168,6 +160,21 @@ pub fn measure_polarity(
     })
 }
 
+/// The blob's contrast above the platform and below it: `Σ max(I − B, 0)` and
+/// `Σ max(B − I, 0)` over `pixels` (`None` for an index outside either plane).
+fn contrast_sums(frame: &[u8], platform: &[u8], pixels: &[usize]) -> Option<(f64, f64)> {
+    let (mut up, mut down) = (0f64, 0f64);
+    for &i in pixels {
+        let d = f64::from(*frame.get(i)?) - f64::from(*platform.get(i)?);
+        if d > 0.0 {
+            up += d;
+        } else {
+            down -= d;
+        }
+    }
+    Some((up, down))
+}
+
 /// How far inside and outside a pixel on the taught blob's outline [`half_contrast_silhouette`]
 /// looks for the part's and the platform's levels, px: the half-length of the profiles along
 /// which detection finds the part's sub-pixel border (`RefineParams::DEFAULT.search`).
@@ -205,13 +212,11 @@ pub fn half_contrast_silhouette(
     let sign = match polarity {
         Polarity::Brighter => 1,
         Polarity::Darker => -1,
-        Polarity::Either => {
-            if pixels.iter().map(|&i| i64::from(signed(i))).sum::<i64>() >= 0 {
-                1
-            } else {
-                -1
-            }
-        }
+        // The sign that holds most of the contrast, as measure_polarity takes it.
+        Polarity::Either => match contrast_sums(frame, platform, pixels) {
+            Some((up, down)) if up < down => -1,
+            _ => 1,
+        },
     };
     let value = |i: usize| sign * signed(i);
     // Distance (in 8-neighbour steps, up to 3) of each blob pixel from the nearest non-blob
