@@ -258,7 +258,7 @@ pub fn half_contrast_silhouette(
     }
     let fallback = median(&mut inside) / 2;
     let (mut near_in, mut near_out) = (Vec::new(), Vec::new());
-    let mut cut = Vec::new();
+    // (The levels read `depth` and the images only: each pixel is cut where it is decided.)
     for &i in pixels {
         if i >= depth.len() || depth[i] > 2 {
             continue;
@@ -279,15 +279,12 @@ pub fn half_contrast_silhouette(
         let level = if near_in.is_empty() {
             fallback
         } else {
-            let outside = if near_out.is_empty() { 0 } else { median(&mut near_out) };
-            (median(&mut near_in) + outside) / 2
+            // (No platform pixel that near: the platform's own level, 0.)
+            (median(&mut near_in) + median(&mut near_out)) / 2
         };
         if value(i) < level {
-            cut.push(i);
+            plane[i] = 0;
         }
-    }
-    for i in cut {
-        plane[i] = 0;
     }
     plane
 }
