@@ -6,9 +6,10 @@
 # given to this script). Overlays and the estimated platform and mask of every frame go into
 # out/real/<set>/.
 #
-# The photos are read in place: the taught set out/real/<set>/ holds symbolic links to the
-# set's frames/ and truth.json, its own templates/ and whatever teach writes (vorl.toml).
-# Nothing of the photos is copied into the repository. Not part of scripts/test.sh: a user's
+# The photos are read in place: the taught set out/real/<set>/ holds a symbolic link to the
+# set's frames/, its truth.json with each class's angles taken relative to its teach photo's part
+# (a taught template's angle 0 is that pose), its own templates/ and whatever teach writes
+# (vorl.toml). Nothing of the photos is copied into the repository. Not part of scripts/test.sh: a user's
 # clone has no ../shared.
 #
 #   bash scripts/real.sh                 # every set, integrator's flow
@@ -41,7 +42,37 @@ for set in "$REAL"/*/; do
         target=$dst/set
         mkdir -p "$target"
         ln -s "$src/frames" "$target/frames"
-        ln -s "$src/truth.json" "$target/truth.json"
+        # The truth as the taught templates see it: a template taught from a photo has that
+        # photo's pose as its angle 0 (and its side as unflipped), so each class's angles are
+        # taken relative to its teach photo's part where the truth lists that part (within 10 px
+        # of the teach point); other classes keep the set's truth.
+        python3 - "$src/truth.json" "$set/teach.json" >"$target/truth.json" <<'EOF'
+import json, math, sys
+truth = json.load(open(sys.argv[1]))
+teach = json.load(open(sys.argv[2]))
+ref = {}
+for cls, t in teach.items():
+    if "x" not in t:
+        continue
+    frame = t["frame"].split("/")[-1]
+    near = [p for p in truth["frames"].get(frame, []) if p.get("class") == cls
+            and math.hypot(p["x"] - t["x"], p["y"] - t["y"]) <= 10.0]
+    if near:
+        ref[cls] = (near[0]["angle_deg"], bool(near[0].get("flipped", False)))
+for parts in truth["frames"].values():
+    for p in parts:
+        if p.get("class") not in ref:
+            continue
+        a0, f0 = ref[p["class"]]
+        flipped = bool(p.get("flipped", False))
+        # Mirroring reverses a turn: a part on the other side from the taught one is the
+        # template mirrored, then turned by angle + a0; one on the same side by angle - a0.
+        a = p["angle_deg"] + a0 if flipped != f0 else p["angle_deg"] - a0
+        p["angle_deg"] = a % 360.0
+        if f0:
+            p["flipped"] = not flipped
+json.dump(truth, sys.stdout)
+EOF
         # One line per class: name, teach frame, x, y (or part number).
         python3 - "$set/teach.json" >"$dst/teach.tsv" <<'EOF'
 import json, sys
