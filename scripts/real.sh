@@ -44,8 +44,8 @@ for set in "$REAL"/*/; do
         ln -s "$src/frames" "$target/frames"
         # The truth as the taught templates see it: a template taught from a photo has that
         # photo's pose as its angle 0 (and its side as unflipped), so each class's angles are
-        # taken relative to its teach photo's part where the truth lists that part (within 10 px
-        # of the teach point); other classes keep the set's truth.
+        # taken relative to its teach photo's part where the truth lists that part (the class's
+        # part nearest the teach point, within 60 px); other classes keep the set's truth.
         python3 - "$src/truth.json" "$set/teach.json" >"$target/truth.json" <<'EOF'
 import json, math, sys
 truth = json.load(open(sys.argv[1]))
@@ -55,10 +55,12 @@ for cls, t in teach.items():
     if "x" not in t:
         continue
     frame = t["frame"].split("/")[-1]
-    near = [p for p in truth["frames"].get(frame, []) if p.get("class") == cls
-            and math.hypot(p["x"] - t["x"], p["y"] - t["y"]) <= 10.0]
-    if near:
-        ref[cls] = (near[0]["angle_deg"], bool(near[0].get("flipped", False)))
+    # The teach point lies on the part, not always at its centre (a U's centre is off it).
+    near = sorted((math.hypot(p["x"] - t["x"], p["y"] - t["y"]), i) for i, p in
+                  enumerate(truth["frames"].get(frame, [])) if p.get("class") == cls)
+    if near and near[0][0] <= 60.0:
+        p = truth["frames"][frame][near[0][1]]
+        ref[cls] = (p["angle_deg"], bool(p.get("flipped", False)))
 for parts in truth["frames"].values():
     for p in parts:
         if p.get("class") not in ref:
