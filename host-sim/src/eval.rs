@@ -10,7 +10,8 @@
 //! - angle error: correctly classified known parts, taken modulo `360/symmetry` (symmetry 0 —
 //!   a round part — has no angle and is left out);
 //! - position error: every paired part not cut by the border.
-//! - parts upside down (truth `"flipped": true`): their own recall and classification; and
+//! - parts of a template class upside down (truth `"flipped": true`): their own recall and
+//!   classification (an untaught part upside down counts with the unknown parts); and
 //!   over every correctly classified part, whether the prediction's `flipped` (absent: false)
 //!   is the truth's (absent: false) — reported when either side says a part is flipped.
 //! - parts touching or lying over another (truth `"touching": true`), the parts that touch
@@ -117,7 +118,8 @@ pub struct Scores {
     /// Stereo: predictions found only in the right image (not scored).
     #[serde(skip_serializing_if = "is_zero")]
     pub right_only: usize,
-    /// Truth parts lying upside down (not partial).
+    /// Truth parts of a template class lying upside down (not partial; an untaught part upside
+    /// down counts with the unknown parts).
     #[serde(skip_serializing_if = "is_zero")]
     pub flipped: usize,
     /// … of which paired with a prediction.
@@ -304,7 +306,7 @@ pub fn score(truth: &FramesJson, pred: &FramesJson) -> Scores {
         s.truth_parts += truth_parts.iter().filter(|t| t.partial != Some(true)).count();
         s.flipped += truth_parts
             .iter()
-            .filter(|t| t.partial != Some(true) && flipped(t))
+            .filter(|t| t.partial != Some(true) && t.class.is_some() && flipped(t))
             .count();
         let any_touching = truth.frames.values().flatten().any(|t| t.touching == Some(true));
         for (ti, t) in truth_parts.iter().enumerate() {
@@ -327,7 +329,7 @@ pub fn score(truth: &FramesJson, pred: &FramesJson) -> Scores {
                 continue;
             }
             s.detected += 1;
-            s.flipped_detected += flipped(t) as usize;
+            s.flipped_detected += (t.class.is_some() && flipped(t)) as usize;
             position.push(((t.x - p.x).powi(2) + (t.y - p.y).powi(2)).sqrt());
             let num = |part: &PartJson, k: &str| part.extra.get(k).and_then(|v| v.as_f64());
             if let Some(d_true) = num(t, "disparity_px") {
@@ -502,6 +504,27 @@ mod tests {
         assert!((angle_error(359.0, 1.0, 1) - 2.0).abs() < 1e-12);
         assert!((angle_error(95.0, 5.0, 4) - 0.0).abs() < 1e-12);
         assert!((angle_error(50.0, 5.0, 4) - 45.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn an_untaught_part_upside_down_counts_with_the_unknown_parts() {
+        let frames = |parts: Vec<PartJson>| FramesJson {
+            frames: [("a.png".to_string(), parts)].into_iter().collect(),
+        };
+        let upside_down = |class: Option<&str>, x: f64| {
+            let mut p = part(class, x, 100.0, 0.0, Some(1));
+            p.flipped = Some(true);
+            p
+        };
+        // A hook upside down, named; a blob of no class upside down, rejected.
+        let truth = frames(vec![upside_down(Some("hook"), 100.0), upside_down(None, 300.0)]);
+        let pred = frames(vec![
+            upside_down(Some("hook"), 100.2),
+            part(None, 300.1, 100.0, 0.0, None),
+        ]);
+        let s = score(&truth, &pred);
+        assert_eq!((s.flipped, s.flipped_detected, s.flipped_correct), (1, 1, 1));
+        assert_eq!((s.unknown, s.unknown_rejected), (1, 1));
     }
 
     #[test]

@@ -195,7 +195,7 @@ pub fn print_table(r: &EvalReport) {
     );
     if s.flipped > 0 {
         println!(
-            "  upside down: recall     {:>8}   ({}/{} parts lying upside down)",
+            "  upside down: recall     {:>8}   ({}/{} known parts lying upside down)",
             pct(ratio(s.flipped_detected, s.flipped)),
             s.flipped_detected,
             s.flipped
