@@ -428,37 +428,9 @@ pub fn solid_where_a_hole_is(
                 smaller = Some(smaller.map_or(rq, |s: f32| s.max(rq)));
             }
         }
-        // Eight directions, 45° apart.
-        const D: f32 = core::f32::consts::FRAC_1_SQRT_2;
-        const DIRS: [[f32; 2]; 8] = [
-            [1.0, 0.0],
-            [D, D],
-            [0.0, 1.0],
-            [-D, D],
-            [-1.0, 0.0],
-            [-D, -D],
-            [0.0, -1.0],
-            [D, -D],
-        ];
-        let ring = 1.6 * r;
-        if !DIRS.iter().all(|u| inside(at[0] + ring * u[0], at[1] + ring * u[1])) {
+        let Some((centre, face)) = dip_and_face(at, r, &d, &inside) else {
             return false;
-        }
-        let centre = DIRS.iter().step_by(2).fold(d(at[0], at[1]), |acc, u| {
-            acc + d(at[0] + 0.5 * r * u[0], at[1] + 0.5 * r * u[1])
-        }) / 5.0;
-        // The face around it: the ring's samples that lie on the part (at least half the
-        // largest, so the platform beside a hole near the outline does not count).
-        let samples = DIRS.map(|u| d(at[0] + ring * u[0], at[1] + ring * u[1]));
-        let top = samples.iter().fold(0.0f32, |m, &v| m.max(v));
-        let (sum, count) = samples
-            .iter()
-            .filter(|&&v| v >= 0.5 * top)
-            .fold((0.0f32, 0u32), |(s, c), &v| (s + v, c + 1));
-        if count < 4 || !(top > 0.0) {
-            return false;
-        }
-        let face = sum / count as f32;
+        };
         // A smaller hole where the template's is: the template's hole seen through a wall on
         // one side, or partly covered, still opens its rim on the other side; one whose rim is
         // solid all round, midway between the two radii, is another part's hole (a cam's bore
@@ -481,6 +453,93 @@ pub fn solid_where_a_hole_is(
         }
         sigma.is_some_and(|s| r >= OPEN_RADII * s)
     })
+}
+
+/// Eight directions, 45° apart.
+const DIRS: [[f32; 2]; 8] = {
+    const D: f32 = core::f32::consts::FRAC_1_SQRT_2;
+    [
+        [1.0, 0.0],
+        [D, D],
+        [0.0, 1.0],
+        [-D, D],
+        [-1.0, 0.0],
+        [-D, -D],
+        [0.0, -1.0],
+        [D, -D],
+    ]
+};
+
+/// What `|D|` (the sampler `d`) shows where a hole of radius `r` px would lie at `at`: the mean
+/// of five samples (the centre, and four points `r/2` from it) and the part's face around it
+/// (the mean of the samples on a ring at 1.6 `r` that lie on the part: at least half the
+/// largest, so the platform beside a hole near the outline does not count). `None` where that
+/// ring leaves the frame (`inside`) or fewer than four of its eight samples lie on the part.
+fn dip_and_face(
+    at: [f32; 2],
+    r: f32,
+    d: &impl Fn(f32, f32) -> f32,
+    inside: &impl Fn(f32, f32) -> bool,
+) -> Option<(f32, f32)> {
+    let ring = 1.6 * r;
+    if !DIRS.iter().all(|u| inside(at[0] + ring * u[0], at[1] + ring * u[1])) {
+        return None;
+    }
+    let centre = DIRS.iter().step_by(2).fold(d(at[0], at[1]), |acc, u| {
+        acc + d(at[0] + 0.5 * r * u[0], at[1] + 0.5 * r * u[1])
+    }) / 5.0;
+    let samples = DIRS.map(|u| d(at[0] + ring * u[0], at[1] + ring * u[1]));
+    let top = samples.iter().fold(0.0f32, |m, &v| m.max(v));
+    let (sum, count) = samples
+        .iter()
+        .filter(|&&v| v >= 0.5 * top)
+        .fold((0.0f32, 0u32), |(s, c), &v| (s + v, c + 1));
+    if count < 4 || !(top > 0.0) {
+        return None;
+    }
+    Some((centre, sum / count as f32))
+}
+
+/// How deep the part dips where `template`'s holes lie at `pose`: the mean, over its holes that
+/// are [`resolvable`] at the pose's scale and whose surroundings the frame shows (a ring at 1.6
+/// radii inside it, at least half of it on the part), of the share of the face around a hole
+/// that `|D|` (the sampler `d`) keeps over it, five samples at its centre and halfway to its
+/// edge (near 0 over a hole, near 1 over solid face). `None` without such a hole. It tells a fit from its
+/// half turn where the template's holes are too small for the mask to trace (a pin's end-hole):
+/// the turn whose holes lie on the part's dips is the part's.
+///
+/// ```
+/// use vorl_core::pose::holes::{hole_dip, Hole, Holes};
+/// use vorl_core::pose::refine::Pose;
+/// let mut template = Holes::new();
+/// template.insert(Hole { centre: [20.0, 0.0], area: 50.0 }); // an end-hole, radius 4 px
+/// let pin = |x: f32, y: f32| if (x - 70.0).hypot(y - 50.0) < 4.0 { 0.0 } else { 60.0 };
+/// let inside = |_x: f32, _y: f32| true;
+/// let right = Pose { x: 50.0, y: 50.0, angle: 0.0, scale: 1.0 };
+/// let turned = Pose { angle: core::f32::consts::PI, ..right };
+/// assert!(hole_dip(&template, &right, pin, inside).unwrap() < 0.5);
+/// assert!(hole_dip(&template, &turned, pin, inside).unwrap() > 0.9);
+/// ```
+pub fn hole_dip(
+    template: &Holes,
+    pose: &Pose,
+    d: impl Fn(f32, f32) -> f32,
+    inside: impl Fn(f32, f32) -> bool,
+) -> Option<f32> {
+    let scale = pose.scale;
+    let (sum, count) = template
+        .as_slice()
+        .iter()
+        .filter_map(|h| {
+            let area = h.area * scale * scale;
+            if !resolvable(area) {
+                return None;
+            }
+            let (centre, face) = dip_and_face(pose.apply(h.centre), radius(area), &d, &inside)?;
+            Some(centre / face)
+        })
+        .fold((0.0f32, 0u32), |(s, c), v| (s + v, c + 1));
+    (count > 0).then(|| sum / count as f32)
 }
 
 /// How many times the frame's edge blur σ a hole's radius must be for the blur to leave it

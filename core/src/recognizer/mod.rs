@@ -975,10 +975,10 @@ mod tests {
 
     /// A part of [`scene_of`]: its shape (`inside`, in offsets from its origin), where its origin
     /// lies, its angle (°) and whether it lies upside down.
-    type Drawn = (fn([f32; 2]) -> bool, f32, f32, f32, bool);
+    pub(super) type Drawn = (fn([f32; 2]) -> bool, f32, f32, f32, bool);
 
     /// [`scene`] of any shapes.
-    fn scene_of(w: usize, h: usize, parts: &[Drawn]) -> std::vec::Vec<u8> {
+    pub(super) fn scene_of(w: usize, h: usize, parts: &[Drawn]) -> std::vec::Vec<u8> {
         let mut px = std::vec![200u8; w * h];
         for (y, row) in px.chunks_exact_mut(w).enumerate() {
             for (x, p) in row.iter_mut().enumerate() {
@@ -1359,6 +1359,17 @@ mod tests {
         ((0.0..8.0).contains(&u) && (0.0..48.0).contains(&v))
             || ((0.0..24.0).contains(&u) && (40.0..48.0).contains(&v))
             || ((16.0..24.0).contains(&u) && (28.0..40.0).contains(&v))
+    }
+
+    /// A pin: a bar with round ends, 64 × 14 px, and a hole of radius 3.5 px near one end, too
+    /// small for the frame's tracing (38 px² under `min_area`), its area centroid at the origin.
+    pub(super) fn pin_inside(t: [f32; 2]) -> bool {
+        // The hole moves the area centroid off the bar's centre, away from it.
+        let hole_area = core::f32::consts::PI * 3.5 * 3.5;
+        let bar_area = 50.0 * 14.0 + core::f32::consts::PI * 49.0;
+        let (x, y) = (t[0] - 24.0 * hole_area / (bar_area - hole_area), t[1]);
+        let bar = (x.abs() <= 25.0 && y.abs() <= 7.0) || (x.abs() - 25.0).hypot(y) <= 7.0;
+        bar && (x - 24.0).hypot(y) > 3.5
     }
 
     /// A hook upside down, whose template's own turns all lie far (`f′ ≥ 2ε`) from it, is

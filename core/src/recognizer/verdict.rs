@@ -31,7 +31,9 @@
 use crate::library::template::Template;
 use crate::math;
 use crate::params::Params;
-use crate::pose::holes::{agreement, edge_blur, pose_from_holes, solid_where_a_hole_is, HoleAgreement, Holes, Sight};
+use crate::pose::holes::{
+    agreement, edge_blur, hole_dip, pose_from_holes, solid_where_a_hole_is, HoleAgreement, Holes, Sight, SOLID_KEEPS,
+};
 use crate::pose::refine::{
     align_recording, edge_distances_walled, outward_normal, wall_facing, Alignment, Difference, Outline, Pose,
     RefineParams, VERIFY_KEPT,
@@ -205,7 +207,8 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let ruled_out = |best: &Fit| settled(best) && dp.is_some_and(|m| self.half_turn_ruled_out(n, t, m));
         if t.half_turn() < HALF_TURN_AMBIGUOUS && (!symmetric || !best.holes.all_found()) && !ruled_out(&best) {
             let second = once(seed_pose(position, signed + 180.0, area, t), !settled(&best));
-            if second.beats_half_turn(&best, t.holes().is_empty()) {
+            let by_dips = half_turn_by_dips(t, &best, &second, diff);
+            if by_dips.unwrap_or_else(|| second.beats_half_turn(&best, t.holes().is_empty())) {
                 best = second;
             }
         }
@@ -387,6 +390,42 @@ impl Fit {
             return flip_wins == (slot % 2 == 1);
         }
         self.better_than(other)
+    }
+}
+
+/// Between a fit and its half turn whose holes the mask does not tell apart (both accepted,
+/// as many of the template's holes found, not all): `Some(true)` when the half turn's holes
+/// lie on dips of `|D|` deeper by more than a quarter of the part's face than the fit's
+/// ([`hole_dip`]; a quarter gone is the least dip that a hole the blur nearly closes still
+/// shows, [`SOLID_KEEPS`]), `Some(false)` the other way round, `None` (the outline decides)
+/// otherwise. A pin's end-hole too small for the tracing still shows as a dip, at its end only.
+fn half_turn_by_dips<const M: usize, B: AsRef<[u8]>>(
+    t: &Template<M>,
+    first: &Fit,
+    second: &Fit,
+    diff: &Difference<'_, B>,
+) -> Option<bool> {
+    let (a, b) = (first.holes, second.holes);
+    if t.holes().is_empty() || !accepted(*first) || !accepted(*second) || a.found != b.found || a.all_found() {
+        return None;
+    }
+    let (w, h) = (diff.width() as f32, diff.height() as f32);
+    let dip = |f: &Fit| {
+        hole_dip(
+            t.holes(),
+            &f.pose,
+            |x, y| diff.bilinear(x, y).abs(),
+            |x, y| x >= 0.0 && y >= 0.0 && x <= w - 1.0 && y <= h - 1.0,
+        )
+    };
+    let (d1, d2) = (dip(first)?, dip(second)?);
+    let evidence = 1.0 - SOLID_KEEPS;
+    if d2 < d1 - evidence {
+        Some(true)
+    } else if d1 < d2 - evidence {
+        Some(false)
+    } else {
+        None
     }
 }
 
@@ -604,4 +643,65 @@ extern crate std;
 std::thread_local! {
     /// Alignments run on this thread (for the tests' work counts).
     pub(crate) static ALIGNMENTS: core::cell::Cell<usize> = const { core::cell::Cell::new(0) };
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::recognizer::tests::{pin_inside, scene_of, taught};
+    use crate::Frame;
+
+    /// A pin's end-hole, too small for the tracing (38 px² under `min_area`), tells its ends
+    /// apart by the dip of `|D|` where the template's hole lies; where the two turns' holes are
+    /// told apart by the mask, or neither fit is accepted, the dips do not decide.
+    #[test]
+    fn the_turn_whose_hole_lies_on_the_dip_is_the_pins() {
+        let (w, h) = (120usize, 60usize);
+        let t = taught(pin_inside);
+        assert_eq!(t.holes().as_slice().len(), 1);
+        let px = scene_of(w, h, &[(pin_inside, 60.0, 30.0, 0.0, false)]);
+        let bg = std::vec![200u8; w * h];
+        let frame = Frame::new_checked(&px[..], w, h).unwrap();
+        let diff = Difference::new(&frame, &bg, crate::pixels::enhance::Alpha::ONE);
+        let fit = |angle: f32| Fit {
+            pose: Pose {
+                x: 60.0,
+                y: 30.0,
+                angle,
+                scale: 1.0,
+            },
+            verify: 0.3,
+            full: 0.3,
+            limit: 1.0,
+            holes: HoleAgreement {
+                expected: 1,
+                found: 0,
+                matched: 0,
+                off_centre: 0,
+            },
+            family: true,
+            wall: 0.0,
+            solid_hole: false,
+        };
+        // At angle 0 the template's hole lies on the drawn one; half a turn on, on the bar.
+        let (right, turned) = (fit(0.0), fit(core::f32::consts::PI));
+        assert_eq!(half_turn_by_dips(&t, &turned, &right, &diff), Some(true));
+        assert_eq!(half_turn_by_dips(&t, &right, &turned, &diff), Some(false));
+        let found = HoleAgreement {
+            found: 1,
+            matched: 1,
+            ..right.holes
+        };
+        assert_eq!(
+            half_turn_by_dips(
+                &t,
+                &Fit { holes: found, ..turned },
+                &Fit { holes: found, ..right },
+                &diff
+            ),
+            None
+        );
+        let off = Fit { verify: 3.0, ..right };
+        assert_eq!(half_turn_by_dips(&t, &turned, &off, &diff), None);
+    }
 }
