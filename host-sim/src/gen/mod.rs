@@ -204,9 +204,10 @@ pub enum Variant {
     /// proportions of its own, at 0.9–1.3× the template's size; washers and screws as
     /// distractors. No background by default; a `vorl.toml` with the scale range.
     Rods,
-    /// As `default`, with about half of the chiral template parts (those whose mirror image
-    /// matches no turn of them: `l_bracket`, `shaft_key`, `wrench`) lying upside down; truth
-    /// adds `"flipped": true` and `"chiral"`.
+    /// As `default`, with a J hook, a long L bracket and a pin whose ends only a hole too small
+    /// for the tracing tells apart added, and about half of the chiral template parts (those
+    /// whose mirror image matches no turn of them: `l_bracket`, `shaft_key`, `wrench`, `hook`,
+    /// `l_long`) lying upside down; truth adds `"flipped": true` and `"chiral"`.
     Flipped,
     /// As `default`, with about 60 % of the parts moved against another part, merely touching
     /// it or lying over it by up to 12 % of the smaller one's area; truth marks

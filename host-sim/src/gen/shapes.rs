@@ -971,15 +971,31 @@ pub fn sharp_catalogue() -> Vec<PartSpec> {
     ]
 }
 
-/// The `flipped` variant's parts: the standard [`catalogue`] and two more chiral templates whose
+/// The `flipped` variant's parts: the standard [`catalogue`], two more chiral templates whose
 /// mirror images lie far from every turn of them, a J hook and a long L bracket (a part upside
-/// down whose template's own turns are all at `f′ ≥ 2ε` from it).
+/// down whose template's own turns are all at `f′ ≥ 2ε` from it), and a pin whose two ends
+/// only a hole too small for the tracing tells apart (which way round, rather than which side
+/// up).
 pub fn flipped_catalogue() -> Vec<PartSpec> {
     let mut cat = catalogue();
     let at = cat.iter().position(|p| !p.is_template).unwrap_or(cat.len());
+    cat.insert(at, part("pin_end_hole", true, 1, pin_end_hole()));
     cat.insert(at, part("l_long", true, 1, l_long()));
     cat.insert(at, part("hook", true, 1, hook()));
     cat
+}
+
+/// A pin: a bar of 100 × 18 with round ends and a hole of radius 3.5 near one end (38 mm², under
+/// the tracing's 64 px² at 1 px/mm: the mask shows it as a dip of `|D|`, not as a hole). Its
+/// outline is the same half a turn on; only the hole tells its ends apart.
+fn pin_end_hole() -> Vec<Vec<P>> {
+    let outline = rounded_polygon(&[
+        ([0.0, 0.0], 9.0),
+        ([100.0, 0.0], 9.0),
+        ([100.0, 18.0], 9.0),
+        ([0.0, 18.0], 9.0),
+    ]);
+    vec![outline, circle([88.0, 9.0], 3.5)]
 }
 
 /// The parts: templates first (in a fixed order), then the distractors.
