@@ -28,6 +28,10 @@
 //!   Part holes that no template hole explains (print, texture, a light patch) are not
 //!   evidence against the template; the recognizer counts them as the part for its position
 //!   ([`crate::pose::partial_volume::print_deficit`]).
+//! - A hole too small for the tracing (its border under the frame's `min_area`) still shows as
+//!   a dip of `|D|`: [`solid_where_a_hole_is`] vetoes a template whose hole the part shows no
+//!   trace of, and [`hole_dip`] tells a fit from its half turn by where the dips lie (a pin's
+//!   end-hole).
 //!
 //! Time: O(B) per hole border; [`agreement`] and [`pose_from_holes`] are O(H²) for
 //! `H ≤` [`MAX_HOLES`]. Memory: [`Holes`] is `12·MAX_HOLES + 4` = 100 bytes (in each template,
