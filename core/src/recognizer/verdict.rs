@@ -19,7 +19,9 @@
 //!   template with holes, all found and one off its centre, and the DP's `f' < ε`, below
 //!   [`NEAR_MISS`] times it. Fits are ranked by their holes, then their score over its limit;
 //!   between a template and its own mirror image the upside-down reading needs clear evidence
-//!   ([`FLIP_EVIDENCE`]).
+//!   ([`FLIP_EVIDENCE`]); between a fit and its half turn whose holes the mask cannot tell
+//!   apart (too small to trace: a pin's end-hole), the one whose holes lie on the deeper dips
+//!   of `|D|` (`half_turn_by_dips`).
 //!
 //! Cost: up to five starts a candidate, each aligned once or twice (an alignment is
 //! `O(iterations · m · search/step)`), and the part → template distances, `n` queries of an
