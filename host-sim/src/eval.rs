@@ -269,6 +269,8 @@ pub fn score(truth: &FramesJson, pred: &FramesJson) -> Scores {
     let mut confusions: std::collections::BTreeMap<(String, String), usize> = Default::default();
     let empty = Vec::new();
     let flipped = |p: &PartJson| p.flipped == Some(true);
+    // An untaught part upside down counts with the unknown parts.
+    let known_flipped = |p: &PartJson| p.class.is_some() && flipped(p);
     let sides_reported = truth.frames.values().flatten().any(flipped) || pred.frames.values().flatten().any(flipped);
     for (name, truth_parts) in &truth.frames {
         let all = pred.frames.get(name).unwrap_or(&empty);
@@ -306,7 +308,7 @@ pub fn score(truth: &FramesJson, pred: &FramesJson) -> Scores {
         s.truth_parts += truth_parts.iter().filter(|t| t.partial != Some(true)).count();
         s.flipped += truth_parts
             .iter()
-            .filter(|t| t.partial != Some(true) && t.class.is_some() && flipped(t))
+            .filter(|t| t.partial != Some(true) && known_flipped(t))
             .count();
         let any_touching = truth.frames.values().flatten().any(|t| t.touching == Some(true));
         for (ti, t) in truth_parts.iter().enumerate() {
@@ -329,7 +331,7 @@ pub fn score(truth: &FramesJson, pred: &FramesJson) -> Scores {
                 continue;
             }
             s.detected += 1;
-            s.flipped_detected += (t.class.is_some() && flipped(t)) as usize;
+            s.flipped_detected += known_flipped(t) as usize;
             position.push(((t.x - p.x).powi(2) + (t.y - p.y).powi(2)).sqrt());
             let num = |part: &PartJson, k: &str| part.extra.get(k).and_then(|v| v.as_f64());
             if let Some(d_true) = num(t, "disparity_px") {

@@ -508,9 +508,9 @@ fn dip_and_face(
 /// are [`resolvable`] at the pose's scale and whose surroundings the frame shows (a ring at 1.6
 /// radii inside it, at least half of it on the part), of the share of the face around a hole
 /// that `|D|` (the sampler `d`) keeps over it, five samples at its centre and halfway to its
-/// edge (near 0 over a hole, near 1 over solid face). `None` without such a hole. It tells a fit from its
-/// half turn where the template's holes are too small for the mask to trace (a pin's end-hole):
-/// the turn whose holes lie on the part's dips is the part's.
+/// edge (near 0 over a hole, near 1 over solid face). `None` without such a hole. It tells a
+/// fit from its half turn where the template's holes are too small for the mask to trace (a
+/// pin's end-hole): the turn whose holes lie on the part's dips is the part's.
 ///
 /// ```
 /// use vorl_core::pose::holes::{hole_dip, Hole, Holes};

@@ -120,7 +120,6 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             ALIGNMENTS.with(|a| a.set(a.get() + 1));
             let aligned = align_recording(diff, t.edge(), t.normals(), s, &rp, &mut distances);
             let (verify, full) = verify_score(&aligned, &mut distances, t, part_edges, diff, &rp, params);
-            let (w, h) = (diff.width() as f32, diff.height() as f32);
             let fit = |pose: Pose, (verify, full): (f32, f32), wall: f32| Fit {
                 pose,
                 verify,
@@ -145,7 +144,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                         },
                         || self.part_blur(part_edges, diff),
                         |x, y| diff.bilinear(x, y).abs(),
-                        |x, y| x >= 0.0 && y >= 0.0 && x <= w - 1.0 && y <= h - 1.0,
+                        |x, y| in_frame(diff, x, y),
                     ),
             };
             let first = fit(aligned.pose, (verify, full), 0.0);
@@ -395,6 +394,13 @@ impl Fit {
     }
 }
 
+/// Whether `(x, y)` lies on the frame's pixels, where `diff` samples the frame itself rather
+/// than its clamped edge (what the hole tests may read).
+fn in_frame<B: AsRef<[u8]>>(diff: &Difference<'_, B>, x: f32, y: f32) -> bool {
+    let (w, h) = (diff.width() as f32, diff.height() as f32);
+    x >= 0.0 && y >= 0.0 && x <= w - 1.0 && y <= h - 1.0
+}
+
 /// Between a fit and its half turn whose holes the mask does not tell apart (both accepted,
 /// as many of the template's holes found, not all): `Some(true)` when the half turn's holes
 /// lie on dips of `|D|` deeper by more than a quarter of the part's face than the fit's
@@ -411,13 +417,12 @@ fn half_turn_by_dips<const M: usize, B: AsRef<[u8]>>(
     if t.holes().is_empty() || !accepted(*first) || !accepted(*second) || a.found != b.found || a.all_found() {
         return None;
     }
-    let (w, h) = (diff.width() as f32, diff.height() as f32);
     let dip = |f: &Fit| {
         hole_dip(
             t.holes(),
             &f.pose,
             |x, y| diff.bilinear(x, y).abs(),
-            |x, y| x >= 0.0 && y >= 0.0 && x <= w - 1.0 && y <= h - 1.0,
+            |x, y| in_frame(diff, x, y),
         )
     };
     let (d1, d2) = (dip(first)?, dip(second)?);
