@@ -47,7 +47,7 @@
 //! | +60 + 20·m | `8·m` | the `m` unit outward normals at the edge points: x, y, … |
 //! | +60 + 28·m | 4 | number of holes `h`, `u32` ≤ [`MAX_HOLES`] (8) |
 //! | +64 + 28·m | 96 | 8 holes, largest first: centre as an offset from the area centroid x, y, and area in px², `f32`; the slots after the first `h` are 0 |
-//! | +160 + 28·m | 12 | the class's [`Tolerance`]: factor on the verification limit (≥ 1), scale range low (≤ 1) and high (≥ 1), `f32`; 1, 1, 1 for a single-example class |
+//! | +160 + 28·m | 12 | the class's [`Tolerance`]: factor on the verification limit (≥ [`Tolerance::MIN_VERIFY`], 0.5), scale range low (≤ 1) and high (≥ 1), `f32`; 1, 1, 1 for a single-example class |
 //!
 //! So `L = 12 + T·(172 + 28·m)` exactly, and the file is `16 + L` bytes ([`encoded_len`]); for
 //! 8 templates of `m = 96` points that is 22 908 bytes. A template read back is equal, field for

@@ -107,14 +107,17 @@ pub struct Template<const M: usize> {
     tolerance: Tolerance,
 }
 
-/// What a class taught from several examples needs beyond the parameters' verification limit
-/// and scale range: the spread of its own examples, measured when it is taught (each example
-/// aligned on each other one). A single-example template has [`Tolerance::NONE`]. The
-/// parameters stay the floor: the limit is never lower than `Params::verify_limit`, the
-/// scale range never narrower than `[scale_min, scale_max]`.
+/// What a class taught from several examples shows of its own spread, against the
+/// parameters' verification limit and scale range: measured when it is taught (each example
+/// aligned on each other one). A single-example template has [`Tolerance::NONE`]. The scale
+/// range is never narrower than `[scale_min, scale_max]` (a camera moved between shifts scales
+/// every part alike). The limit follows the examples both ways: wider where they lie further
+/// apart than `Params::verify_limit` allows, narrower where they agree more closely, down to
+/// [`Tolerance::MIN_VERIFY`] of it (a part that merely resembles the class, 10–15 % shorter,
+/// then fails; the partial search keeps the parameters' limit as its floor).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Tolerance {
-    /// Factor on the verification limit (≥ 1).
+    /// Factor on the verification limit (at least [`Tolerance::MIN_VERIFY`]).
     pub verify: f32,
     /// Part size over template size that the examples need: `[low, high]`.
     pub scale: [f32; 2],
@@ -127,10 +130,17 @@ impl Tolerance {
         scale: [1.0, 1.0],
     };
 
-    /// Whether every value is finite, the factor at least 1 and the range ordered around 1.
+    /// The least factor on the verification limit a class may carry, however closely its
+    /// examples agree: a right part of the generated sets scores 0.1–0.4 of the parameters'
+    /// limit ([`crate::recognizer::CONFIDENT`]), and the examples are silhouettes, which never
+    /// show what the frame adds to a part's edge (blur, noise, a wall, a shadow's rim).
+    pub const MIN_VERIFY: f32 = 0.5;
+
+    /// Whether every value is finite, the factor at least [`Self::MIN_VERIFY`] and the range
+    /// ordered around 1.
     pub fn is_valid(&self) -> bool {
         self.verify.is_finite()
-            && self.verify >= 1.0
+            && self.verify >= Self::MIN_VERIFY
             && self.scale[0].is_finite()
             && self.scale[1].is_finite()
             && self.scale[0] > 0.0
@@ -549,7 +559,7 @@ impl<const M: usize> Template<M> {
     pub fn set_tolerance(&mut self, tolerance: Tolerance) -> Result<()> {
         if !tolerance.is_valid() {
             return Err(Error::Corrupt {
-                what: "template tolerance out of range (factor ≥ 1, scale low ≤ 1 ≤ high, finite)",
+                what: "template tolerance out of range (factor ≥ 0.5, scale low ≤ 1 ≤ high, finite)",
             });
         }
         self.tolerance = tolerance;

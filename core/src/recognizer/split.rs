@@ -961,7 +961,9 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             scale: math::clamp(h.seed.scale, lo, hi),
             ..h.seed
         };
-        let limit_at = |scale: f32| params.verify_limit(t.size() * scale) * t.tolerance().verify;
+        // A class whose examples agree closely narrows its whole parts' limit, not this one: a
+        // partial fit's score holds the junction with the other parts, which no example shows.
+        let limit_at = |scale: f32| params.verify_limit(t.size() * scale) * t.tolerance().verify.max(1.0);
         let reach = limit_at(seed.scale) / params.verify_threshold.max(f32::MIN_POSITIVE);
         let reach = if reach.is_finite() { reach.max(1.0) } else { 1.0 };
         // More steps than a whole part's: the seed of a run can lie a few degrees off, and a

@@ -86,8 +86,10 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         // (unless the caller never gives up).
         // The distance cap grows with the limit (a large part's edge may lie farther from its
         // template's than a small one's and still be the same part); the profiles keep their
-        // length, which thin rings and slots need.
-        let limit = limit_at(seed.scale);
+        // length, which thin rings and slots need. Both take a class's narrowed limit (examples
+        // that agree closely: `Tolerance::MIN_VERIFY`) at the parameters' own: the alignment
+        // must reach the part's best fit before the narrowed limit can judge it.
+        let limit = params.verify_limit(t.size() * seed.scale) * t.tolerance().verify.max(1.0);
         let reach = limit / params.verify_threshold.max(f32::MIN_POSITIVE);
         let reach = if reach.is_finite() { reach.max(1.0) } else { 1.0 };
         let rp = RefineParams {
