@@ -546,6 +546,80 @@ pub fn hole_dip(
     (count > 0).then(|| sum / count as f32)
 }
 
+/// Whether the frame's tracing keeps template hole `h` at `scale`: its border passes `filter`
+/// with the edge [`HOLE_EDGE`] inside (a smaller hole leaves no hole in the mask's traced
+/// borders, however clearly the frame shows it).
+pub fn traceable(h: &Hole, scale: f32, filter: &BorderFilter) -> bool {
+    traced(radius(h.area * scale * scale), filter)
+}
+
+/// How many of `template`'s holes at `pose` that `counts` asks about, that the tracing cannot
+/// keep ([`traceable`]: not at the pose's scale) and that no part hole lies within reach of
+/// (see the module doc), the part still shows: `|D|` (the sampler `d`) at the hole's centre
+/// and halfway to its edge below [`SOLID_KEEPS`] of the face around it (a ring at 1.6 radii,
+/// inside the frame by `inside`), as a hole the blur nearly closes leaves it, and its mean on
+/// the circle of `1/√`[`HOLE_AREA_RATIO`] of the hole's radius below half the face: the dip is
+/// as wide as a hole that would be found for this one (a smaller hole there, another part's,
+/// is not it). A hole whose surroundings the frame does not show is not counted. The partial search holds a part of a
+/// blob to its template's holes: a traced hole each for those the tracing keeps, this dip for
+/// the others (a pin's end-hole, which also tells the pin's ends apart).
+///
+/// ```
+/// use vorl_core::borders::contour::BorderFilter;
+/// use vorl_core::pose::holes::{untraced_shown, Hole, Holes};
+/// use vorl_core::pose::refine::Pose;
+/// let mut template = Holes::new();
+/// template.insert(Hole { centre: [20.0, 0.0], area: 50.0 }); // an end-hole, radius 4 px
+/// let filter = BorderFilter { min_points: 16, min_area: 64.0 };
+/// let pose = Pose { x: 50.0, y: 50.0, angle: 0.0, scale: 1.0 };
+/// let inside = |_x: f32, _y: f32| true;
+/// let all = |_h: &Hole| true;
+/// let pin = |x: f32, y: f32| if (x - 70.0).hypot(y - 50.0) < 4.0 { 0.0 } else { 60.0 };
+/// assert_eq!(untraced_shown(&template, &pose, &Holes::new(), &filter, pin, inside, all), 1);
+/// // Half a turn on, the hole's place is solid.
+/// let turned = Pose { angle: core::f32::consts::PI, ..pose };
+/// assert_eq!(untraced_shown(&template, &turned, &Holes::new(), &filter, pin, inside, all), 0);
+/// // A hole of 2.5 px there, not 4 px: another part's (its centre dips as deep).
+/// let other = |x: f32, y: f32| if (x - 70.0).hypot(y - 50.0) < 2.5 { 0.0 } else { 60.0 };
+/// assert_eq!(untraced_shown(&template, &pose, &Holes::new(), &filter, other, inside, all), 0);
+/// ```
+pub fn untraced_shown(
+    template: &Holes,
+    pose: &Pose,
+    part: &Holes,
+    filter: &BorderFilter,
+    d: impl Fn(f32, f32) -> f32,
+    inside: impl Fn(f32, f32) -> bool,
+    counts: impl Fn(&Hole) -> bool,
+) -> usize {
+    let scale = pose.scale;
+    template
+        .as_slice()
+        .iter()
+        .filter(|h| counts(h) && !traceable(h, scale, filter))
+        .filter(|h| {
+            let at = pose.apply(h.centre);
+            let reach = reach(h, scale);
+            let near = part.as_slice().iter().any(|q| {
+                let (dx, dy) = (q.centre[0] - at[0], q.centre[1] - at[1]);
+                dx * dx + dy * dy <= reach * reach
+            });
+            let r = radius(h.area * scale * scale);
+            // As wide as a hole that would be found for it: the lower end of HOLE_AREA_RATIO's
+            // band, where the half-contrast edge of the smallest such hole lies.
+            let rim = r / crate::math::sqrt(HOLE_AREA_RATIO);
+            !near
+                && dip_and_face(at, r, &d, &inside).is_some_and(|(centre, face)| {
+                    let around = DIRS
+                        .iter()
+                        .map(|u| d(at[0] + rim * u[0], at[1] + rim * u[1]))
+                        .sum::<f32>();
+                    centre < SOLID_KEEPS * face && around < 0.5 * face * DIRS.len() as f32
+                })
+        })
+        .count()
+}
+
 /// How many times the frame's edge blur σ a hole's radius must be for the blur to leave it
 /// open in the mask ([`solid_where_a_hole_is`]): a disc of platform of radius `r` blurred by a
 /// Gaussian of σ keeps `exp(−r²/2σ²)` of the face's contrast at its centre, 1.1 % at 3σ, below

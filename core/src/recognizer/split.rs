@@ -27,9 +27,12 @@
 //!   then taken for one part. [`Recognizer::set_junction_gate`] turns the rule off (to hold it
 //!   against the search: every blob of the accuracy sets keeps its result, `docs/performance.md`).
 //! - *Holes.* A part of a blob inside the frame lies wholly inside it, holes and all, and its
-//!   fit needs every hole of its template found, each in a hole of the blob of its own: a
-//!   template with more holes than the blob is not searched (exact: such a fit is never kept).
-//!   An unknown part without holes is searched only for the templates without holes.
+//!   fit needs every hole of its template shown: found, each in a hole of the blob of its own,
+//!   where the tracing keeps a hole that size ([`crate::pose::holes::traceable`]), and as a dip
+//!   of `|D|` as wide as the hole where it does not (a pin's end-hole under `min_area`:
+//!   [`crate::pose::holes::untraced_shown`]). A template with more holes the tracing keeps at
+//!   its least scale than the blob has is not searched (exact: such a fit is never kept). An
+//!   unknown part without holes is searched only for the templates without such holes.
 //!
 //! And the open DP of a template ([`crate::shape::arcs::best_arcs`]) first bounds, at a fraction
 //! of its cost, whether any run could cover the third of the template a hypothesis needs; where
@@ -57,7 +60,8 @@
 //! edge points outside the frame or within a profile's reach of its edge at the aligned pose;
 //! another part of the same blob that lies wholly inside is held to the share inside, and is
 //! not reported cut), scores within [`PARTIAL_LIMIT`] of its limit, lies in its scale range and
-//! shows every hole it has that the pose puts inside the frame. A fit whose holes pin its pose
+//! shows every hole it has that the pose puts inside the frame (as above: in the mask, or as a
+//! dip for a hole too small for the tracing). A fit whose holes pin its pose
 //! (every hole of its template found, one off its centre, and no other hole of the blob inside
 //! its outline) may depart from its template's outline as a real part of its type does, as a
 //! whole part may ([`crate::recognizer::NEAR_MISS`]): [`NEAR_MISS`] times [`PARTIAL_LIMIT`],
@@ -105,7 +109,7 @@ use crate::borders::resample::resample;
 use crate::library::template::Template;
 use crate::math;
 use crate::pixels::frame::Frame;
-use crate::pose::holes::{agreement, HoleAgreement, Holes};
+use crate::pose::holes::{agreement, traceable, untraced_shown, Hole, HoleAgreement, Holes};
 use crate::pose::refine::{align_recording, edge_distances, Difference, Outline, Pose, RefineParams};
 use crate::recognizer::{Detection, Recognizer, Report, SkipReason, NEAR_MISS};
 use crate::shape::arcs::{best_arcs, turning, ArcMatch, ArcParams};
@@ -677,9 +681,17 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 continue;
             }
             // A part of a blob inside the frame lies wholly inside it, holes and all: its fit
-            // needs every hole of its template found ([`Self::partial_fit`]), each in a hole of
-            // the blob of its own ([`agreement`]). A blob with fewer holes cannot hold it.
-            if !whole.touches_edge && t.holes().len() > part_holes.len() {
+            // needs every hole of its template that the tracing keeps found
+            // ([`Self::partial_fit`]), each in a hole of the blob of its own ([`agreement`]). A
+            // blob with fewer holes than those kept at the least scale cannot hold it.
+            let filter = params.filter();
+            let kept = t
+                .holes()
+                .as_slice()
+                .iter()
+                .filter(|h| traceable(h, lo, &filter))
+                .count();
+            if !whole.touches_edge && kept > part_holes.len() {
                 continue;
             }
             // Every STRIDE-th template point, the border at the same step.
@@ -1033,22 +1045,33 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let limit = limit_at(pose.scale);
         let distance = if seen > 0 { sum / seen as f32 } else { f32::INFINITY };
         let holes = agreement(t.holes(), &pose, part_holes);
-        // Every hole the pose puts wholly inside the frame must be there: every hole of a part
-        // of a blob inside the frame.
-        let in_frame = t
-            .holes()
-            .as_slice()
-            .iter()
-            .filter(|hole| {
-                if blob_inside {
-                    return true;
-                }
-                let [x, y] = pose.apply(hole.centre);
-                let r = math::sqrt(hole.area / core::f32::consts::PI) * pose.scale + 1.0;
-                x >= r && y >= r && x <= w - 1.0 - r && y <= h - 1.0 - r
-            })
-            .count();
-        let holes_there = usize::from(holes.found) >= in_frame;
+        // Every hole the pose puts wholly inside the frame must be there (every hole of a part
+        // of a blob inside the frame): in a hole of the blob, or, for a hole too small for the
+        // tracing to keep, as a dip of |D| ([`untraced_shown`]; a pin's end-hole, which also
+        // tells its ends apart).
+        let counts = |hole: &Hole| {
+            if blob_inside {
+                return true;
+            }
+            let [x, y] = pose.apply(hole.centre);
+            let r = math::sqrt(hole.area / core::f32::consts::PI) * pose.scale + 1.0;
+            x >= r && y >= r && x <= w - 1.0 - r && y <= h - 1.0 - r
+        };
+        let in_frame = t.holes().as_slice().iter().filter(|hole| counts(hole)).count();
+        let shown = if usize::from(holes.found) >= in_frame {
+            0
+        } else {
+            untraced_shown(
+                t.holes(),
+                &pose,
+                part_holes,
+                &params.filter(),
+                |x, y| diff.bilinear(x, y).abs(),
+                |x, y| x >= 0.0 && y >= 0.0 && x <= w - 1.0 && y <= h - 1.0,
+                counts,
+            )
+        };
+        let holes_there = usize::from(holes.found) + shown >= in_frame;
         let pinned = pinned(&holes) && !foreign_hole(t, &pose, part_holes, holes.matched);
         let within = if pinned {
             PARTIAL_LIMIT * NEAR_MISS
@@ -1087,10 +1110,11 @@ mod tests {
     // end) and a T (a bar 44 × 10 over a stem 10 × 30), offsets from their area centroids.
     use crate::recognizer::tests::{l_inside as ell, t_inside as tee, taught};
 
-    /// A ring (outer radius 15, hole 6): a template with a hole.
+    /// A ring (outer radius 20, hole 10): a template with a hole the tracing keeps at every
+    /// scale of the default range (radius 7.1 at its least).
     fn ring(t: [f32; 2]) -> bool {
         let r2 = t[0] * t[0] + t[1] * t[1];
-        r2 < 225.0 && r2 > 36.0
+        r2 < 400.0 && r2 > 100.0
     }
 
     /// An ellipse 32 × 20 (no template): a convex unknown part.
@@ -1384,5 +1408,40 @@ mod tests {
         });
         let (_, searched, _) = rec.hypotheses(index, &whole, least, chain, &one, &[], &middle, &mut [0; 4]);
         assert_eq!(searched, 3);
+    }
+
+    /// A pin 64 × 16 with an end-hole of radius 4 (50 px², under the tracing's 64): a hole
+    /// the mask never keeps.
+    fn pin(t: [f32; 2]) -> bool {
+        t[0].abs() < 32.0 && t[1].abs() < 8.0 && (t[0] - 24.0).powi(2) + t[1] * t[1] >= 16.0
+    }
+
+    /// A pin against an unknown part: its end-hole leaves no hole in the blob, yet the partial
+    /// search names it, the right way round (the hole's dip is at the end the pose puts it), and
+    /// the pin template is searched at all for a blob without holes.
+    #[test]
+    fn a_touching_part_is_named_by_a_hole_too_small_for_the_tracing() {
+        let (w, h) = (160usize, 120usize);
+        let mut rec: std::boxed::Box<Rec> = std::boxed::Box::default();
+        rec.set_params(Params {
+            touching_parts: true,
+            ..Params::DEFAULT
+        })
+        .unwrap();
+        let t = taught(pin);
+        assert_eq!(t.holes().len(), 1, "the template keeps its hole");
+        rec.add_template(t).unwrap();
+        // Both ways round, the ellipse against the pin's long side.
+        for deg in [20.0f32, 200.0] {
+            let px = draw(w, h, &[(pin, 70.0, 60.0, deg), (ellipse, 70.0, 77.0, 0.0)]);
+            let report = run(&mut rec, &px, w, h);
+            let named: Vec<_> = report.detections.iter().filter(|d| d.template == Some(0)).collect();
+            assert_eq!(named.len(), 1, "{deg}°: {:?}", report.detections);
+            let d = named[0];
+            assert!(d.touching, "{deg}°: {d:?}");
+            let off = (d.angle_deg - deg).rem_euclid(360.0);
+            assert!(off.min(360.0 - off) < 3.0, "{deg}°: {d:?}");
+            assert!((d.x - 70.0).abs() < 1.5 && (d.y - 60.0).abs() < 1.5, "{deg}°: {d:?}");
+        }
     }
 }
