@@ -30,8 +30,9 @@
 //!   ([`crate::pose::partial_volume::print_deficit`]).
 //! - A hole too small for the tracing (its border under the frame's `min_area`) still shows as
 //!   a dip of `|D|`: [`solid_where_a_hole_is`] vetoes a template whose hole the part shows no
-//!   trace of, and [`hole_dip`] tells a fit from its half turn by where the dips lie (a pin's
-//!   end-hole).
+//!   trace of, [`hole_dip`] tells a fit from its half turn by where the dips lie (a pin's
+//!   end-hole), and [`untraced_shown`] holds a part of a blob of several to such holes (the
+//!   partial search, which asks every hole of a template to be shown).
 //!
 //! Time: O(B) per hole border; [`agreement`] and [`pose_from_holes`] are O(H²) for
 //! `H ≤` [`MAX_HOLES`]. Memory: [`Holes`] is `12·MAX_HOLES + 4` = 100 bytes (in each template,
@@ -560,9 +561,10 @@ pub fn traceable(h: &Hole, scale: f32, filter: &BorderFilter) -> bool {
 /// inside the frame by `inside`), as a hole the blur nearly closes leaves it, and its mean on
 /// the circle of `1/√`[`HOLE_AREA_RATIO`] of the hole's radius below half the face: the dip is
 /// as wide as a hole that would be found for this one (a smaller hole there, another part's,
-/// is not it). A hole whose surroundings the frame does not show is not counted. The partial search holds a part of a
-/// blob to its template's holes: a traced hole each for those the tracing keeps, this dip for
-/// the others (a pin's end-hole, which also tells the pin's ends apart).
+/// is not it). A hole whose surroundings the frame does not show is not counted. The partial
+/// search holds a part of a blob to its template's holes: a traced hole each for those the
+/// tracing keeps, this dip for the others (a pin's end-hole, which also tells the pin's ends
+/// apart).
 ///
 /// ```
 /// use vorl_core::borders::contour::BorderFilter;
