@@ -136,6 +136,14 @@ impl Tolerance {
     /// show what the frame adds to a part's edge (blur, noise, a wall, a shadow's rim).
     pub const MIN_VERIFY: f32 = 0.5;
 
+    /// The factor the alignment (its give-up and distance cap) and the partial search use:
+    /// the class's, but never under the parameters' own limit. A narrowed class is narrowed
+    /// in its decision only: the alignment must first reach the part's best fit, and a partial
+    /// fit's score holds the junction with another part, which no example shows.
+    pub fn search_verify(&self) -> f32 {
+        self.verify.max(1.0)
+    }
+
     /// Whether every value is finite, the factor at least [`Self::MIN_VERIFY`] and the range
     /// ordered around 1.
     pub fn is_valid(&self) -> bool {

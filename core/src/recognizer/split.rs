@@ -111,6 +111,7 @@ use crate::math;
 use crate::pixels::frame::Frame;
 use crate::pose::holes::{agreement, traceable, untraced_shown, Hole, HoleAgreement, Holes};
 use crate::pose::refine::{align_recording, edge_distances, Difference, Outline, Pose, RefineParams};
+use crate::recognizer::verdict::in_frame;
 use crate::recognizer::{Detection, Recognizer, Report, SkipReason, NEAR_MISS};
 use crate::shape::arcs::{best_arcs, turning, ArcMatch, ArcParams};
 
@@ -973,9 +974,8 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             scale: math::clamp(h.seed.scale, lo, hi),
             ..h.seed
         };
-        // A class whose examples agree closely narrows its whole parts' limit, not this one: a
-        // partial fit's score holds the junction with the other parts, which no example shows.
-        let limit_at = |scale: f32| params.verify_limit(t.size() * scale) * t.tolerance().verify.max(1.0);
+        // A class whose examples agree closely narrows its whole parts' limit, not this one.
+        let limit_at = |scale: f32| params.verify_limit(t.size() * scale) * t.tolerance().search_verify();
         let reach = limit_at(seed.scale) / params.verify_threshold.max(f32::MIN_POSITIVE);
         let reach = if reach.is_finite() { reach.max(1.0) } else { 1.0 };
         // More steps than a whole part's: the seed of a run can lie a few degrees off, and a
@@ -1057,8 +1057,8 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             let r = math::sqrt(hole.area / core::f32::consts::PI) * pose.scale + 1.0;
             x >= r && y >= r && x <= w - 1.0 - r && y <= h - 1.0 - r
         };
-        let in_frame = t.holes().as_slice().iter().filter(|hole| counts(hole)).count();
-        let shown = if usize::from(holes.found) >= in_frame {
+        let wanted = t.holes().as_slice().iter().filter(|hole| counts(hole)).count();
+        let shown = if usize::from(holes.found) >= wanted {
             0
         } else {
             untraced_shown(
@@ -1067,11 +1067,11 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 part_holes,
                 &params.filter(),
                 |x, y| diff.bilinear(x, y).abs(),
-                |x, y| x >= 0.0 && y >= 0.0 && x <= w - 1.0 && y <= h - 1.0,
+                |x, y| in_frame(diff, x, y),
                 counts,
             )
         };
-        let holes_there = usize::from(holes.found) + shown >= in_frame;
+        let holes_there = usize::from(holes.found) + shown >= wanted;
         let pinned = pinned(&holes) && !foreign_hole(t, &pose, part_holes, holes.matched);
         let within = if pinned {
             PARTIAL_LIMIT * NEAR_MISS

@@ -86,10 +86,9 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         // (unless the caller never gives up).
         // The distance cap grows with the limit (a large part's edge may lie farther from its
         // template's than a small one's and still be the same part); the profiles keep their
-        // length, which thin rings and slots need. Both take a class's narrowed limit (examples
-        // that agree closely: `Tolerance::MIN_VERIFY`) at the parameters' own: the alignment
-        // must reach the part's best fit before the narrowed limit can judge it.
-        let limit = params.verify_limit(t.size() * seed.scale) * t.tolerance().verify.max(1.0);
+        // length, which thin rings and slots need. Both take a narrowed class's limit at the
+        // parameters' own (`Tolerance::search_verify`).
+        let limit = params.verify_limit(t.size() * seed.scale) * t.tolerance().search_verify();
         let reach = limit / params.verify_threshold.max(f32::MIN_POSITIVE);
         let reach = if reach.is_finite() { reach.max(1.0) } else { 1.0 };
         let rp = RefineParams {
@@ -398,7 +397,7 @@ impl Fit {
 
 /// Whether `(x, y)` lies on the frame's pixels, where `diff` samples the frame itself rather
 /// than its clamped edge (what the hole tests may read).
-fn in_frame<B: AsRef<[u8]>>(diff: &Difference<'_, B>, x: f32, y: f32) -> bool {
+pub(super) fn in_frame<B: AsRef<[u8]>>(diff: &Difference<'_, B>, x: f32, y: f32) -> bool {
     let (w, h) = (diff.width() as f32, diff.height() as f32);
     x >= 0.0 && y >= 0.0 && x <= w - 1.0 && y <= h - 1.0
 }
