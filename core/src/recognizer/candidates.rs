@@ -474,7 +474,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
     }
 
     /// Makes `self.mirror` the mirror image of template `ti` (unless it is already).
-    fn prepare_mirror(&mut self, ti: usize) {
+    pub(super) fn prepare_mirror(&mut self, ti: usize) {
         let Ok(index) = u16::try_from(ti) else {
             return;
         };

@@ -39,7 +39,9 @@
 //! none could, it keeps none without the DP.
 //!
 //! **Hypotheses.** Each template that fits in the blob (its area at the least scale, plus half
-//! the smallest template's inside the frame) is matched against arcs of the blob's border
+//! the smallest template's inside the frame), and the mirror image of each chiral one (a part
+//! lying upside down, with [`crate::Params::flipped_parts`], as the whole part's scan has it;
+//! its fits are reported `flipped`), is matched against arcs of the blob's border
 //! ([`crate::shape::arcs`]: the paper's order-preserving DP, open instead of cyclic, on turning
 //! angles, at every [`STRIDE`]-th template point and the border at that step, the border
 //! resampled at the template's step at the middle of its scale range, and where that leaves
@@ -70,10 +72,19 @@
 //! says less of the border could be confirmed than the fit would need. Kept fits are taken
 //! best first (the more of its template's holes found, as a whole part's fits are ranked: a
 //! rod with two eyes is the two-eyed template's even where the one-eyed template's outline
-//! fits as much of it; then the larger visible share, then the lower score) unless their
+//! fits as much of it; then the larger share of its edge points inside the frame confirmed —
+//! its visible share for a part inside the frame, while a cut part is not held to the points
+//! the frame hides, so a smaller template fitting the visible piece of a larger part does not
+//! win by the larger share of its own outline; then the lower score) unless their
 //! centre falls within half a size of one taken already (the same part matched twice, from
-//! both sides of the blob or by two templates); a pose whose seed falls on a part taken in the
-//! first round is not aligned in the second.
+//! both sides of the blob or by two templates, or by a template and its mirror image, which
+//! are ranked as any two templates are); a pose whose seed
+//! falls on a part taken in the first round is not aligned in the second. (The whole part's
+//! rule for the upside-down reading, the mirror image closer by
+//! [`crate::recognizer::FLIP_EVIDENCE`] over every point, was tried here over the points inside
+//! the frame: the points another part hides count alike for both sides and dilute the ratio,
+//! and it lost right flips on the `touching` sets while changing nothing else,
+//! `docs/accuracy.md`.)
 //!
 //! **Two rounds.** When the parts taken leave [`REST_SHARE`] of the border unexplained (farther
 //! than [`EXPLAINED_PX`] from every taken part's outline), the hypotheses are made once more with
@@ -120,7 +131,7 @@ pub const BLOB_POINTS: usize = 512;
 /// Most parts (with the unexplained rest) reported from one blob.
 pub const MAX_BLOB_PARTS: usize = 8;
 /// Most poses aligned for one blob.
-pub const MAX_HYPOTHESES: usize = 16;
+pub const MAX_HYPOTHESES: usize = 24;
 /// Runs kept per template ([`best_arcs`]).
 pub const RUNS_PER_TEMPLATE: usize = 3;
 /// The partial DP takes every `STRIDE`-th template point, and the border at that step.
@@ -191,7 +202,8 @@ pub const JUNCTION_CHAIN_CHORD: usize = 5;
 /// One pose to align: a template and where a run of its outline puts it.
 #[derive(Debug, Clone, Copy)]
 struct Hypothesis {
-    template: usize,
+    /// Template `slot / 2`, or its mirror image for an odd slot (as the candidate scan's).
+    slot: usize,
     seed: Pose,
     score: f32,
 }
@@ -199,7 +211,8 @@ struct Hypothesis {
 /// A verified partial fit.
 #[derive(Debug, Clone, Copy)]
 struct PartFit {
-    template: usize,
+    /// Template `slot / 2`, or its mirror image for an odd slot: the part lies upside down.
+    slot: usize,
     pose: Pose,
     visible: f32,
     distance: f32,
@@ -210,6 +223,18 @@ struct PartFit {
     /// The frame's edge cuts it: some of its edge points lie outside the frame or within a
     /// profile's reach of its edge at the aligned pose (they could not be confirmed).
     cut: bool,
+    /// The share of its edge points inside the frame that are confirmed.
+    confirmed: f32,
+}
+
+/// A template offset `u` as slot `slot`'s template has it: mirrored left-right (`x → −x`)
+/// for the mirror image's (odd) slot ([`Template::mirror_from`]).
+fn slot_offset(slot: usize, u: [f32; 2]) -> [f32; 2] {
+    if slot % 2 == 1 {
+        [-u[0], u[1]]
+    } else {
+        u
+    }
 }
 
 /// Whether a fit's holes pin its pose: every hole of its template found where the pose puts
@@ -222,26 +247,30 @@ fn pinned(holes: &HoleAgreement) -> bool {
     holes.off_centre > 0 && holes.all_found()
 }
 
+/// Whether hole `j` of the blob's [`Holes`] is one that the fit's template explains
+/// (`matched`, as [`HoleAgreement::matched`]).
+fn explained(matched: u8, j: usize) -> bool {
+    u8::try_from(j)
+        .ok()
+        .and_then(|j| 1u8.checked_shl(u32::from(j)))
+        .is_some_and(|bit| matched & bit != 0)
+}
+
 /// Whether a hole of the blob that the fit's template does not explain (`matched`, as
 /// [`HoleAgreement::matched`]) has its centre inside the template's outline at `pose`: the
 /// part there is not this template (another one's holes fall in it).
 fn foreign_hole<const M: usize>(t: &Template<M>, pose: &Pose, part_holes: &Holes, matched: u8) -> bool {
-    part_holes.as_slice().iter().enumerate().any(|(j, hole)| {
-        let explained = u8::try_from(j)
-            .ok()
-            .and_then(|j| 1u8.checked_shl(u32::from(j)))
-            .is_some_and(|bit| matched & bit != 0);
-        if explained {
-            return false;
-        }
-        inside_outline(t, pose, hole.centre)
-    })
+    part_holes
+        .as_slice()
+        .iter()
+        .enumerate()
+        .any(|(j, hole)| !explained(matched, j) && inside_outline(t, 0, pose, hole.centre))
 }
 
-/// Whether `point` lies inside template `t`'s outline at `pose` (even–odd crossings of a ray
-/// from it along +x).
-fn inside_outline<const M: usize>(t: &Template<M>, pose: &Pose, point: [f32; 2]) -> bool {
-    math::polygon_holds(t.edge().iter().map(|a| pose.apply(*a)), point)
+/// Whether `point` lies inside slot `slot`'s outline of template `t` ([`slot_offset`]) at
+/// `pose` (even–odd crossings of a ray from it along +x).
+fn inside_outline<const M: usize>(t: &Template<M>, slot: usize, pose: &Pose, point: [f32; 2]) -> bool {
+    math::polygon_holds(t.edge().iter().map(|a| pose.apply(slot_offset(slot, *a))), point)
 }
 
 /// The rest of a blob: the longest run of unexplained border points (`marks` 0) closed by the
@@ -306,7 +335,8 @@ fn rest_centroid(points: &[[f32; 2]], marks: &[f32]) -> Rest {
 }
 
 /// Sets `out[i]` to `value` for every border point `pts[i]` that a part in `taken` explains:
-/// within [`EXPLAINED_PX`] of its template's outline at its pose.
+/// within [`EXPLAINED_PX`] of its template's outline (mirrored for a part upside down) at its
+/// pose.
 fn mark_explained<const M: usize>(
     templates: &[Template<M>],
     taken: &[PartFit],
@@ -315,13 +345,14 @@ fn mark_explained<const M: usize>(
     value: f32,
 ) {
     for f in taken {
-        let Some(t) = templates.get(f.template) else {
+        let Some(t) = templates.get(f.slot / 2) else {
             continue;
         };
         let outline = Outline::new(t.edge());
         let cap = EXPLAINED_PX / f.pose.scale;
         for (q, o) in pts.iter().zip(out.iter_mut()) {
-            if *o != value && f.pose.invert(*q).is_some_and(|u| outline.capped_distance(u, cap) < cap) {
+            let near = |u: [f32; 2]| outline.capped_distance(slot_offset(f.slot, u), cap) < cap;
+            if *o != value && f.pose.invert(*q).is_some_and(near) {
                 *o = value;
             }
         }
@@ -543,9 +574,9 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let mut explained = false;
         for round in 0..2 {
             let before = taken.len();
-            let mut steps = [1u8 << MIDDLE_STEP; T];
+            let mut steps = [[1u8 << MIDDLE_STEP; 2]; T];
             for pass in 0..2 {
-                let mut pointed = [0u8; T];
+                let mut pointed = [[0u8; 2]; T];
                 let (hyps, s, too_long) =
                     self.hypotheses(index, whole, least, chain, part_holes, &taken, &steps, &mut pointed);
                 searched += s;
@@ -558,10 +589,10 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                     rest = self.unexplained(index, count, &taken);
                     explained = (rest.unexplained as f32) < REST_SHARE * count as f32;
                 }
-                for p in &mut pointed {
+                for p in pointed.as_flattened_mut() {
                     *p &= !(1 << MIDDLE_STEP);
                 }
-                if explained || pass > 0 || pointed.iter().all(|p| *p == 0) {
+                if explained || pass > 0 || pointed.as_flattened().iter().all(|p| *p == 0) {
                     break;
                 }
                 steps = pointed;
@@ -582,21 +613,22 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let run_len = rest.run as f32 * chain / count.max(1) as f32;
         let outside = !taken.iter().any(|f| {
             self.templates
-                .get(f.template)
-                .is_some_and(|t| inside_outline(t, &f.pose, rest.at))
+                .get(f.slot / 2)
+                .is_some_and(|t| inside_outline(t, f.slot, &f.pose, rest.at))
         });
         let rest_part = rest.run as f32 >= REST_SHARE * count as f32
             && outside
             && rest.area - run_len * limit >= self.params.min_area;
         let several = taken.len() > 1 || rest_part;
         for f in &taken {
-            let Some(t) = self.templates.get(f.template) else {
+            let Some(t) = self.templates.get(f.slot / 2) else {
                 continue;
             };
-            let [x, y] = f.pose.apply(t.position_offset());
+            let [x, y] = f.pose.apply(slot_offset(f.slot, t.position_offset()));
+            let ti = u16::try_from(f.slot / 2).ok();
             let d = Detection {
-                template: Some(f.template as u16),
-                best_template: Some(f.template as u16),
+                template: ti,
+                best_template: ti,
                 score: f32::INFINITY,
                 x,
                 y,
@@ -606,7 +638,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 scale: f.pose.scale,
                 pose: Some(f.pose),
                 holes: f.holes,
-                flipped: false,
+                flipped: f.slot % 2 == 1,
                 searches: u8::try_from(searched).unwrap_or(u8::MAX),
                 touching: several,
                 visible_fraction: f.visible,
@@ -640,11 +672,13 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
     }
 
     /// The poses to align for blob `index`: the best runs of each template along its border
-    /// ([`best_arcs`]), at most [`MAX_HYPOTHESES`]; border points the parts in `taken`
-    /// explain take part in no run. Template `ti` is searched at the scale points (of
-    /// [`SCALE_STEPS`]) set in `steps[ti]` (bit `s` for point `s`); `pointed[ti]` gets the bit of
-    /// the scale point nearest (geometrically) each of its runs' fitted scales. Also the
-    /// templates searched, and whether the blob was too long for one of them.
+    /// ([`best_arcs`]), and of the mirror image of each chiral one (a part upside down, with
+    /// [`crate::Params::flipped_parts`]), at most [`MAX_HYPOTHESES`]; border points the parts
+    /// in `taken` explain take part in no run. Template `ti` is searched at the scale points
+    /// (of [`SCALE_STEPS`]) set in `steps[ti][0]` (bit `s` for point `s`), its mirror image at
+    /// those in `steps[ti][1]`; `pointed` gets the bit of the scale point nearest
+    /// (geometrically) each of their runs' fitted scales. Also the templates searched, and
+    /// whether the blob was too long for one of them.
     #[allow(clippy::too_many_arguments)]
     fn hypotheses(
         &mut self,
@@ -654,22 +688,36 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         chain: f32,
         part_holes: &Holes,
         taken: &[PartFit],
-        steps: &[u8; T],
-        pointed: &mut [u8; T],
+        steps: &[[u8; 2]; T],
+        pointed: &mut [[u8; 2]; T],
     ) -> (heapless::Vec<Hypothesis, MAX_HYPOTHESES>, usize, bool) {
         let params = self.params;
-        let border = self.store.points(index);
         let mut hyps: heapless::Vec<Hypothesis, MAX_HYPOTHESES> = heapless::Vec::new();
         let mut searched = 0usize;
         let mut too_long = false;
-        for ti in 0..self.templates.len() {
-            let Some(t) = self.templates.get(ti) else {
-                continue;
-            };
-            let want = steps.get(ti).copied().unwrap_or(0);
+        for slot in 0..2 * self.templates.len() {
+            let (ti, side) = (slot / 2, slot % 2);
+            let want = steps.get(ti).and_then(|s| s.get(side)).copied().unwrap_or(0);
             if want == 0 {
                 continue;
             }
+            // The mirror image of a chiral template: a part lying upside down (as a whole
+            // part's scan has it). A template with a mirror axis is its own mirror image.
+            if side == 1 {
+                if !(params.flipped_parts && self.templates.get(ti).is_some_and(|t| t.is_chiral())) {
+                    continue;
+                }
+                self.prepare_mirror(ti);
+            }
+            let t = if side == 1 {
+                &self.mirror
+            } else {
+                let Some(t) = self.templates.get(ti) else {
+                    continue;
+                };
+                t
+            };
+            let border = self.store.points(index);
             let (lo, _) = t.tolerance().scale_range(params.scale_min, params.scale_max);
             // A blob inside the frame holds the template and another part (or a rest) that
             // shows at least `least`; one the frame's edge cuts, half of the template.
@@ -777,7 +825,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                         continue;
                     };
                     // The scale point nearest the run's fitted scale.
-                    if let Some(p) = pointed.get_mut(ti) {
+                    if let Some(p) = pointed.get_mut(ti).and_then(|p| p.get_mut(side)) {
                         let (mut nearest, mut at) = (s, scale);
                         while nearest > 0 && seed.scale < at / half {
                             nearest -= 1;
@@ -792,7 +840,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                     // A run's score sums over its border points, more of them the smaller the
                     // step: per length of border at the middle scale, to compare the steps'.
                     let h = Hypothesis {
-                        template: ti,
+                        slot,
                         seed,
                         score: run.score * scale / middle,
                     };
@@ -813,10 +861,12 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
     }
 
     /// Each pose aligned and verified on the visible edge ([`Self::partial_fit`]); the fits
-    /// taken into `taken` best first (the more holes found, then the larger visible share, then
-    /// the lower score), unless their centre falls within half a size of one taken already.
+    /// taken into `taken` best first (the more holes found, then the larger share of the edge
+    /// points inside the frame confirmed, then the lower score), unless their centre falls
+    /// within half a size of one taken already. A hypothesis of a mirror image has it made in
+    /// the recognizer's scratch template first.
     fn take_fits<B: AsRef<[u8]>>(
-        &self,
+        &mut self,
         hyps: &[Hypothesis],
         diff: &Difference<'_, B>,
         part_holes: &Holes,
@@ -828,15 +878,18 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         // not be taken.
         let mut fits: heapless::Vec<PartFit, MAX_HYPOTHESES> = heapless::Vec::new();
         for h in hyps {
-            let Some(t) = self.templates.get(h.template) else {
-                continue;
-            };
             if taken
                 .iter()
-                .any(|f| self.same_place(f, h.template, h.seed.x, h.seed.y, h.seed.scale))
+                .any(|f| self.same_place(f, h.slot / 2, h.seed.x, h.seed.y, h.seed.scale))
             {
                 continue;
             }
+            if h.slot % 2 == 1 {
+                self.prepare_mirror(h.slot / 2);
+            }
+            let Some(t) = self.slot_template(h.slot) else {
+                continue;
+            };
             // Half the border for a part the frame's edge cuts (not for another part of its
             // blob that lies wholly inside), 65 % for one its holes pin.
             let least_visible = |f: &PartFit| {
@@ -852,21 +905,19 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 .partial_fit(t, h, diff, part_holes, blob_inside)
                 .filter(|f| f.visible >= least_visible(f))
             {
-                let _ = fits.push(PartFit {
-                    template: h.template,
-                    ..fit
-                });
+                let _ = fits.push(PartFit { slot: h.slot, ..fit });
             }
         }
         // Best first: the more of its template's holes found (as a whole part's fits are
         // ranked: a rod with two eyes is the two-eyed template's, even where the one-eyed
-        // template's outline fits as much of it), then the larger visible share, then the
-        // lower score.
+        // template's outline fits as much of it), then the larger share of the edge points
+        // inside the frame confirmed (the visible share, for a part inside it), then the lower
+        // score.
         let before = |a: &PartFit, b: &PartFit| {
             if a.holes.found != b.holes.found {
                 return a.holes.found > b.holes.found;
             }
-            a.visible > b.visible || (a.visible == b.visible && a.distance / a.limit < b.distance / b.limit)
+            a.confirmed > b.confirmed || (a.confirmed == b.confirmed && a.distance / a.limit < b.distance / b.limit)
         };
         for i in 1..fits.len() {
             let mut j = i;
@@ -878,7 +929,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         for f in &fits {
             let clash = taken
                 .iter()
-                .any(|g| self.same_place(g, f.template, f.pose.x, f.pose.y, f.pose.scale));
+                .any(|g| self.same_place(g, f.slot / 2, f.pose.x, f.pose.y, f.pose.scale));
             if !clash && taken.push(*f).is_err() {
                 break;
             }
@@ -891,7 +942,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         let size = self.templates.get(template).map_or(0.0, |t| t.size() * scale);
         let other = self
             .templates
-            .get(fit.template)
+            .get(fit.slot / 2)
             .map_or(0.0, |t| t.size() * fit.pose.scale);
         math::hypot(x - fit.pose.x, y - fit.pose.y) < 0.5 * size.min(other)
     }
@@ -1042,6 +1093,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             }
         }
         let visible = seen as f32 / m.max(1) as f32;
+        let confirmed = seen as f32 / k.max(1) as f32;
         let limit = limit_at(pose.scale);
         let distance = if seen > 0 { sum / seen as f32 } else { f32::INFINITY };
         let holes = agreement(t.holes(), &pose, part_holes);
@@ -1079,7 +1131,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             PARTIAL_LIMIT
         };
         (visible >= MIN_VISIBLE && distance < within * limit && holes_there).then_some(PartFit {
-            template: 0,
+            slot: 0,
             pose,
             visible,
             distance,
@@ -1087,6 +1139,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             holes,
             pinned,
             cut: k < m,
+            confirmed,
         })
     }
 }
@@ -1396,18 +1449,27 @@ mod tests {
             ..report.detections[0]
         };
         let least = rec.least_part_area();
-        // At the middle of each template's range.
-        let middle = [1u8 << MIDDLE_STEP; 4];
-        let (_, searched, _) = rec.hypotheses(index, &whole, least, chain, &Holes::new(), &[], &middle, &mut [0; 4]);
-        // The L and the T; not the ring.
-        assert_eq!(searched, 2);
+        // At the middle of each template's range (and of the mirror image's).
+        let middle = [[1u8 << MIDDLE_STEP; 2]; 4];
+        let (_, searched, _) = rec.hypotheses(
+            index,
+            &whole,
+            least,
+            chain,
+            &Holes::new(),
+            &[],
+            &middle,
+            &mut [[0; 2]; 4],
+        );
+        // The L, its mirror image (it is chiral) and the T; not the ring.
+        assert_eq!(searched, 3);
         let mut one = Holes::new();
         one.insert(crate::pose::holes::Hole {
             centre: [60.0, 60.0],
             area: 110.0,
         });
-        let (_, searched, _) = rec.hypotheses(index, &whole, least, chain, &one, &[], &middle, &mut [0; 4]);
-        assert_eq!(searched, 3);
+        let (_, searched, _) = rec.hypotheses(index, &whole, least, chain, &one, &[], &middle, &mut [[0; 2]; 4]);
+        assert_eq!(searched, 4);
     }
 
     /// A pin 64 × 16 with an end-hole of radius 4 (50 px², under the tracing's 64): a hole
@@ -1442,6 +1504,45 @@ mod tests {
             let off = (d.angle_deg - deg).rem_euclid(360.0);
             assert!(off.min(360.0 - off) < 3.0, "{deg}°: {d:?}");
             assert!((d.x - 70.0).abs() < 1.5 && (d.y - 60.0).abs() < 1.5, "{deg}°: {d:?}");
+        }
+    }
+
+    /// The L upside down: the template mirrored left-right, as the contract draws it.
+    fn ell_flipped(t: [f32; 2]) -> bool {
+        ell([-t[0], t[1]])
+    }
+
+    /// An L lying upside down against an unknown part, in one blob: the partial search matches
+    /// the mirror image of a chiral template too, and names the L `flipped` at the contract's
+    /// angle (the template mirrored, then turned); the same scene with the L the right way up
+    /// is not flipped.
+    #[test]
+    fn a_touching_part_upside_down_is_named_by_the_mirror_image() {
+        let (w, h) = (160usize, 120usize);
+        let mut rec = recognizer(true);
+        for (shape, flipped) in [(ell_flipped as Inside, true), (ell, false)] {
+            // The ellipse along the top of the L's bar (the same edge either way up), half a
+            // pixel over it.
+            let (deg, at) = (25.0f32, [62.0f32, 60.0]);
+            let px = draw(
+                w,
+                h,
+                &[(shape, at[0], at[1], deg), (ellipse, at[0] - 7.6, at[1] - 16.3, deg)],
+            );
+            let report = run(&mut rec, &px, w, h);
+            let l = report
+                .detections
+                .iter()
+                .find(|d| d.template == Some(0))
+                .unwrap_or_else(|| panic!("flipped {flipped}: no L in {:?}", report.detections));
+            assert!(l.touching, "{l:?}");
+            assert_eq!(l.flipped, flipped, "{l:?}");
+            let off = (l.angle_deg - deg).rem_euclid(360.0);
+            assert!(off.min(360.0 - off) < 2.0, "flipped {flipped}: {l:?}");
+            assert!(
+                (l.x - at[0]).abs() < 1.0 && (l.y - at[1]).abs() < 1.0,
+                "flipped {flipped}: {l:?}"
+            );
         }
     }
 }

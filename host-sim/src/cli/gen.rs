@@ -15,8 +15,8 @@ use crate::gen::{generate, GenOptions, Variant};
     stereo    left/right pairs, camera.json, depth in truth\n  \
     flipped   as default, about half the chiral parts upside down; truth adds flipped, chiral\n  \
     touching  as default, about 60 % of the parts against or over another (up to 12 % of the\n            \
-              smaller one's area); truth adds touching, visible_fraction; writes vorl.toml\n            \
-              (touching_parts = true)\n\
+              smaller one's area), about half the chiral parts upside down; truth adds touching,\n            \
+              visible_fraction, flipped, chiral; writes vorl.toml (touching_parts = true)\n\
     Variants (what real cameras do; each also writes variant.json with its parameters):\n  \
     sharp     sharp-cornered parts (rectangular-tooth gear, snail cam, square L bracket, …) under\n            \
               0.7 px blur; crisp templates\n  \

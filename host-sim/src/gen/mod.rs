@@ -210,8 +210,10 @@ pub enum Variant {
     /// `l_long`) lying upside down; truth adds `"flipped": true` and `"chiral"`.
     Flipped,
     /// As `default`, with about 60 % of the parts moved against another part, merely touching
-    /// it or lying over it by up to 12 % of the smaller one's area; truth marks
-    /// both `"touching": true`, and the lower one's `visible_fraction`.
+    /// it or lying over it by up to 12 % of the smaller one's area, and about half of the
+    /// chiral template parts (`l_bracket`, `shaft_key`, `wrench`) lying upside down; truth marks
+    /// both `"touching": true`, and the lower one's `visible_fraction`, and adds `"flipped"`
+    /// and `"chiral"` as `flipped` does.
     Touching,
     /// As `rods`, with the parts moved against and over one another as in `touching` (two real
     /// rods lying against each other, each off its template's outline, as in the real photos'
@@ -298,6 +300,15 @@ impl Variant {
     /// `rods-touching`).
     pub fn is_rods(self) -> bool {
         matches!(self, Variant::Rods | Variant::RodsTouching)
+    }
+
+    /// For each part of the [`Self::catalogue`], whether it is a chiral template (its mirror
+    /// image matches no turn of it): what `flipped` and `touching` lay upside down.
+    pub fn chiral_templates(self) -> Vec<bool> {
+        self.catalogue()
+            .iter()
+            .map(|p| p.is_template && p.is_chiral())
+            .collect()
     }
 
     /// Whether the variant moves parts against and over one another (`touching`,
@@ -509,8 +520,9 @@ enum Effect {
     /// `flipped`: which parts of the catalogue are chiral (by index); about half of those lie
     /// upside down.
     Flipped(Vec<bool>),
-    /// `touching`: parts moved against and over one another.
-    Touching,
+    /// `touching`: parts moved against and over one another; which parts of the catalogue are
+    /// chiral (by index): about half of those lie upside down.
+    Touching(Vec<bool>),
     /// `frontlit`: this light and mat (its texture part of the platform).
     Frontlit(FrontLight),
     /// `large`: this printed paper is the platform.
@@ -581,8 +593,8 @@ impl SetPlan {
             _ if v == Variant::Backlit || v.is_rods() => Effect::Backlit(Backlight::random(&mut fx, w, h)),
             Variant::Exposure => Effect::Exposure,
             Variant::Printed => Effect::Printed,
-            Variant::Flipped => Effect::Flipped(v.catalogue().iter().map(|p| p.is_template && p.is_chiral()).collect()),
-            Variant::Touching => Effect::Touching,
+            Variant::Flipped => Effect::Flipped(v.chiral_templates()),
+            Variant::Touching => Effect::Touching(v.chiral_templates()),
             Variant::Frontlit => Effect::Frontlit(FrontLight::random(&mut fx, w, h)),
             Variant::Large => Effect::Large(large::Paper::random(&mut fx, w, h, px_per_mm)),
             _ => Effect::Ideal,
@@ -683,10 +695,11 @@ impl SetPlan {
             }),
             Effect::Printed => json!({ "printed_share": print::PRINTED_SHARE }),
             Effect::Flipped(_) => json!({ "flipped_share": FLIPPED_SHARE }),
-            Effect::Touching => json!({
+            Effect::Touching(_) => json!({
                 "touching_share": touching::TOUCHING_SHARE,
                 "overlap_max": touching::OVERLAP_MAX,
                 "just_touching": touching::JUST_TOUCHING,
+                "flipped_share": FLIPPED_SHARE,
             }),
             Effect::Frontlit(f) => json!({
                 "model": "mat = smooth lighting + texture; part = lit mat + contrast + shading * (q . toward) / radius + highlights, or lit mat + facet_level on its facet; shadow = silhouette moved by offset, blurred by sigma, times depth, under the parts",
@@ -727,7 +740,7 @@ impl SetPlan {
         if let (Some(o), Some(p)) = (v.as_object_mut(), params.as_object()) {
             o.extend(p.clone());
         }
-        if self.touching && !matches!(self.effect, Effect::Touching) {
+        if self.touching && !matches!(self.effect, Effect::Touching(_)) {
             v["touching_share"] = json!(touching::TOUCHING_SHARE);
             v["overlap_max"] = json!(touching::OVERLAP_MAX);
             v["just_touching"] = json!(touching::JUST_TOUCHING);
@@ -909,20 +922,7 @@ impl SetPlan {
                 Effect::Flipped(chiral)
                     if chiral.get(p.spec).copied().unwrap_or(false) && rng.chance(FLIPPED_SHARE) =>
                 {
-                    let mirrored = spec.mirrored();
-                    // Still inside the frame by the margin (the mirror image's bounds differ).
-                    let b = bounds(&p.pose.rings(mirrored.rings()));
-                    let (w, h) = (self.w as f64, self.h as f64);
-                    let m = scene::INSIDE_MARGIN_PX;
-                    if b[0] >= m && b[1] >= m && b[2] <= w - 1.0 - m && b[3] <= h - 1.0 - m {
-                        p.varied = Some(Arc::new(shapes::Varied {
-                            spec: mirrored,
-                            stretch: 1.0,
-                            factors: Vec::new(),
-                        }));
-                        p.flipped = true;
-                        p.look.texture = p.look.texture.mirrored();
-                    }
+                    self.lay_upside_down(p);
                 }
                 Effect::Printed => {
                     let printed = rng
@@ -934,6 +934,24 @@ impl SetPlan {
                 }
                 _ => {}
             }
+        }
+    }
+
+    /// Lays part `p` upside down (drawn as its mirror image), unless that would take it
+    /// nearer the frame's edge than the margin (the mirror image's bounds differ).
+    fn lay_upside_down(&self, p: &mut Placed) {
+        let mirrored = p.drawn(&self.cat).mirrored();
+        let b = bounds(&p.pose.rings(mirrored.rings()));
+        let (w, h) = (self.w as f64, self.h as f64);
+        let m = scene::INSIDE_MARGIN_PX;
+        if b[0] >= m && b[1] >= m && b[2] <= w - 1.0 - m && b[3] <= h - 1.0 - m {
+            p.varied = Some(Arc::new(shapes::Varied {
+                spec: mirrored,
+                stretch: 1.0,
+                factors: Vec::new(),
+            }));
+            p.flipped = true;
+            p.look.texture = p.look.texture.mirrored();
         }
     }
 
@@ -950,6 +968,15 @@ impl SetPlan {
         let scene = self.scene_of(index);
         let mut rng = Rng::stream(self.seed, purpose::LAYOUT, scene as u64);
         let mut parts = self.plan(&mut rng);
+        if let Effect::Touching(chiral) = &self.effect {
+            // Upside down before they are moved together: the mirror image is what touches.
+            let mut flips = Rng::stream(self.seed, purpose::TOUCHING_FLIP, scene as u64);
+            for p in parts.iter_mut() {
+                if chiral.get(p.spec).copied().unwrap_or(false) && flips.chance(FLIPPED_SHARE) {
+                    self.lay_upside_down(p);
+                }
+            }
+        }
         if self.touching {
             let mut fx = Rng::stream(self.seed, purpose::EFFECT_SCENE, scene as u64);
             touching::bring_together(&mut fx, &self.cat, &mut parts, self.w, self.h);
@@ -1021,7 +1048,7 @@ impl SetPlan {
             }
             _ => {}
         }
-        if let Effect::Flipped(chiral) = &self.effect {
+        if let Effect::Flipped(chiral) | Effect::Touching(chiral) = &self.effect {
             if spec.is_template {
                 put("chiral", json!(chiral.get(p.spec).copied().unwrap_or(false)));
             }

@@ -27,6 +27,9 @@ pub(crate) mod purpose {
     pub(crate) const EFFECT_SCENE: u64 = 7;
     /// Exposure (gain, offset) of a frame (index = frame).
     pub(crate) const EXPOSURE: u64 = 8;
+    /// Which chiral parts of a `touching` scene lie upside down (index = scene; drawn before
+    /// the parts are moved together, so `bring_together` draws what it drew).
+    pub(crate) const TOUCHING_FLIP: u64 = 9;
 }
 
 /// SplitMix64 finaliser: a bijective mix of 64 bits.
