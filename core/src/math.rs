@@ -35,6 +35,12 @@ pub fn powf(x: f32, y: f32) -> f32 {
     libm::powf(x, y)
 }
 
+/// The natural logarithm of `x` (NaN for a negative `x`, −∞ at 0).
+#[inline]
+pub fn ln(x: f32) -> f32 {
+    libm::logf(x)
+}
+
 /// Round half away from zero.
 #[inline]
 pub fn round(x: f32) -> f32 {

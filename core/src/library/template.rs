@@ -524,6 +524,14 @@ impl<const M: usize> Template<M> {
         self.tolerance = src.tolerance;
     }
 
+    /// Whether the template's holes are the same half a turn on: each hole turned by 180° about
+    /// the area centroid lies on a hole of like area (true without holes). Where they are not
+    /// (a plate with a large and a small hole on its axis), they tell a part from its half turn
+    /// even where the outline does not ([`Self::half_turn`]).
+    pub fn holes_repeat_half_turn(&self) -> bool {
+        self.holes_gap(|c| [-c[0], -c[1]]) == 0.0
+    }
+
     /// How far the outline is from 2-fold symmetric: the mean distance of its edge turned by
     /// 180° to the edge itself, over [`Self::size`]. Near 0 (elongated parts such as rods,
     /// 2-fold parts) the DP's correspondence may be half a turn off, and the recognizer aligns

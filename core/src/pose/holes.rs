@@ -292,6 +292,38 @@ impl HoleAgreement {
     }
 }
 
+/// How far the sizes of `part`'s holes are from `template`'s where `pose` puts them: over the
+/// template's holes, the sum of `|ln(a / a′)|` for the nearest part hole's area `a` and the
+/// template hole's area at the pose's scale `a′` (0 without template holes; infinite when the
+/// part has none). [`agreement`] lets a hole be up to [`HOLE_AREA_RATIO`] off in area, so a
+/// part whose outline is the same half a turn on (a plate with a large and a small hole on its
+/// axis) finds its holes both ways round; their sizes still tell which way is right.
+pub fn size_misfit(template: &Holes, pose: &Pose, part: &Holes) -> f32 {
+    let scale = pose.scale;
+    template
+        .as_slice()
+        .iter()
+        .map(|h| {
+            let at = pose.apply(h.centre);
+            let nearest = part.as_slice().iter().min_by(|a, b| {
+                let d = |q: &&Hole| {
+                    let (dx, dy) = (q.centre[0] - at[0], q.centre[1] - at[1]);
+                    dx * dx + dy * dy
+                };
+                d(a).total_cmp(&d(b))
+            });
+            nearest.map_or(f32::INFINITY, |q| {
+                let ratio = q.area / (h.area * scale * scale);
+                if ratio > 0.0 {
+                    crate::math::ln(ratio).abs()
+                } else {
+                    f32::INFINITY
+                }
+            })
+        })
+        .sum()
+}
+
 /// Which of `template`'s holes (centres as offsets from its area centroid) `part`'s holes
 /// (centres in the frame) show where `pose` puts them (see the module doc). Each part hole
 /// serves at most one template hole; the template's holes are taken largest first, each the

@@ -1397,6 +1397,63 @@ mod tests {
         assert!(err.abs() < 0.5, "{d:?}");
     }
 
+    /// A plate 52 × 22 with a hole 15 px across at one end and one 10 px across at the other,
+    /// `inside` in offsets from its area centroid (about 0.75 px off the plate's middle, toward
+    /// the smaller hole).
+    fn plate_inside(t: [f32; 2]) -> bool {
+        // Areas: plate 1144, holes 176.7 and 78.5; the centroid's shift along x.
+        let shift = 13.0 * (176.7 - 78.5) / (1144.0 - 176.7 - 78.5);
+        let (u, v) = (t[0] - shift, t[1]);
+        u.abs() < 26.0
+            && v.abs() < 11.0
+            && (u + 13.0) * (u + 13.0) + v * v >= 7.5 * 7.5
+            && (u - 13.0) * (u - 13.0) + v * v >= 5.0 * 5.0
+    }
+
+    /// A part whose outline is the same half a turn on and whose two holes differ in size comes
+    /// out the right way round at every angle: both ways its holes are found (a hole may be
+    /// twice off in area), and their sizes decide.
+    #[test]
+    fn a_symmetric_outline_is_turned_by_the_sizes_of_its_holes() {
+        let t = taught(plate_inside);
+        assert_eq!(t.holes().len(), 2, "{:?}", t.holes());
+        assert!(!t.holes_repeat_half_turn());
+        let (w, h) = (320usize, 100usize);
+        let bg = platform(w, h);
+        for base in [0.0f32, 35.0, 70.0, 105.0, 140.0] {
+            let placed: std::vec::Vec<Drawn> = [base, base + 180.0, base + 90.0, base + 270.0]
+                .iter()
+                .enumerate()
+                .map(|(k, &deg)| {
+                    (
+                        plate_inside as fn([f32; 2]) -> bool,
+                        45.0 + 75.0 * k as f32,
+                        50.0,
+                        deg,
+                        false,
+                    )
+                })
+                .collect();
+            let px = scene_of(w, h, &placed);
+            let mut rec: std::boxed::Box<Recognizer<4, 96, 4096, 64, 2112>> = std::boxed::Box::default();
+            rec.add_template(t.clone()).unwrap();
+            let mut labels = std::vec![0u8; w * h];
+            let report = rec
+                .process(&Frame::new_checked(&px[..], w, h).unwrap(), &bg, &mut labels)
+                .unwrap();
+            for &(_, x, y, deg, _) in &placed {
+                let d = report
+                    .detections
+                    .iter()
+                    .find(|d| (d.x - x).abs() < 3.0 && (d.y - y).abs() < 3.0)
+                    .unwrap_or_else(|| panic!("no part at ({x}, {y}): {:?}", report.detections));
+                assert_eq!(d.template, Some(0), "{d:?}");
+                let err = (d.angle_deg - deg + 540.0).rem_euclid(360.0) - 180.0;
+                assert!(err.abs() < 1.0, "{deg}°: {d:?}");
+            }
+        }
+    }
+
     /// A chiral part lying upside down is its template's mirror image: found, reported
     /// `flipped` with the angle of the contract (the template mirrored, then turned), and
     /// positioned like any other part; the same part the right way up is not flipped; with

@@ -34,7 +34,8 @@ use crate::library::template::Template;
 use crate::math;
 use crate::params::Params;
 use crate::pose::holes::{
-    agreement, edge_blur, hole_dip, pose_from_holes, solid_where_a_hole_is, HoleAgreement, Holes, Sight, SOLID_KEEPS,
+    agreement, edge_blur, hole_dip, pose_from_holes, size_misfit, solid_where_a_hole_is, HoleAgreement, Holes, Sight,
+    SOLID_KEEPS,
 };
 use crate::pose::refine::{
     align_recording, edge_distances_walled, outward_normal, wall_facing, Alignment, Difference, Outline, Pose,
@@ -205,12 +206,32 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         // A 2-fold symmetric outline (a gear of even teeth, a washer) is the same half a turn on,
         // unless its holes say otherwise (a bar with one eye at one end).
         let symmetric = t.half_turn() < HALF_TURN_SYMMETRIC;
-        // (Not when the fit leaves no doubt and the DP ruled the other way round out.)
-        let ruled_out = |best: &Fit| settled(best) && dp.is_some_and(|m| self.half_turn_ruled_out(n, t, m));
-        if t.half_turn() < HALF_TURN_AMBIGUOUS && (!symmetric || !best.holes.all_found()) && !ruled_out(&best) {
+        // Holes that differ half a turn on (a large and a small hole on the axis) tell the ends
+        // of a symmetric outline apart, also where both ways find them all (a hole may be
+        // [`crate::pose::holes::HOLE_AREA_RATIO`] off in area): the half turn is tried, and
+        // the hole sizes decide ([`size_misfit`]).
+        let holes_tell = !t.holes().is_empty() && !t.holes_repeat_half_turn();
+        // (Not when the fit leaves no doubt and the DP ruled the other way round out; the DP
+        // cannot rule out the half turn of a symmetric outline whose holes tell it.)
+        let ruled_out = |best: &Fit| {
+            !(symmetric && holes_tell) && settled(best) && dp.is_some_and(|m| self.half_turn_ruled_out(n, t, m))
+        };
+        if t.half_turn() < HALF_TURN_AMBIGUOUS
+            && (!symmetric || !best.holes.all_found() || holes_tell)
+            && !ruled_out(&best)
+        {
             let second = once(seed_pose(position, signed + 180.0, area, t), !settled(&best));
-            let by_dips = half_turn_by_dips(t, &best, &second, diff);
-            if by_dips.unwrap_or_else(|| second.beats_half_turn(&best, t.holes().is_empty())) {
+            let by_sizes = (holes_tell
+                && accepted(best)
+                && accepted(second)
+                && best.holes.all_found()
+                && second.holes.all_found())
+            .then(|| size_misfit(t.holes(), &second.pose, part_holes) < size_misfit(t.holes(), &best.pose, part_holes));
+            let by_dips = || half_turn_by_dips(t, &best, &second, diff);
+            if by_sizes
+                .or_else(by_dips)
+                .unwrap_or_else(|| second.beats_half_turn(&best, t.holes().is_empty()))
+            {
                 best = second;
             }
         }
