@@ -292,36 +292,34 @@ impl HoleAgreement {
     }
 }
 
-/// How far the sizes of `part`'s holes are from `template`'s where `pose` puts them: over the
-/// template's holes, the sum of `|ln(a / a′)|` for the nearest part hole's area `a` and the
-/// template hole's area at the pose's scale `a′` (0 without template holes; infinite when the
-/// part has none). [`agreement`] lets a hole be up to [`HOLE_AREA_RATIO`] off in area, so a
-/// part whose outline is the same half a turn on (a plate with a large and a small hole on its
-/// axis) finds its holes both ways round; their sizes still tell which way is right.
+/// How far the sizes of `part`'s holes are from `template`'s where `pose` puts them, whatever
+/// the scale: for each template hole `k`, `l_k = ln(a_k / a′_k)` with `a_k` the area of the part
+/// hole nearest where the pose puts it and `a′_k` the template hole's; the sum of `|l_k − l̄|`
+/// (0 with fewer than two holes; infinite when the part has none). A part's scale (its walls,
+/// the blur) shifts every `l_k` alike; holes swapped shift them apart. [`agreement`] lets a hole
+/// be up to [`HOLE_AREA_RATIO`] off in area, so a part whose outline is (nearly) the same half a
+/// turn on (a plate with a large and a small hole on its axis) finds its holes both ways round;
+/// their sizes still tell which way is right.
 pub fn size_misfit(template: &Holes, pose: &Pose, part: &Holes) -> f32 {
-    let scale = pose.scale;
-    template
-        .as_slice()
-        .iter()
-        .map(|h| {
-            let at = pose.apply(h.centre);
-            let nearest = part.as_slice().iter().min_by(|a, b| {
-                let d = |q: &&Hole| {
-                    let (dx, dy) = (q.centre[0] - at[0], q.centre[1] - at[1]);
-                    dx * dx + dy * dy
-                };
-                d(a).total_cmp(&d(b))
-            });
-            nearest.map_or(f32::INFINITY, |q| {
-                let ratio = q.area / (h.area * scale * scale);
-                if ratio > 0.0 {
-                    crate::math::ln(ratio).abs()
-                } else {
-                    f32::INFINITY
-                }
-            })
-        })
-        .sum()
+    let holes = template.as_slice();
+    let mut logs = [0.0f32; MAX_HOLES];
+    for (l, h) in logs.iter_mut().zip(holes) {
+        let at = pose.apply(h.centre);
+        let d = |q: &Hole| {
+            let (dx, dy) = (q.centre[0] - at[0], q.centre[1] - at[1]);
+            dx * dx + dy * dy
+        };
+        let nearest = part.as_slice().iter().min_by(|a, b| d(a).total_cmp(&d(b)));
+        let ratio = nearest.map_or(0.0, |q| q.area / h.area);
+        *l = if ratio > 0.0 {
+            crate::math::ln(ratio)
+        } else {
+            return f32::INFINITY;
+        };
+    }
+    let logs = logs.get(..holes.len().min(MAX_HOLES)).unwrap_or(&[]);
+    let mean = logs.iter().sum::<f32>() / logs.len().max(1) as f32;
+    logs.iter().map(|l| (l - mean).abs()).sum()
 }
 
 /// Which of `template`'s holes (centres as offsets from its area centroid) `part`'s holes

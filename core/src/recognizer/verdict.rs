@@ -35,7 +35,7 @@ use crate::math;
 use crate::params::Params;
 use crate::pose::holes::{
     agreement, edge_blur, hole_dip, pose_from_holes, size_misfit, solid_where_a_hole_is, HoleAgreement, Holes, Sight,
-    SOLID_KEEPS,
+    HOLE_AREA_RATIO, SOLID_KEEPS,
 };
 use crate::pose::refine::{
     align_recording, edge_distances_walled, outward_normal, wall_facing, Alignment, Difference, Outline, Pose,
@@ -209,7 +209,8 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         // Holes that differ half a turn on (a large and a small hole on the axis) tell the ends
         // of a symmetric outline apart, also where both ways find them all (a hole may be
         // [`crate::pose::holes::HOLE_AREA_RATIO`] off in area): the half turn is tried, and
-        // the hole sizes decide ([`size_misfit`]).
+        // the hole sizes decide where they differ by more than a hole may be off
+        // ([`size_misfit`], scale-free: a real rod's walls and the blur grow its eyes alike).
         let holes_tell = !t.holes().is_empty() && !t.holes_repeat_half_turn();
         // (Not when the fit leaves no doubt and the DP ruled the other way round out; the DP
         // cannot rule out the half turn of a symmetric outline whose holes tell it.)
@@ -221,12 +222,15 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             && !ruled_out(&best)
         {
             let second = once(seed_pose(position, signed + 180.0, area, t), !settled(&best));
+            // (Sizes within the area ratio a hole may be off by are no evidence.)
             let by_sizes = (holes_tell
                 && accepted(best)
                 && accepted(second)
                 && best.holes.all_found()
                 && second.holes.all_found())
-            .then(|| size_misfit(t.holes(), &second.pose, part_holes) < size_misfit(t.holes(), &best.pose, part_holes));
+            .then(|| size_misfit(t.holes(), &second.pose, part_holes) - size_misfit(t.holes(), &best.pose, part_holes))
+            .filter(|gap| gap.abs() > math::ln(HOLE_AREA_RATIO))
+            .map(|gap| gap < 0.0);
             let by_dips = || half_turn_by_dips(t, &best, &second, diff);
             if by_sizes
                 .or_else(by_dips)
