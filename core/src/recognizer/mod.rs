@@ -1398,7 +1398,7 @@ mod tests {
     }
 
     /// A plate 52 × 22 with a hole 15 px across at one end and one 10 px across at the other,
-    /// `inside` in offsets from its area centroid (about 0.75 px off the plate's middle, toward
+    /// `inside` in offsets from its area centroid (about 1.4 px off the plate's middle, toward
     /// the smaller hole).
     fn plate_inside(t: [f32; 2]) -> bool {
         // Areas: plate 1144, holes 176.7 and 78.5; the centroid's shift along x.
