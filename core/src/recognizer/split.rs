@@ -1130,7 +1130,12 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         } else {
             PARTIAL_LIMIT
         };
-        (visible >= MIN_VISIBLE && distance < within * limit && holes_there).then_some(PartFit {
+        // A part's position (the aligned template's) on the frame: a fit of a cut part whose
+        // centre the pose puts beyond the frame's edge is not taken (the whole-border result
+        // stands for its blob; every position reported lies on the frame).
+        let [px, py] = pose.apply(t.position_offset());
+        let placed = in_frame(diff, px, py);
+        (visible >= MIN_VISIBLE && distance < within * limit && holes_there && placed).then_some(PartFit {
             slot: 0,
             pose,
             visible,
