@@ -211,7 +211,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         // [`crate::pose::holes::HOLE_AREA_RATIO`] off in area): the half turn is tried, and
         // the hole sizes decide where they differ by more than a hole may be off
         // ([`size_misfit`], scale-free: a real rod's walls and the blur grow its eyes alike).
-        let holes_tell = !t.holes().is_empty() && !t.holes_repeat_half_turn();
+        let holes_tell = !t.holes_repeat_half_turn();
         // (Not when the fit leaves no doubt and the DP ruled the other way round out; the DP
         // cannot rule out the half turn of a symmetric outline whose holes tell it.)
         let ruled_out = |best: &Fit| {
