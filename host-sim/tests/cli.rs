@@ -1502,16 +1502,19 @@ fn teach_leaves_the_shadow_out_keeps_the_polarity_and_takes_an_open_part_at_its_
     assert!(parts.iter().any(|p| p["class"] == "clip"), "{}", out.dump());
 }
 
-/// Untaught look-alikes (`vorl gen --variant lookalike`: a cam, hex nut, 12-tooth gear, disc and
-/// oval flange drawn without their holes) are unknown: their outlines verify against the
-/// templates, but a bore the mask resolves is not there (`holes::solid_where_a_hole_is`).
-/// Without that rule, 14 of the 46 unknown parts of seed 1's 60 frames were rejected (the
-/// rule: 46); every template part stays named. Seed 2 has a solid hex nut (frame 23) and a
-/// solid oval flange (frame 26) with a label printed over the bore's place, which keeps a dip
-/// in the difference there: they were named until a bore wider than three times the frame's
-/// edge blur had to show in the mask. A hex nut and a washer whose bore is half as wide as the
-/// template's are unknown too: a part hole too small to be the template's bore is its trace
-/// only where the bore's rim shows an opening.
+/// Untaught look-alikes (`vorl gen --variant lookalike`: a cam, hex nut, 12-tooth gear, disc,
+/// oval flange, L and U bracket drawn without their holes) are unknown: their outlines verify
+/// against the templates, but a bore the mask resolves is not there
+/// (`holes::solid_where_a_hole_is`). Without that rule, 14 of the 46 unknown parts of seed 1's
+/// 60 frames were rejected (the rule: 46); every template part stays named. A label printed
+/// over a solid part's bore keeps a dip in the difference there: such parts were named until a
+/// bore wider than three times the frame's edge blur had to show in the mask. The brackets'
+/// holes (6 mm) are narrower than the widest wall the alignment admits: while any hole that
+/// narrow was let pass (a wall might hide it), 36 of 44 unknown parts of seed 1's 60 frames
+/// were rejected (now: a wall closes a hole only when twice its radius wide; 43 of 43). A hex
+/// nut and a washer whose bore is half as wide as the template's are unknown too: a part hole
+/// too small to be the template's bore is its trace only where the bore's rim shows an
+/// opening.
 #[test]
 fn look_alikes_without_the_templates_holes_are_unknown() {
     for seed in ["1", "2"] {
@@ -1857,6 +1860,13 @@ fn gen_touching_rods_are_found_by_their_holes() {
 /// camera moved between shifts needs) a grown outline fits within the range at scale 1.2–1.3
 /// and the wall is not tried: two of the thickest parts are unknown (84 of 86, as before the
 /// wall model; `docs/accuracy.md`).
+///
+/// With the fixed range, one part is unknown: the U bracket in frame 23 (far in the frame's
+/// corner), whose walls all but close both its holes. The hole veto lets a hole pass unseen
+/// only where the widest wall the alignment admits could close it (twice the hole's radius),
+/// no longer wherever that wall is wider than the hole's radius: random blobs that fit a cam
+/// but lack its bore passed that way (`docs/accuracy.md`, "Holes a wall or a shadow may
+/// hide"). Before that change, 86 of 86.
 #[test]
 fn gen_thick_walls_keep_their_classes() {
     let scratch = Scratch::new("thick");
@@ -1876,7 +1886,8 @@ fn gen_thick_walls_keep_their_classes() {
     ])
     .success();
     let v: Value = serde_json::from_str(&out.stdout).unwrap_or_else(|e| panic!("{e}: {}", out.dump()));
-    assert_eq!(v["classification"].as_f64(), Some(1.0), "{}", out.dump());
+    let correct = (v["classification"].as_f64().unwrap() * 86.0).round();
+    assert!(correct >= 85.0, "scale 0.9-1.1: {correct} of 86: {}", out.dump());
     assert_eq!(v["unknown_rejection"].as_f64(), Some(1.0), "{}", out.dump());
 }
 

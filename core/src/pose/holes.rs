@@ -378,26 +378,32 @@ pub fn agreement(template: &Holes, pose: &Pose, part: &Holes) -> HoleAgreement {
 pub const SOLID_KEEPS: f32 = 0.75;
 
 /// Whether `template` has a hole that the part, at `pose`, shows no trace of: resolvable at
-/// the pose's scale ([`resolvable`]) and of a radius above [`Sight::hidden`], its disc and the
-/// ring of face around it inside the frame (`inside`), no part hole within reach of where the
-/// pose puts it (see the module doc) of a size it could be found at (a radius at least the
-/// lower end of [`HOLE_AREA_RATIO`]'s band, less [`HOLE_EDGE`]), and either
+/// the pose's scale ([`resolvable`]) and of a radius above half [`Sight::hidden`] (a wall
+/// closes a hole wholly only where it is twice the hole's radius wide), its disc and the ring
+/// of face around it inside the frame (`inside`), no part hole within reach of where the pose
+/// puts it (see the module doc) of a size it could be found at (a radius at least the lower
+/// end of [`HOLE_AREA_RATIO`]'s band, less [`HOLE_EDGE`]), and either
 ///
-/// - a smaller part hole there, and the difference midway between that hole's radius and the
-///   template hole's still [`SOLID_KEEPS`] of the face in all eight directions: the template's
-///   hole seen past a wall on one side, or partly covered, would open its rim somewhere; a
-///   solid rim all round is another part's smaller hole (a cam's bore where a hex nut's, twice
-///   as wide, should be); or
-/// - the difference `d` (a sampler of `|D|` at a sub-pixel position) at its centre and halfway
-///   to its edge still [`SOLID_KEEPS`] of the part's face around it (sampled on a ring at 1.6
-///   radii, where that ring lies on the part): a hole that blur nearly closed, or that shows a
-///   wall, still leaves a dip; or
-/// - a dip, but a radius of [`OPEN_RADII`] times the blur of the part's edge or more (`blur`:
-///   σ px, asked for at most once, only for such a hole; [`edge_blur`]), and wide enough that
-///   its border, its edge [`HOLE_EDGE`] inside, passes the border filter of the frame's
-///   tracing ([`Sight::filter`]): a blur that soft cannot close a hole that wide, so the mask
-///   would show it and the tracing keep it (print over a bore keeps it solid however far its
-///   grey lies from the face's).
+/// - a smaller part hole there, the hole wider than [`Sight::hidden`], and the difference
+///   midway between that hole's radius and the template hole's still [`SOLID_KEEPS`] of the
+///   face in all eight directions: the template's hole seen past a wall on one side, or partly
+///   covered, would open its rim somewhere; a solid rim all round is another part's smaller
+///   hole (a cam's bore where a hex nut's, twice as wide, should be); or
+/// - the difference `d` (a sampler of `D` at a sub-pixel position, signed: a shadow darker
+///   than the platform beside a brighter part is no face) at its centre and at eight points
+///   halfway to its edge, each still [`SOLID_KEEPS`] of the part's face around it (sampled on
+///   a ring at 1.6 radii, where that ring lies on the part): a hole that blur nearly closed,
+///   or that a wall narrows to a lens, still leaves a dip at one of them; or
+/// - a dip, the hole wider than [`Sight::hidden`] (a wall no wider may narrow it below what
+///   the mask keeps), the dip deeper than the part's own shadow beside it (`shadow(sign, r)`,
+///   asked for only here: [`shade`] of the part's outline in the face's sense `sign`, read to
+///   `2r` beyond it; a hole in its own shadow, which the mask closes, dips no deeper), a
+///   radius of [`OPEN_RADII`] times the blur of the part's edge or more (`blur`: σ px, asked
+///   for at most once, only for such a hole; [`edge_blur`]), and wide enough that its border,
+///   its edge [`HOLE_EDGE`] inside, passes the border filter of the frame's tracing
+///   ([`Sight::filter`]): a blur that soft cannot close a hole that wide, so the mask would
+///   show it and the tracing keep it (print over a bore keeps it solid however far its grey
+///   lies from the face's).
 ///
 /// A part without the template's bore is not the part with it, however well its outline fits
 /// (a smooth blob fitted a cam or a hex nut).
@@ -411,22 +417,30 @@ pub const SOLID_KEEPS: f32 = 0.75;
 /// let pose = Pose { x: 50.0, y: 50.0, angle: 0.0, scale: 1.0 };
 /// let inside = |_x: f32, _y: f32| true;
 /// let sharp = || Some(0.5); // the frame's edges: σ 0.5 px
+/// let no_shadow = |_sign: f32, _r: f32| 0.0; // nothing of the part's sense beside it
 /// let f = Sight { hidden: 0.0, filter: BorderFilter { min_points: 16, min_area: 64.0 } };
 /// // A solid disc of contrast 80: no trace of the bore.
-/// assert!(solid_where_a_hole_is(&template, &pose, &Holes::new(), &f, sharp, |_, _| 80.0, inside));
+/// assert!(solid_where_a_hole_is(&template, &pose, &Holes::new(), &f, sharp, |_, _| 80.0, inside, no_shadow));
 /// // The bore there (the platform shows: D = 0 within 9.8 px of the centre), but its mask
 /// // hole not passed in: the dip says it is there.
 /// let d = |x: f32, y: f32| if (x - 50.0).hypot(y - 50.0) < 9.8 { 0.0 } else { 80.0 };
-/// assert!(!solid_where_a_hole_is(&template, &pose, &Holes::new(), &f, || Some(4.0), d, inside));
+/// assert!(!solid_where_a_hole_is(&template, &pose, &Holes::new(), &f, || Some(4.0), d, inside, no_shadow));
 /// // A label of half the contrast over the bore's place: under sharp edges a bore that wide
 /// // would show in the mask, and no part hole is near it.
 /// let label = |x: f32, y: f32| if (x - 50.0).hypot(y - 50.0) < 12.0 { 40.0 } else { 80.0 };
-/// assert!(solid_where_a_hole_is(&template, &pose, &Holes::new(), &f, sharp, label, inside));
+/// assert!(solid_where_a_hole_is(&template, &pose, &Holes::new(), &f, sharp, label, inside, no_shadow));
 /// // The same label under a tracing that drops borders under 400 px² (no hole of that size
 /// // would reach the recognizer): only the dip counts, and the label's keeps half the face.
 /// let coarse = Sight { hidden: 0.0, filter: BorderFilter { min_points: 16, min_area: 400.0 } };
-/// assert!(!solid_where_a_hole_is(&template, &pose, &Holes::new(), &coarse, sharp, label, inside));
+/// assert!(!solid_where_a_hole_is(&template, &pose, &Holes::new(), &coarse, sharp, label, inside, no_shadow));
+/// // The label's grey, but as the part's own shadow (as dark beside the part): a hole in it.
+/// let shaded = |_sign: f32, _r: f32| 40.0;
+/// assert!(!solid_where_a_hole_is(&template, &pose, &Holes::new(), &f, sharp, label, inside, shaded));
+/// // A platform darker than the face's sense at the bore (a bright part's shadow in it): no face.
+/// let bright_part = |x: f32, y: f32| if (x - 50.0).hypot(y - 50.0) < 9.8 { -30.0 } else { 80.0 };
+/// assert!(!solid_where_a_hole_is(&template, &pose, &Holes::new(), &f, || Some(4.0), bright_part, inside, no_shadow));
 /// ```
+#[allow(clippy::too_many_arguments)]
 pub fn solid_where_a_hole_is(
     template: &Holes,
     pose: &Pose,
@@ -435,6 +449,7 @@ pub fn solid_where_a_hole_is(
     blur: impl FnOnce() -> Option<f32>,
     d: impl Fn(f32, f32) -> f32,
     inside: impl Fn(f32, f32) -> bool,
+    shadow: impl Fn(f32, f32) -> f32,
 ) -> bool {
     let scale = pose.scale;
     // The frame's edge blur, measured once, the first time a hole needs it.
@@ -442,7 +457,9 @@ pub fn solid_where_a_hole_is(
     let mut sigma: Option<f32> = None;
     template.as_slice().iter().any(|h| {
         let area = h.area * scale * scale;
-        if !resolvable(area) || radius(area) <= sight.hidden {
+        // A wall `w` px wide moves the hole's far opening `w` px across its near one: only a
+        // wall of twice the hole's radius closes it wholly; a narrower one leaves a lens open.
+        if !resolvable(area) || radius(area) <= 0.5 * sight.hidden {
             return false;
         }
         let at = pose.apply(h.centre);
@@ -463,21 +480,35 @@ pub fn solid_where_a_hole_is(
                 smaller = Some(smaller.map_or(rq, |s: f32| s.max(rq)));
             }
         }
-        let Some((centre, face)) = dip_and_face(at, r, &d, &inside) else {
+        let Some(Dip { centre, face, sign }) = dip_and_face(at, r, &d, &inside) else {
             return false;
         };
+        // A wall may have narrowed the hole to a lens the mask does not keep, or that shows
+        // only as a smaller hole: only a face all over its place tells it is not there.
+        let narrowed = r <= sight.hidden;
         // A smaller hole where the template's is: the template's hole seen through a wall on
         // one side, or partly covered, still opens its rim on the other side; one whose rim is
         // solid all round, midway between the two radii, is another part's hole (a cam's bore
         // where a hex nut's, twice as wide, should be).
         if let Some(rq) = smaller {
             let mid = 0.5 * (rq + r);
-            return DIRS
-                .iter()
-                .all(|u| d(at[0] + mid * u[0], at[1] + mid * u[1]) >= SOLID_KEEPS * face);
+            return !narrowed
+                && DIRS
+                    .iter()
+                    .all(|u| sign * d(at[0] + mid * u[0], at[1] + mid * u[1]) >= SOLID_KEEPS * face);
         }
-        if centre >= SOLID_KEEPS * face {
+        // Solid: the face at the centre and at eight points half the radius from it (a lens a
+        // wall leaves open reaches one of them unless the wall all but closes the hole).
+        let least = DIRS.iter().fold(centre, |m, u| {
+            m.min(sign * d(at[0] + 0.5 * r * u[0], at[1] + 0.5 * r * u[1]))
+        });
+        if least >= SOLID_KEEPS * face {
             return true;
+        }
+        // A dip no deeper than the part's own shadow beside it may be the hole in that
+        // shadow, which the mask then closes; a dip a wall may have narrowed, likewise.
+        if narrowed || centre <= shadow(sign, r) {
+            return false;
         }
         // A dip, but no hole in the mask: whether the blur could have closed one that wide.
         if !traced(r, &sight.filter) {
@@ -505,17 +536,26 @@ const DIRS: [[f32; 2]; 8] = {
     ]
 };
 
-/// What `|D|` (the sampler `d`) shows where a hole of radius `r` px would lie at `at`: the mean
-/// of five samples (the centre, and four points `r/2` from it) and the part's face around it
-/// (the mean of the samples on a ring at 1.6 `r` that lie on the part: at least half the
-/// largest, so the platform beside a hole near the outline does not count). `None` where that
-/// ring leaves the frame (`inside`) or fewer than four of its eight samples lie on the part.
-fn dip_and_face(
-    at: [f32; 2],
-    r: f32,
-    d: &impl Fn(f32, f32) -> f32,
-    inside: &impl Fn(f32, f32) -> bool,
-) -> Option<(f32, f32)> {
+/// What the difference `D` shows where a hole would lie ([`dip_and_face`]), in the sense of the
+/// part's face: `D` times [`Dip::sign`], so the face is positive and a shadow beside a
+/// brighter part, darker than the platform, negative.
+#[derive(Debug, Clone, Copy)]
+struct Dip {
+    /// The mean of five samples: the hole's centre and four points half its radius from it.
+    centre: f32,
+    /// The part's face around the hole.
+    face: f32,
+    /// The face's sign in `D`: +1 for a part brighter than the platform, −1 for a darker one.
+    sign: f32,
+}
+
+/// What `D` (the sampler `d`, signed) shows where a hole of radius `r` px would lie at `at`
+/// ([`Dip`]): the mean of five samples (the centre, and four points `r/2` from it) and the
+/// part's face around it (the mean of the samples on a ring at 1.6 `r` that lie on the part:
+/// at least half the largest `|D|`, so the platform beside a hole near the outline does not
+/// count), both in the face's sense. `None` where that ring leaves the frame (`inside`) or
+/// fewer than four of its eight samples lie on the part.
+fn dip_and_face(at: [f32; 2], r: f32, d: &impl Fn(f32, f32) -> f32, inside: &impl Fn(f32, f32) -> bool) -> Option<Dip> {
     let ring = 1.6 * r;
     if !DIRS.iter().all(|u| inside(at[0] + ring * u[0], at[1] + ring * u[1])) {
         return None;
@@ -524,15 +564,21 @@ fn dip_and_face(
         acc + d(at[0] + 0.5 * r * u[0], at[1] + 0.5 * r * u[1])
     }) / 5.0;
     let samples = DIRS.map(|u| d(at[0] + ring * u[0], at[1] + ring * u[1]));
-    let top = samples.iter().fold(0.0f32, |m, &v| m.max(v));
+    let top = samples.iter().fold(0.0f32, |m, &v| m.max(v.abs()));
     let (sum, count) = samples
         .iter()
-        .filter(|&&v| v >= 0.5 * top)
+        .filter(|&&v| v.abs() >= 0.5 * top)
         .fold((0.0f32, 0u32), |(s, c), &v| (s + v, c + 1));
     if count < 4 || !(top > 0.0) {
         return None;
     }
-    Some((centre, sum / count as f32))
+    let face = sum / count as f32;
+    let sign = if face < 0.0 { -1.0 } else { 1.0 };
+    Some(Dip {
+        centre: sign * centre,
+        face: sign * face,
+        sign,
+    })
 }
 
 /// How deep the part dips where `template`'s holes lie at `pose`: the mean, over its holes that
@@ -570,8 +616,8 @@ pub fn hole_dip(
             if !resolvable(area) {
                 return None;
             }
-            let (centre, face) = dip_and_face(pose.apply(h.centre), radius(area), &d, &inside)?;
-            Some(centre / face)
+            let dip = dip_and_face(pose.apply(h.centre), radius(area), &d, &inside)?;
+            Some(dip.centre / dip.face)
         })
         .fold((0.0f32, 0u32), |(s, c), v| (s + v, c + 1));
     (count > 0).then(|| sum / count as f32)
@@ -641,12 +687,12 @@ pub fn untraced_shown(
             // band, where the half-contrast edge of the smallest such hole lies.
             let rim = r / crate::math::sqrt(HOLE_AREA_RATIO);
             !near
-                && dip_and_face(at, r, &d, &inside).is_some_and(|(centre, face)| {
+                && dip_and_face(at, r, &d, &inside).is_some_and(|dip| {
                     let around = DIRS
                         .iter()
-                        .map(|u| d(at[0] + rim * u[0], at[1] + rim * u[1]))
+                        .map(|u| dip.sign * d(at[0] + rim * u[0], at[1] + rim * u[1]))
                         .sum::<f32>();
-                    centre < SOLID_KEEPS * face && around < 0.5 * face * DIRS.len() as f32
+                    dip.centre < SOLID_KEEPS * dip.face && around < 0.5 * dip.face * DIRS.len() as f32
                 })
         })
         .count()
@@ -661,8 +707,8 @@ pub const OPEN_RADII: f32 = 3.0;
 /// What a frame can show of a template's hole in a part ([`solid_where_a_hole_is`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sight {
-    /// The widest wall a thick part's side may show inside a hole, px: a hole no wider may be
-    /// hidden by it (the caller's bound).
+    /// The widest wall a thick part's side may show inside a hole, px (the caller's bound): a
+    /// hole of half its radius or less may be closed by it, a hole no wider narrowed.
     pub hidden: f32,
     /// The border filter of the frame's tracing ([`crate::Params::filter`]): a hole whose
     /// border it drops never reaches the recognizer.
@@ -734,6 +780,61 @@ pub fn edge_blur(
     let widths = widths.get_mut(..len)?;
     let w = crate::math::select_nth(widths, len.checked_sub(1)? / 2)?;
     Some(w / (2.0 * 0.674_49))
+}
+
+/// How many profiles [`shade`] reads.
+pub const SHADE_PROFILES: usize = 32;
+
+/// Where [`shade`]'s profiles start outside the outline, px: the face's own edge, blurred by
+/// σ ≤ 1 px, has fallen below 0.2 % of its contrast there, so what is left is beside the part.
+pub const SHADE_START: f32 = 3.0;
+
+/// How dark the part's own shadow beside it is, in the face's sense: along outward normals of
+/// the part's outline (`points`, each a frame position and its unit outward normal; at most
+/// [`SHADE_PROFILES`] of the `count` used, spread evenly), the largest of the difference `d`
+/// (signed so that the face is positive) from [`SHADE_START`] to `reach` px outside, then
+/// the profile at seven eighths of the way up: a front light's shadow lies along one side of
+/// the part, and a neighbour within reach over an eighth of the outline does not count. Never
+/// below 0 (a bright part's shadow, darker than the platform, is of the other sense).
+///
+/// ```
+/// use vorl_core::pose::holes::shade;
+/// // A disc of radius 20 at (50, 50) and, on its right, a shadow 30 deep out to 6 px.
+/// let d = |x: f32, y: f32| {
+///     let r = (x - 50.0).hypot(y - 50.0);
+///     if r < 20.0 { 80.0 } else if r < 26.0 && x > 50.0 { 30.0 } else { 0.0 }
+/// };
+/// let outline = (0..64).map(|k| {
+///     let a = k as f32 * core::f32::consts::TAU / 64.0;
+///     ([50.0 + 20.0 * a.cos(), 50.0 + 20.0 * a.sin()], [a.cos(), a.sin()])
+/// });
+/// assert_eq!(shade(outline, 64, 12.0, d), 30.0);
+/// ```
+pub fn shade(
+    points: impl Iterator<Item = ([f32; 2], [f32; 2])>,
+    count: usize,
+    reach: f32,
+    d: impl Fn(f32, f32) -> f32,
+) -> f32 {
+    let every = count.div_ceil(SHADE_PROFILES).max(1);
+    let mut tops = [0.0f32; SHADE_PROFILES];
+    let mut len = 0;
+    for (p, n) in points.step_by(every).take(SHADE_PROFILES) {
+        let mut top = 0.0f32;
+        let mut t = SHADE_START;
+        while t <= reach {
+            top = top.max(d(p[0] + t * n[0], p[1] + t * n[1]));
+            t += 1.0;
+        }
+        if let Some(slot) = tops.get_mut(len) {
+            *slot = top;
+            len += 1;
+        }
+    }
+    let Some(tops) = tops.get_mut(..len) else {
+        return 0.0;
+    };
+    crate::math::select_nth(tops, (7 * len / 8).min(len.saturating_sub(1))).unwrap_or(0.0)
 }
 
 /// Along a profile `f` from inside out: from the highest value of its inner half to the lowest
@@ -920,7 +1021,7 @@ mod tests {
         };
         let inside = |_x: f32, _y: f32| true;
         let solid = |part: &Holes, d: &dyn Fn(f32, f32) -> f32| {
-            solid_where_a_hole_is(&template, &pose, part, &sight, || Some(0.5), d, inside)
+            solid_where_a_hole_is(&template, &pose, part, &sight, || Some(0.5), d, inside, |_, _| 0.0)
         };
         let hole = |centre: [f32; 2], area: f32| {
             let mut h = Holes::new();
@@ -943,5 +1044,61 @@ mod tests {
         assert!(!solid(&hole([42.4, 50.0], 41.1), &walled));
         // A hole of a size the bore could be found at is its trace, whatever the face shows.
         assert!(!solid(&hole([50.0, 50.0], 160.0), &small));
+    }
+
+    /// A wall of a thick part may close a hole only where it is twice the hole's radius wide,
+    /// and narrow a wider one: the face all over a hole's place vetoes it however wide a wall
+    /// the alignment admits, unless that wall could close the hole; a dip there does not.
+    #[test]
+    fn only_a_wall_twice_a_holes_radius_wide_may_close_it() {
+        // A template bore of radius 9.8 px at the part's centre (50, 50), the face's contrast 80.
+        let mut template = Holes::new();
+        template.insert(Hole {
+            centre: [0.0, 0.0],
+            area: 300.0,
+        });
+        let pose = Pose {
+            x: 50.0,
+            y: 50.0,
+            angle: 0.0,
+            scale: 1.0,
+        };
+        let solid = |hidden: f32, d: &dyn Fn(f32, f32) -> f32| {
+            let sight = Sight {
+                hidden,
+                filter: BorderFilter {
+                    min_points: 0,
+                    min_area: 0.0,
+                },
+            };
+            let inside = |_x: f32, _y: f32| true;
+            solid_where_a_hole_is(
+                &template,
+                &pose,
+                &Holes::new(),
+                &sight,
+                || Some(0.5),
+                d,
+                inside,
+                |_, _| 0.0,
+            )
+        };
+        let face = |_x: f32, _y: f32| 80.0;
+        // Walls up to 12 px admitted: one 12 px wide cannot close a bore of 9.8 px radius.
+        assert!(solid(12.0, &face));
+        // Up to 20 px: it could.
+        assert!(!solid(20.0, &face));
+        // A lens 6.8 px wide left open on the bore's right (it reaches a sample half the
+        // radius out): a 12 px wall may have narrowed the bore to it.
+        let lens = |x: f32, y: f32| {
+            if (x - 50.0).hypot(y - 50.0) < 9.8 && x > 53.0 {
+                0.0
+            } else {
+                80.0
+            }
+        };
+        assert!(!solid(12.0, &lens));
+        // Without a wall, a bore that wide would show in the mask: the lens is another thing.
+        assert!(solid(0.0, &lens));
     }
 }

@@ -1118,7 +1118,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 &pose,
                 part_holes,
                 &params.filter(),
-                |x, y| diff.bilinear(x, y).abs(),
+                |x, y| diff.bilinear(x, y),
                 |x, y| in_frame(diff, x, y),
                 counts,
             )

@@ -34,8 +34,8 @@ use crate::library::template::Template;
 use crate::math;
 use crate::params::Params;
 use crate::pose::holes::{
-    agreement, edge_blur, hole_dip, pose_from_holes, size_misfit, solid_where_a_hole_is, HoleAgreement, Holes, Sight,
-    HOLE_AREA_RATIO, SOLID_KEEPS,
+    agreement, edge_blur, hole_dip, pose_from_holes, shade, size_misfit, solid_where_a_hole_is, HoleAgreement, Holes,
+    Sight, HOLE_AREA_RATIO, SHADE_START, SOLID_KEEPS,
 };
 use crate::pose::refine::{
     align_recording, edge_distances_walled, outward_normal, wall_facing, Alignment, Difference, Outline, Pose,
@@ -139,14 +139,27 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                         &pose,
                         part_holes,
                         // The widest wall the alignment admits (WALL_FACTOR times the offset's
-                        // limit) may hide a hole of up to that radius.
+                        // limit) may close a hole of half that radius, and narrow one of up to
+                        // it; the part's own shadow, read to twice the hole's radius beside it,
+                        // may fill one.
                         &Sight {
                             hidden: WALL_FACTOR * params.offset_relative * t.size() * pose.scale,
                             filter: params.filter(),
                         },
                         || self.part_blur(part_edges, diff),
-                        |x, y| diff.bilinear(x, y).abs(),
+                        |x, y| diff.bilinear(x, y),
                         |x, y| in_frame(diff, x, y),
+                        |sign, r| {
+                            shade(
+                                t.edge()
+                                    .iter()
+                                    .zip(t.normals())
+                                    .map(|(p, n)| (pose.apply(*p), pose.rotate(*n))),
+                                t.edge().len(),
+                                SHADE_START + 2.0 * r,
+                                |x, y| sign * diff.bilinear(x, y),
+                            )
+                        },
                     ),
             };
             let first = fit(aligned.pose, (verify, full), 0.0);
@@ -447,7 +460,7 @@ fn half_turn_by_dips<const M: usize, B: AsRef<[u8]>>(
         hole_dip(
             t.holes(),
             &f.pose,
-            |x, y| diff.bilinear(x, y).abs(),
+            |x, y| diff.bilinear(x, y),
             |x, y| in_frame(diff, x, y),
         )
     };

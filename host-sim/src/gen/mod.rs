@@ -224,8 +224,8 @@ pub enum Variant {
     /// throwing a soft shadow away from the light; writes a `teach.json`.
     Frontlit,
     /// As `default`, with untaught parts that look like templates but lack their bore or holes
-    /// ([`lookalike_catalogue`]: a solid cam, hex nut, 12-tooth gear, disc and oval flange, a hex
-    /// nut and a washer with a bore half as wide) among
+    /// ([`lookalike_catalogue`]: a solid cam, hex nut, 12-tooth gear, disc, oval flange, L and U
+    /// bracket, a hex nut and a washer with a bore half as wide) among
     /// the distractors: their outline verifies against the template, their holes do not.
     Lookalike,
     /// One large part (a quarter to a half of the frame, dark or bright; [`large_catalogue`]: a

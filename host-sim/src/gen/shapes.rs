@@ -1024,9 +1024,11 @@ pub fn catalogue() -> Vec<PartSpec> {
 
 /// The standard [`catalogue`] with untaught look-alikes among its distractors: templates with
 /// a bore or holes drawn solid (their outer outline only, so a template fits their outline and
-/// not their holes): a cam, a hex nut, a 12-tooth gear, a disc the washer's size and an oval
-/// flange, each without a hole; and a hex nut and a washer whose bore is half as wide as the
-/// template's (a hole where the template's is, of a size it could not be found at).
+/// not their holes): a cam, a hex nut, a 12-tooth gear, a disc the washer's size, an oval
+/// flange, and an L and a U bracket (holes of 6 mm, narrower than the widest wall the
+/// alignment admits: another generator's blobs passed for a cam there), each without a hole;
+/// and a hex nut and a washer whose bore is half as wide as the template's (a hole where the
+/// template's is, of a size it could not be found at).
 pub fn lookalike_catalogue() -> Vec<PartSpec> {
     let solid = |rings: Vec<Vec<P>>| {
         let outer = rings
@@ -1044,6 +1046,8 @@ pub fn lookalike_catalogue() -> Vec<PartSpec> {
         part("flange_oval_solid", false, 2, solid(flange_oval())),
         part("hex_small_bore", false, 6, small_bore(hex_nut())),
         part("washer_small_bore", false, 0, small_bore(washer())),
+        part("l_bracket_solid", false, 1, solid(l_bracket())),
+        part("u_bracket_solid", false, 1, solid(u_bracket())),
     ]);
     cat
 }
