@@ -997,10 +997,8 @@ mod tests {
         ));
     }
 
-    #[test]
-    fn a_smaller_hole_is_the_bore_only_where_the_bore_opens_its_rim() {
-        // A template bore of radius 9.8 px (area 300) at the part's centre (50, 50), the face's
-        // contrast 80; the tracing keeps any hole, the edges are sharp.
+    /// A template with one bore of radius 9.8 px (area 300) at its centre, posed at (50, 50).
+    fn bore_at_50() -> (Holes, Pose) {
         let mut template = Holes::new();
         template.insert(Hole {
             centre: [0.0, 0.0],
@@ -1012,6 +1010,14 @@ mod tests {
             angle: 0.0,
             scale: 1.0,
         };
+        (template, pose)
+    }
+
+    #[test]
+    fn a_smaller_hole_is_the_bore_only_where_the_bore_opens_its_rim() {
+        // A template bore of radius 9.8 px (area 300) at the part's centre (50, 50), the face's
+        // contrast 80; the tracing keeps any hole, the edges are sharp.
+        let (template, pose) = bore_at_50();
         let sight = Sight {
             hidden: 0.0,
             filter: BorderFilter {
@@ -1052,17 +1058,7 @@ mod tests {
     #[test]
     fn only_a_wall_twice_a_holes_radius_wide_may_close_it() {
         // A template bore of radius 9.8 px at the part's centre (50, 50), the face's contrast 80.
-        let mut template = Holes::new();
-        template.insert(Hole {
-            centre: [0.0, 0.0],
-            area: 300.0,
-        });
-        let pose = Pose {
-            x: 50.0,
-            y: 50.0,
-            angle: 0.0,
-            scale: 1.0,
-        };
+        let (template, pose) = bore_at_50();
         let solid = |hidden: f32, d: &dyn Fn(f32, f32) -> f32| {
             let sight = Sight {
                 hidden,
