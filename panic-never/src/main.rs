@@ -530,13 +530,12 @@ fn borders() {
         || flag().then(f),
         |_, _| f(),
         |_, _| flag(),
-    ));
-    // The edge blur over any outline, any sampler.
-    black_box(holes::edge_blur(
-        out.iter().map(|&p| (p, p2())),
-        u(),
         |_, _| f(),
     ));
+    // The edge blur over any outline, any sampler.
+    black_box(holes::edge_blur(out.iter().map(|&p| (p, p2())), u(), |_, _| f()));
+    // A shadow's depth beside any outline, any reach, any sampler.
+    black_box(holes::shade(out.iter().map(|&p| (p, p2())), u(), f(), |_, _| f()));
     black_box(polarity().difference(u8_(), u8_()));
     let agreed = holes::agreement(&moved, &pose_(), &part_holes);
     black_box(&agreed);
