@@ -29,7 +29,8 @@
 //!   evidence against the template; the recognizer counts them as the part for its position
 //!   ([`crate::pose::partial_volume::print_deficit`]).
 //! - A hole too small for the tracing (its border under the frame's `min_area`) still shows as
-//!   a dip of `|D|`: [`solid_where_a_hole_is`] vetoes a template whose hole the part shows no
+//!   a dip of `D` (read in the sense of the part's face, so a bright part's shadow in its
+//!   bore is no face): [`solid_where_a_hole_is`] vetoes a template whose hole the part shows no
 //!   trace of, [`hole_dip`] tells a fit from its half turn by where the dips lie (a pin's
 //!   end-hole), and [`untraced_shown`] holds a part of a blob of several to such holes (the
 //!   partial search, which asks every hole of a template to be shown).
@@ -384,19 +385,20 @@ pub const SOLID_KEEPS: f32 = 0.75;
 /// puts it (see the module doc) of a size it could be found at (a radius at least the lower
 /// end of [`HOLE_AREA_RATIO`]'s band, less [`HOLE_EDGE`]), and either
 ///
-/// - a smaller part hole there, the hole wider than [`Sight::hidden`], and the difference
+/// - a smaller part hole there, the hole's radius above [`Sight::hidden`], and the difference
 ///   midway between that hole's radius and the template hole's still [`SOLID_KEEPS`] of the
 ///   face in all eight directions: the template's hole seen past a wall on one side, or partly
 ///   covered, would open its rim somewhere; a solid rim all round is another part's smaller
 ///   hole (a cam's bore where a hex nut's, twice as wide, should be); or
 /// - the difference `d` (a sampler of `D` at a sub-pixel position, signed: a shadow darker
-///   than the platform beside a brighter part is no face) at its centre and at eight points
-///   halfway to its edge, each still [`SOLID_KEEPS`] of the part's face around it (sampled on
-///   a ring at 1.6 radii, where that ring lies on the part): a hole that blur nearly closed,
-///   or that a wall narrows to a lens, still leaves a dip at one of them; or
-/// - a dip, the hole wider than [`Sight::hidden`] (a wall no wider may narrow it below what
-///   the mask keeps), the dip deeper than the part's own shadow beside it (`shadow(sign, r)`,
-///   asked for only here: [`shade`] of the part's outline in the face's sense `sign`, read to
+///   than the platform beside a brighter part is no face) at its centre (the mean of five
+///   samples there) and at each of eight points halfway to its edge still [`SOLID_KEEPS`] of
+///   the part's face around it (sampled on a ring at 1.6 radii, where that ring lies on the
+///   part): a hole that blur nearly closed, or that a wall narrows to a lens, still leaves a
+///   dip at one of them; or
+/// - a dip, the hole's radius above [`Sight::hidden`] (a wall that wide may narrow it below
+///   what the mask keeps), the dip deeper than the part's own shadow beside it
+///   (`shadow(sign, r)`, asked for only here: [`shade`] of the part's outline in the face's sense `sign`, read to
 ///   `2r` beyond it; a hole in its own shadow, which the mask closes, dips no deeper), a
 ///   radius of [`OPEN_RADII`] times the blur of the part's edge or more (`blur`: σ px, asked
 ///   for at most once, only for such a hole; [`edge_blur`]), and wide enough that its border,
@@ -584,7 +586,7 @@ fn dip_and_face(at: [f32; 2], r: f32, d: &impl Fn(f32, f32) -> f32, inside: &imp
 /// How deep the part dips where `template`'s holes lie at `pose`: the mean, over its holes that
 /// are [`resolvable`] at the pose's scale and whose surroundings the frame shows (a ring at 1.6
 /// radii inside it, at least half of it on the part), of the share of the face around a hole
-/// that `|D|` (the sampler `d`) keeps over it, five samples at its centre and halfway to its
+/// that `D` (the sampler `d`, signed; read in the face's sense) keeps over it, five samples at its centre and halfway to its
 /// edge (near 0 over a hole, near 1 over solid face). `None` without such a hole. It tells a
 /// fit from its half turn where the template's holes are too small for the mask to trace (a
 /// pin's end-hole): the turn whose holes lie on the part's dips is the part's.
@@ -632,7 +634,8 @@ pub fn traceable(h: &Hole, scale: f32, filter: &BorderFilter) -> bool {
 
 /// How many of `template`'s holes at `pose` that `counts` asks about, that the tracing cannot
 /// keep ([`traceable`]: not at the pose's scale) and that no part hole lies within reach of
-/// (see the module doc), the part still shows: `|D|` (the sampler `d`) at the hole's centre
+/// (see the module doc), the part still shows: `D` (the sampler `d`, signed; read in the
+/// face's sense) at the hole's centre
 /// and halfway to its edge below [`SOLID_KEEPS`] of the face around it (a ring at 1.6 radii,
 /// inside the frame by `inside`), as a hole the blur nearly closes leaves it, and its mean on
 /// the circle of `1/√`[`HOLE_AREA_RATIO`] of the hole's radius below half the face: the dip is
@@ -707,8 +710,9 @@ pub const OPEN_RADII: f32 = 3.0;
 /// What a frame can show of a template's hole in a part ([`solid_where_a_hole_is`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sight {
-    /// The widest wall a thick part's side may show inside a hole, px (the caller's bound): a
-    /// hole of half its radius or less may be closed by it, a hole no wider narrowed.
+    /// The widest wall a thick part's side may show inside a hole, px (the caller's bound): it
+    /// may close a hole whose radius is half of it or less, and narrow one whose radius is up
+    /// to it.
     pub hidden: f32,
     /// The border filter of the frame's tracing ([`crate::Params::filter`]): a hole whose
     /// border it drops never reaches the recognizer.

@@ -1025,8 +1025,9 @@ pub fn catalogue() -> Vec<PartSpec> {
 /// The standard [`catalogue`] with untaught look-alikes among its distractors: templates with
 /// a bore or holes drawn solid (their outer outline only, so a template fits their outline and
 /// not their holes): a cam, a hex nut, a 12-tooth gear, a disc the washer's size, an oval
-/// flange, and an L and a U bracket (holes of 6 mm, narrower than the widest wall the
-/// alignment admits: another generator's blobs passed for a cam there), each without a hole;
+/// flange, and an L and a U bracket (holes of 6 mm radius, under the widest wall the
+/// alignment admits, which once let any such hole pass unseen: another generator's random
+/// blobs passed for a cam that way), each without a hole;
 /// and a hex nut and a washer whose bore is half as wide as the template's (a hole where the
 /// template's is, of a size it could not be found at).
 pub fn lookalike_catalogue() -> Vec<PartSpec> {
