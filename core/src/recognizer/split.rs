@@ -225,6 +225,8 @@ struct PartFit {
     cut: bool,
     /// The share of its edge points inside the frame that are confirmed.
     confirmed: f32,
+    /// The part's position (its template's pixel centroid at the pose), on the frame.
+    position: [f32; 2],
 }
 
 /// A template offset `u` as slot `slot`'s template has it: mirrored left-right (`x → −x`)
@@ -621,10 +623,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             && rest.area - run_len * limit >= self.params.min_area;
         let several = taken.len() > 1 || rest_part;
         for f in &taken {
-            let Some(t) = self.templates.get(f.slot / 2) else {
-                continue;
-            };
-            let [x, y] = f.pose.apply(slot_offset(f.slot, t.position_offset()));
+            let [x, y] = f.position;
             let ti = u16::try_from(f.slot / 2).ok();
             let d = Detection {
                 template: ti,
@@ -1133,8 +1132,8 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         // A part's position (the aligned template's) on the frame: a fit of a cut part whose
         // centre the pose puts beyond the frame's edge is not taken (the whole-border result
         // stands for its blob; every position reported lies on the frame).
-        let [px, py] = pose.apply(t.position_offset());
-        let placed = in_frame(diff, px, py);
+        let position = pose.apply(t.position_offset());
+        let placed = in_frame(diff, position[0], position[1]);
         (visible >= MIN_VISIBLE && distance < within * limit && holes_there && placed).then_some(PartFit {
             slot: 0,
             pose,
@@ -1145,6 +1144,7 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             pinned,
             cut: k < m,
             confirmed,
+            position,
         })
     }
 }
