@@ -635,6 +635,7 @@ pub fn skip_text(reason: SkipReason) -> &'static str {
         SkipReason::InsideHole => {
             "inside a hole of another part (print or a nested part; nested_parts = true keeps it)"
         }
+        SkipReason::Shadow => "a shadow: beside a part of the other sign, cut off it, and no template explains it",
         _ => "skipped",
     }
 }

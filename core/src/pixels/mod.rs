@@ -3,7 +3,8 @@
 //! — the mean of empty shots ([`background`], eq. 3.2), the frame's gain and offset fitted to
 //! it on its platform pixels ([`exposure`]), or without a shot, the platform estimated from the
 //! frame itself ([`platform`]) — and thresholded into the foreground mask ([`mask`]) that the
-//! border stage follows.
+//! border stage follows. Taking both signs, the recognizer cuts a bright part's shadow off it
+//! once the borders are known ([`shadow`]), and follows them again.
 //!
 //! Everything here works row by row over caller-owned planes of the frame's size: no
 //! allocation, `O(width·height)` time, a fixed stack of a few KiB at most (histograms, the
@@ -15,3 +16,4 @@ pub mod exposure;
 pub mod frame;
 pub mod mask;
 pub mod platform;
+pub mod shadow;

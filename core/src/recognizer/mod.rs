@@ -66,7 +66,8 @@ use crate::math;
 use crate::params::{AngleEstimator, Params, Position, Refine};
 use crate::pixels::background::Background;
 use crate::pixels::frame::Frame;
-use crate::pixels::mask::{foreground_mask_spans, RowSpans};
+use crate::pixels::mask::{foreground_mask_spans, Polarity, RowSpans};
+use crate::pixels::shadow::{self, Beside};
 use crate::pose::holes::{Hole, HoleAgreement, Holes};
 use crate::pose::partial_volume::{partial_volume_moments, print_deficit, Rect};
 use crate::pose::refine::{outward_normal, Difference, RefineParams};
@@ -103,6 +104,12 @@ pub const THIN_SHARE: f32 = 0.5;
 /// An untaught object smaller than every taught part (a star, a crescent beside a large part)
 /// is thicker, and is still looked at and reported, unknown.
 pub const STROKE_WIDTHS: f32 = 2.0;
+
+/// Most blobs of one frame whose shadow (or halo, or part of the other sign) the shadow pass
+/// cuts off ([`crate::pixels::shadow::separate`]); the frame's further blobs keep theirs. Front
+/// light throws a shadow beside every part, and a conveyor's frame holds a few dozen parts at
+/// most: [`MAX_DETECTIONS`] of them are reported.
+pub const SHADOW_BLOBS: usize = 32;
 
 /// Border points per chord when a blob's perimeter is measured for its thickness: a chord over
 /// 4 pixel steps follows a straight edge at any slope within a few per cent, where the steps
@@ -356,16 +363,48 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             &mut spans,
         )?;
         observe(Stage::Mask);
-        let trace = trace_borders_in(labels, w, h, &spans, params.filter(), &mut self.store)?;
+        let mut trace = trace_borders_in(labels, w, h, &spans, params.filter(), &mut self.store)?;
+        // From here on the label plane is the plain 0/1 mask (the shadow pass and the
+        // partial-volume centroid use its other bits as scratch and clear them again).
+        clear_labels(labels, w, h, &spans);
+        // Taking both signs, a blob of both with the other beside its part's extent holds a
+        // shadow, a halo or a part of the other sign: cut off the part, and the borders are
+        // followed again (pixels/shadow.rs).
+        let mut mask = mask;
+        let mut beside: heapless::Vec<Beside, SHADOW_BLOBS> = heapless::Vec::new();
+        let diff = Difference::new(frame, background.plane(), params.alpha());
+        if params.polarity == Polarity::Either {
+            for index in 0..self.store.contours().len() {
+                if beside.is_full() {
+                    break;
+                }
+                if self
+                    .store
+                    .contours()
+                    .get(index)
+                    .is_some_and(|c| c.kind == BorderKind::Outer)
+                {
+                    let outline = self.store.points(index).iter().map(|p| (p.x as usize, p.y as usize));
+                    let d = |x: usize, y: usize| diff.at(x as isize, y as isize);
+                    if let Some(cut) = shadow::separate(labels, w, h, outline, mask.threshold, d) {
+                        mask.foreground = mask.foreground.saturating_sub(cut.taken as usize);
+                        // (Not full: checked above.)
+                        let _ = beside.push(cut);
+                    }
+                }
+            }
+            if !beside.is_empty() {
+                trace = trace_borders_in(labels, w, h, &spans, params.filter(), &mut self.store)?;
+                clear_labels(labels, w, h, &spans);
+            }
+        }
         observe(Stage::Borders);
         let mut report = Report {
             mask,
             trace,
+            shadows: beside.len(),
             ..Report::default()
         };
-        // From here on the label plane is the plain 0/1 mask (the partial-volume centroid uses
-        // its other bits as scratch and clears them again).
-        clear_labels(labels, w, h, &spans);
         // Only a blob thinner than a stroke needs the templates' bound, worked out once.
         let stroke = STROKE_WIDTHS * params.cleanup.narrowest_kept();
         let mut thinnest_part: Option<f32> = None;
@@ -398,6 +437,13 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                 continue;
             }
             match self.part(index, frame, background.plane()) {
+                // What lay beside a part, that no template explains: its shadow.
+                Ok((detection, _))
+                    if detection.template.is_none()
+                        && self.lay_beside(index, &beside, &diff, report.mask.threshold) =>
+                {
+                    report.skip(index, SkipReason::Shadow);
+                }
                 Ok((mut detection, centroid_wanted)) => {
                     // A whole-border match that failed: the parts along the blob's border.
                     // Or one that explains too little of its blob: a part accepted on a blob
@@ -429,6 +475,25 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         }
         observe(Stage::Parts);
         Ok(report)
+    }
+
+    /// Whether outer border `index` is of what lay beside a part before the shadow pass cut it
+    /// off ([`Beside::holds`]: in its box, its outline mostly of the other sign).
+    fn lay_beside<B: AsRef<[u8]>>(&self, index: usize, beside: &[Beside], diff: &Difference<'_, B>, tau: u8) -> bool {
+        let border = self.store.points(index);
+        let Some(first) = border.first() else {
+            return false;
+        };
+        let t = f32::from(tau);
+        let (mut brighter, mut darker) = (0usize, 0usize);
+        for p in border {
+            let d = diff.at(p.x as isize, p.y as isize);
+            brighter += usize::from(d > t);
+            darker += usize::from(d < -t);
+        }
+        beside
+            .iter()
+            .any(|b| b.holds(first.x as usize, first.y as usize, brighter, darker))
     }
 
     /// The least mean thickness (`2·area / perimeter`, [`Template::thickness`]) a blob must
@@ -772,7 +837,9 @@ mod tests {
 
     /// After `process` the label plane holds the 0/1 mask, the same as [`foreground_mask`]'s,
     /// however the borders were labelled (rings with holes, parts on the edge, over 126
-    /// borders) and whatever the plane held before.
+    /// borders) and whatever the plane held before; with polarity `Either`, less the shadows
+    /// cut off bright parts (the pixels it took, and only those, counted out of the report's
+    /// foreground).
     #[test]
     fn process_leaves_the_foreground_mask_in_the_label_plane() {
         use crate::pixels::mask::foreground_mask;
@@ -801,13 +868,28 @@ mod tests {
             bg.set_from_frame(&Frame::new_checked(&bg_px[..], w, h).unwrap(), Params::DEFAULT.alpha())
                 .unwrap();
             let mut rec: std::boxed::Box<Recognizer<4, 96, 4096, 64, 2112>> = std::boxed::Box::default();
+            let polarity = [Polarity::Either, Polarity::Darker][case % 2];
+            let p = Params {
+                polarity,
+                ..Params::DEFAULT
+            };
+            rec.set_params(p).unwrap();
             let mut labels = std::vec![rng.below(256) as u8; n + 3];
             let report = rec.process(&frame, &bg, &mut labels).unwrap();
-            let p = Params::DEFAULT;
             let mut mask = std::vec![0u8; n];
             let stats = foreground_mask(&frame, &bg, p.alpha(), p.threshold, p.polarity, p.cleanup, &mut mask).unwrap();
-            assert_eq!(report.mask, stats);
-            assert!(labels[..n] == mask[..], "case {case}: {w}×{h}");
+            let kept = labels[..n].iter().filter(|&&v| v == 1).count();
+            assert_eq!(report.mask.threshold, stats.threshold);
+            assert_eq!(report.mask.foreground, kept, "case {case}");
+            assert!(
+                labels[..n].iter().zip(&mask).all(|(&l, &m)| l <= 1 && l <= m),
+                "case {case}"
+            );
+            if report.shadows == 0 {
+                assert!(labels[..n] == mask[..], "case {case}: {w}×{h}");
+            } else {
+                assert_eq!(polarity, Polarity::Either);
+            }
         }
     }
 
@@ -1096,6 +1178,56 @@ mod tests {
                 assert_eq!(aligned, 1, "{d:?}");
             }
         }
+    }
+
+    /// A bright cam front-lit on a darker platform throws a darker shadow beside itself: with
+    /// polarity `Either` the mask takes both as one blob, whose outline is no cam's. The shadow
+    /// pass takes the shadow out, and the cam is named and placed as with the one-sided
+    /// polarity its set would be taught (`Brighter`), where the shadow never enters the mask.
+    #[test]
+    fn a_shadow_beside_a_bright_part_is_not_part_of_it() {
+        use crate::pixels::mask::Polarity;
+        let (w, h) = (120usize, 90usize);
+        // Platform 100; the cam at 170 over a shadow at 55, moved 6 px right and 5 down.
+        let cam = scene_of(w, h, &[(cam_inside, 58.0, 42.0, 30.0, false)]);
+        let shade = scene_of(w, h, &[(cam_inside, 64.0, 47.0, 30.0, false)]);
+        let px: std::vec::Vec<u8> = cam
+            .iter()
+            .zip(&shade)
+            .map(|(&c, &s)| {
+                let (c, s) = ((200.0 - f32::from(c)) / 180.0, (200.0 - f32::from(s)) / 180.0);
+                let floor = 100.0 - 45.0 * s;
+                (floor + (170.0 - floor) * c).round() as u8
+            })
+            .collect();
+        let mut bg = Background::new(std::vec![0u8; w * h], w, h).unwrap();
+        bg.set_from_frame(
+            &Frame::new_checked(&std::vec![100u8; w * h][..], w, h).unwrap(),
+            Params::DEFAULT.alpha(),
+        )
+        .unwrap();
+        let run = |polarity| {
+            let mut rec: std::boxed::Box<Recognizer<4, 96, 4096, 64, 2112>> = std::boxed::Box::default();
+            rec.set_params(Params {
+                polarity,
+                ..Params::DEFAULT
+            })
+            .unwrap();
+            rec.add_template(taught(cam_inside)).unwrap();
+            let mut labels = std::vec![0u8; w * h];
+            rec.process(&Frame::new_checked(&px[..], w, h).unwrap(), &bg, &mut labels)
+                .unwrap()
+        };
+        let (either, brighter) = (run(Polarity::Either), run(Polarity::Brighter));
+        assert_eq!(either.shadows, 1);
+        assert_eq!(brighter.shadows, 0);
+        assert_eq!(either.detections.len(), 1, "{:?}", either.detections);
+        let (d, b) = (either.detections[0], brighter.detections[0]);
+        assert_eq!(d.template, Some(0), "{d:?}");
+        assert!(d.verify < 0.5 * d.verify_limit, "{d:?}");
+        let err = (d.angle_deg - 30.0 + 540.0).rem_euclid(360.0) - 180.0;
+        assert!(err.abs() < 1.0, "{d:?}");
+        assert!((d.x - b.x).abs() < 0.05 && (d.y - b.y).abs() < 0.05, "{d:?} {b:?}");
     }
 
     /// A whole part far from every template in shape (a disc against an L of its area: its

@@ -10,7 +10,8 @@ use crate::cli::params::ParamArgs;
 use crate::engine::{Engine, FrameResult};
 use crate::io::load_gray;
 use crate::set::load_background_frames;
-use vorl_core::pixels::mask::Polarity;
+use vorl_core::pixels::frame::Frame;
+use vorl_core::pixels::mask::{foreground_mask, Polarity, Threshold};
 
 /// Arguments of `vorl teach`.
 #[derive(Debug, clap::Args)]
@@ -167,8 +168,13 @@ pub fn run(args: TeachArgs) -> Result<ExitCode, String> {
         },
         target.display()
     );
-    if let Some(polarity) = taken.evidence.map(|e| e.polarity).filter(|&p| p != Polarity::Either) {
-        keep_polarity(out, polarity)?;
+    if let Some(e) = taken.evidence {
+        let ask = match e.polarity {
+            Polarity::Either if e.brighter_share < 0.5 => PolarityAsk::Admit(Polarity::Darker),
+            Polarity::Either => PolarityAsk::Admit(Polarity::Brighter),
+            one_sided => PolarityAsk::OneSided(one_sided),
+        };
+        keep_polarity(out, ask)?;
     }
     if args.add {
         let examples = crate::engine::load_silhouettes(&folder).map_err(|e| e.to_string())?;
@@ -280,15 +286,32 @@ pub fn take_part(segmented: Segmented, image: &GrayImage, choice: &PartChoice, l
     let (w, h) = (image.width() as usize, image.height() as usize);
     let mut part_index = choose_part(choice, label, &result, engine.labels(), w, h, &mut warnings)?;
     // Polarity: a shadow beside the part is not part of it (crate::teaching). Measured on the
-    // blob as segmented; where it is one-sided, the frame is segmented again with it.
+    // blob as the mask first takes it, shadow and all (the recognizer's shadow pass,
+    // vorl_core::pixels::shadow, has taken it out of the engine's mask since); where it is
+    // one-sided, the frame is segmented again with it.
     let mut measured = None;
-    if let Some(platform) = engine.background().map(|b| b.plane().to_vec()) {
+    if let Some(background) = engine.background() {
         let part = &result.detections[part_index];
-        if let Some(&(sx, sy)) = part.border.first() {
-            let pixels = component_pixels(engine.labels(), w, h, sx as usize, sy as usize);
+        if let (Some(&(sx, sy)), Ok(frame)) = (part.border.first(), Frame::new_checked(image.as_raw().as_slice(), w, h))
+        {
+            let params = engine.params();
+            let mut whole = vec![0u8; w * h];
+            let tau = Threshold::Fixed(result.report.mask.threshold);
+            foreground_mask(
+                &frame,
+                background,
+                params.alpha(),
+                tau,
+                params.polarity,
+                params.cleanup,
+                &mut whole,
+            )
+            .map_err(|e| format!("{label}: {e}"))?;
+            // (The part's border pixel lies in the mask before the shadow pass as after it.)
+            let pixels = component_pixels(&whole, w, h, sx as usize, sy as usize);
             measured = crate::teaching::measure_polarity(
                 image.as_raw(),
-                &platform,
+                background.plane(),
                 w,
                 h,
                 &pixels,
@@ -423,25 +446,54 @@ fn choose_part(
     }
 }
 
-/// Keeps a measured one-sided polarity where `detect` and `eval` read it: the `vorl.toml` of
-/// the set whose `templates/` folder `out` is (a key added or replaced, the rest of the file
-/// left as it was). A set whose classes were measured of opposite polarities gets `either`.
+/// What a taught part asks of its set's polarity ([`keep_polarity`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum PolarityAsk {
+    /// A shadow (or a halo) lies beside it: this one-sided polarity, so that it is not part.
+    OneSided(Polarity),
+    /// Nothing lies beside it, and it lies on this side of the platform: any polarity that
+    /// keeps it.
+    Admit(Polarity),
+}
+
+/// Keeps what a taught part asks of the set's polarity where `detect` and `eval` read it: the
+/// `vorl.toml` of the set whose `templates/` folder `out` is (a key added or replaced, the rest
+/// of the file left as it was).
+///
+/// - A measured one-sided polarity is written where the set has none.
+/// - A set whose classes ask for opposite sides gets `either`: a one-sided polarity would drop
+///   every part of the other side.
+/// - A part darker than the platform with nothing beside it sets `either` where the set has
+///   none: its own shadow is of its sign and joins it, so it never asks for `darker`, and a
+///   bright class taught after it must not make the set `brighter` (a shadow beside a bright
+///   part is then cut off blob by blob, `vorl_core::pixels::shadow`).
+///
 /// With `out` not named `templates`, the line to add is printed instead.
-fn keep_polarity(out: &std::path::Path, polarity: Polarity) -> Result<(), String> {
-    let name = crate::config::PolaritySetting::from_core(polarity);
+fn keep_polarity(out: &std::path::Path, ask: PolarityAsk) -> Result<(), String> {
     let value = |p: crate::config::PolaritySetting| {
         serde_json::to_value(p)
             .ok()
             .and_then(|v| v.as_str().map(String::from))
             .unwrap_or_default()
     };
+    let (name, write_if_none) = match ask {
+        PolarityAsk::OneSided(p) => (crate::config::PolaritySetting::from_core(p), true),
+        PolarityAsk::Admit(Polarity::Darker) => (crate::config::PolaritySetting::Either, true),
+        PolarityAsk::Admit(_) => (crate::config::PolaritySetting::Either, false),
+    };
+    // The side the part lies on, which a one-sided polarity must be to keep it.
+    let side = match ask {
+        PolarityAsk::OneSided(p) | PolarityAsk::Admit(p) => crate::config::PolaritySetting::from_core(p),
+    };
     let set = match (out.file_name(), out.parent()) {
         (Some(n), Some(parent)) if n == "templates" => parent,
         _ => {
-            println!(
-                "add `polarity = \"{}\"` to the set's vorl.toml (detect and eval read it there)",
-                value(name)
-            );
+            if matches!(ask, PolarityAsk::OneSided(_)) {
+                println!(
+                    "add `polarity = \"{}\"` to the set's vorl.toml (detect and eval read it there)",
+                    value(name)
+                );
+            }
             return Ok(());
         }
     };
@@ -461,17 +513,23 @@ fn keep_polarity(out: &std::path::Path, polarity: Polarity) -> Result<(), String
         v.to_string()
     });
     let wanted = match before.as_deref() {
-        Some(v) if v == value(name) => return Ok(()),
+        Some(v) if v == value(name) || v == value(side) => return Ok(()),
         Some("either") => return Ok(()),
         Some(v) if !v.is_empty() => {
             println!(
-                "note: {} says polarity {v}, this part measured {}: the set's classes differ, so it becomes \"either\"",
+                "note: {} says polarity {v}, this part is {}: the set's classes differ, so it becomes \"either\"",
                 file.display(),
-                value(name)
+                value(side)
             );
             crate::config::PolaritySetting::Either
         }
-        _ => name,
+        _ if write_if_none => name,
+        _ => return Ok(()),
+    };
+    let why = if wanted == crate::config::PolaritySetting::Either {
+        "# Measured by `vorl teach`: parts darker and brighter than the platform, or a dark part, whose shadow joins it."
+    } else {
+        "# Measured by `vorl teach`: a shadow beside the taught part is not part of it."
     };
     let line = format!("polarity = \"{}\"", value(wanted));
     let mut lines: Vec<String> = text.lines().map(String::from).collect();
@@ -481,7 +539,7 @@ fn keep_polarity(out: &std::path::Path, polarity: Polarity) -> Result<(), String
             if lines.is_empty() {
                 lines.push("# Parameters for this set (keys of `vorl config --defaults`).".into());
             }
-            lines.push("# Measured by `vorl teach`: a shadow beside the taught part is not part of it.".into());
+            lines.push(why.into());
             lines.push(line.clone());
         }
     }

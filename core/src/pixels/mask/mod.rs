@@ -50,7 +50,8 @@ pub enum Threshold {
 /// and in every frame). `vorl teach` measures the polarity of the taught part.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Polarity {
-    /// `|I' − B| > τ`: parts darker or brighter than the platform (default).
+    /// `|I' − B| > τ`: parts darker or brighter than the platform (default). The recognizer
+    /// then cuts a bright part's shadow off it blob by blob ([`crate::pixels::shadow`]).
     #[default]
     Either,
     /// `B − I' > τ`: parts darker than the platform (dark parts on a backlight).
