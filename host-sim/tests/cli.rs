@@ -1502,6 +1502,74 @@ fn teach_leaves_the_shadow_out_keeps_the_polarity_and_takes_an_open_part_at_its_
     assert!(parts.iter().any(|p| p["class"] == "clip"), "{}", out.dump());
 }
 
+/// A set of both kinds under front light: a dark plate (its shadow of its own sign, joined to
+/// it) and a bright bar with its shadow beside it. Taught in either order, the set's polarity
+/// ends "either" (a "brighter" set would drop the dark plate); detection then cuts the bar's
+/// shadow off it blob by blob (`vorl_core::pixels::shadow`) and names both, with no shadow
+/// reported as a part.
+#[test]
+fn a_set_of_dark_and_bright_parts_keeps_both_and_cuts_the_bright_ones_shadow() {
+    let mut img = GrayImage::from_pixel(320, 240, Luma([110]));
+    // Shadows first: the bar's 100×24 rectangle and the plate's 60×40, each 6 px right and down.
+    for (x0, y0, w, h) in [(66u32, 56u32, 100u32, 24u32), (206, 146, 60, 40)] {
+        for y in y0..y0 + h {
+            for x in x0..x0 + w {
+                img.put_pixel(x, y, Luma([70]));
+            }
+        }
+    }
+    for y in 50..74u32 {
+        for x in 60..160u32 {
+            img.put_pixel(x, y, Luma([200]));
+        }
+    }
+    // The plate, with a hole that keeps it from being a rectangle turned.
+    for y in 140..180u32 {
+        for x in 200..260u32 {
+            let hole = (x as f64 - 215.0).hypot(y as f64 - 160.0) < 7.0;
+            img.put_pixel(x, y, Luma([if hole { 110 } else { 25 }]));
+        }
+    }
+    for (order, name) in [(["plate", "bar"], "darkfirst"), (["bar", "plate"], "brightfirst")] {
+        let scratch = Scratch::new(&format!("teachmixed{name}"));
+        let set = scratch.join("set");
+        std::fs::create_dir_all(set.join("frames")).expect("mkdir");
+        let frame = set.join("frames/f0.png");
+        img.save(&frame).expect("save");
+        let templates = set.join("templates");
+        for class in order {
+            let at = if class == "bar" { "110,62" } else { "240,160" };
+            vorl([
+                OsStr::new("teach"),
+                frame.as_os_str(),
+                OsStr::new("--at"),
+                OsStr::new(at),
+                OsStr::new("--name"),
+                OsStr::new(class),
+                OsStr::new("--out"),
+                templates.as_os_str(),
+            ])
+            .success();
+        }
+        let toml = std::fs::read_to_string(set.join("vorl.toml")).expect("vorl.toml written");
+        assert!(toml.contains("polarity = \"either\""), "{name}: {toml}");
+        let out = vorl([OsStr::new("detect"), set.as_os_str(), OsStr::new("--json")]).success();
+        let json: Value = serde_json::from_str(&out.stdout).expect("json");
+        let parts = json["frames"]["f0.png"].as_array().expect("parts").clone();
+        assert_eq!(parts.len(), 2, "{name}: {}", out.dump());
+        // The bar where it lies; the plate named (its own shadow, of its sign, joins it in the
+        // mask and in its template alike, and moves its centre towards the shadow).
+        for (class, x, y, off) in [("bar", 109.5, 61.5, 0.5), ("plate", 229.5, 159.5, 6.0)] {
+            let p = parts.iter().find(|p| p["class"] == class).expect("named");
+            let (px, py) = (p["x"].as_f64().unwrap(), p["y"].as_f64().unwrap());
+            assert!(
+                (px - x).abs() < off && (py - y).abs() < off,
+                "{name} {class}: {px},{py}"
+            );
+        }
+    }
+}
+
 /// Untaught look-alikes (`vorl gen --variant lookalike`: a cam, hex nut, 12-tooth gear, disc,
 /// oval flange, L and U bracket drawn without their holes) are unknown: their outlines verify
 /// against the templates, but a bore the mask resolves is not there

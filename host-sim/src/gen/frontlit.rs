@@ -21,6 +21,11 @@
 //!
 //! Templates are the crisp silhouettes, and truth is the part's own silhouette (its centroid and
 //! turn), never the shadow or the facet.
+//!
+//! `frontlit-mixed` makes the parts of about [`MIXED_DARK_SHARE`] of the classes dark
+//! ([`DARK_CONTRAST`] below the mat, a band facet, highlights as the others): a set of both
+//! kinds, whose polarity is "either", and whose dark parts' shadows join them while bright
+//! parts' lie beside them.
 
 use std::f64::consts::TAU;
 
@@ -55,6 +60,11 @@ pub(crate) const BAND_LEVEL: (f64, f64) = (0.4, 0.7);
 pub(crate) const EDGE_FACET_SHARE: f64 = 0.75;
 /// Peak of a specular highlight over the part's level, levels.
 pub(crate) const HIGHLIGHT_LEVEL: (f64, f64) = (30.0, 80.0);
+/// Chance that a class's parts are dark in `frontlit-mixed`.
+pub(crate) const MIXED_DARK_SHARE: f64 = 0.5;
+/// A dark part's base level below the lit mat, levels (it keeps a few levels above black on the
+/// darkest mat).
+pub(crate) const DARK_CONTRAST: (f64, f64) = (45.0, 95.0);
 /// How far a shadow lies from its part, away from the light, px.
 pub(crate) const SHADOW_OFFSET_PX: (f64, f64) = (4.0, 10.0);
 /// Sub-rows per pixel row when rasterising a shadow (it is blurred by 2 px and more).
@@ -79,6 +89,9 @@ pub(crate) struct FrontLight {
     pub(crate) texture: Vec<f64>,
     /// The lit mat without its texture, row-major.
     pub(crate) field: Vec<f64>,
+    /// The classes whose parts are dark (blackened steel, dark plastic: [`DARK_CONTRAST`]):
+    /// none for `frontlit`, each class with chance [`MIXED_DARK_SHARE`] for `frontlit-mixed`.
+    pub(crate) dark: Vec<&'static str>,
 }
 
 impl FrontLight {
@@ -97,6 +110,7 @@ impl FrontLight {
             texture_std,
             texture,
             field,
+            dark: Vec::new(),
         }
     }
 
@@ -251,9 +265,16 @@ pub(crate) fn dress(rng: &mut Rng, spec: &PartSpec, pose: &Pose, light: &FrontLi
     // The image direction towards the light in the part's frame.
     let toward = pose.invert([pose.cx + t[0] * pose.k, pose.cy + t[1] * pose.k]);
     let contrast = rng.range(METAL_CONTRAST.0, METAL_CONTRAST.1);
+    let dark = light.dark.contains(&spec.name);
+    let contrast = if dark {
+        -rng.range(DARK_CONTRAST.0, DARK_CONTRAST.1)
+    } else {
+        contrast
+    };
     let shading = rng.range(METAL_SHADING.0, METAL_SHADING.1);
     let points = interior(spec);
-    let edge = rng.chance(EDGE_FACET_SHARE);
+    // A dark part's facet is a band (a face turned away from the light is no brighter).
+    let edge = rng.chance(EDGE_FACET_SHARE) && !dark;
     let share = rng.range(FACET_SHARE.0, FACET_SHARE.1);
     let dir = if edge {
         turn([-toward[0], -toward[1]], rng.range(-0.5, 0.5))

@@ -47,6 +47,7 @@
 //! | `printed`  | 70 % of the parts carry print: rows of dark text-like glyph blobs and a logo ring (on a dark part darker still, on a light part darker than the platform), and on dark parts light patches within 8 levels of the platform that a mask may cut as holes; templates plain | the part's own centroid (print ignored); `texture` `"print"`, adds `print_marks` and `print_patches` |
 //! | `backlit`  | dark opaque parts (gray 8–35) on a bright backlight with cos⁴ vignetting: 246–252 at the optical centre, 145–155 at the farthest corner; no `background.png` unless asked for | as `default`; `contrast` = level − backlight at the centroid, adds `level` |
 //! | `frontlit` | metal parts on a grey textured mat (level 105–125, texture σ 3–5) under diffuse light from one direction per set (`light_from_deg`, 110–160°: about the upper left): each part 55–105 levels above the lit mat, shaded ±5–15 levels towards the light, with one darker facet over 5–15 % of its area (its edge away from the light at −15…+5 levels from the mat, or a band across it at 40–70 % of its contrast) and 1–2 specular highlights; each part's silhouette moved 4–10 px away from the light, blurred by σ 2–4 px, darkens the mat by 20–50 levels under it (the part hides its own shadow); `background.png` is the empty mat; a `teach.json` | the part's own silhouette (never the shadow); `texture` `"metal"`, adds `light_from_deg`, `shadow_dx`, `shadow_dy`, `shadow_sigma`, `shadow_depth`, `facet` (`"edge"` or `"band"`), `facet_share`, `facet_level`, `highlights` |
+//! | `frontlit-mixed` | as `frontlit`, with the parts of each class dark with chance ½ (`dark_classes` in `variant.json`): 45–95 levels below the lit mat, a band facet at 40–70 % of that contrast, highlights as the others; their shadows join them | as `frontlit`, adding `"dark": true` to each dark part |
 //! | `large`    | its own catalogue ([`large_catalogue`]): one large part per frame, a guitar pick or a standard part scaled to cover 26–45 % of the frame ([`LARGE_SHARES`]; templates at the same scale), opaque, dark (20–120) or bright (238–250), the pick and the gear taught, the others (a hex nut, a washer, a square flange, a cam, a blob) not, in 60 % of the frames a taught one; and up to two small distractors (a star, a crescent) where they fit; on white paper (200–225, smooth lighting ±6–14, texture σ 1.5–3) printed with lines of dark text-like glyphs (80–150 levels below the paper) on ruled lines (30–70 below) in one or two columns, the page turned ±8°; the print is part of the platform (in `background*.png` too) and hidden under the parts | as `default`, adds `level`; `contrast` = level − the paper's level at the centroid |
 //! | `rods`     | its own catalogue ([`rods_catalogue`]) on the `backlit` backlight: connecting rods `rod_a` (one eye, in the big end) and `rod_b` (the same outline, a larger eye in the big end and a smaller one in the small end, both with thin rims like the real rods': 8 and 5.5 mm), each rod made with its own proportions (shaft length ×0.85–1.15, each head's radius ×0.92–1.08, each eye's ×0.9–1.1) and drawn at 0.9–1.3× the template's size; washers and screws (shank ×0.85–1.15) as distractors; templates the nominal rods; no `background.png` unless asked for; a `vorl.toml` with `scale_min = 0.8` (0.9× drawn, a shaft 15 % short), `scale_max = 1.4` | as `backlit`: the drawn part's centroid and rotation (the template's reference pose: axis along x, big end at −x); `scale` the drawn size over the template's, adds `stretch` and the rods' `head_big_scale`, `head_small_scale`, `eye_big_scale`, `eye_small_scale` (`rod_b`) |
 //!
@@ -223,6 +224,10 @@ pub enum Variant {
     /// left): parts brighter than the mat, shaded, with a dark facet and highlights, each
     /// throwing a soft shadow away from the light; writes a `teach.json`.
     Frontlit,
+    /// As `frontlit`, with the parts of about half of the classes dark (blackened steel, dark
+    /// plastic: 45–95 levels below the mat, a band facet): a set of both kinds, whose teach
+    /// leaves the polarity "either"; truth adds `"dark": true` to each dark part.
+    FrontlitMixed,
     /// As `default`, with untaught parts that look like templates but lack their bore or holes
     /// ([`lookalike_catalogue`]: a solid cam, hex nut, 12-tooth gear, disc, oval flange, L and U
     /// bracket, a hex nut and a washer with a bore half as wide) among
@@ -236,7 +241,7 @@ pub enum Variant {
 
 impl Variant {
     /// All variants.
-    pub const ALL: [Variant; 19] = [
+    pub const ALL: [Variant; 20] = [
         Variant::Default,
         Variant::Noisy,
         Variant::Small,
@@ -254,6 +259,7 @@ impl Variant {
         Variant::Touching,
         Variant::RodsTouching,
         Variant::Frontlit,
+        Variant::FrontlitMixed,
         Variant::Lookalike,
         Variant::Large,
     ];
@@ -278,6 +284,7 @@ impl Variant {
             Variant::Touching => "touching",
             Variant::RodsTouching => "rods-touching",
             Variant::Frontlit => "frontlit",
+            Variant::FrontlitMixed => "frontlit-mixed",
             Variant::Lookalike => "lookalike",
             Variant::Large => "large",
         }
@@ -348,11 +355,11 @@ impl Variant {
         }
     }
 
-    /// Whether the set gets a `teach.json` (`frontlit`): for each class, the first frame where a
+    /// Whether the set gets a `teach.json` (`frontlit`, `frontlit-mixed`): for each class, the first frame where a
     /// part of it lies whole and its truth centroid (or, where that lies off the part, the
     /// nearest point 3 px inside it).
     pub fn writes_teach(self) -> bool {
-        self == Variant::Frontlit
+        matches!(self, Variant::Frontlit | Variant::FrontlitMixed)
     }
 
     /// One of the variants that model a real camera's failure modes (they write `variant.json`).
@@ -596,6 +603,16 @@ impl SetPlan {
             Variant::Flipped => Effect::Flipped(v.chiral_templates()),
             Variant::Touching => Effect::Touching(v.chiral_templates()),
             Variant::Frontlit => Effect::Frontlit(FrontLight::random(&mut fx, w, h)),
+            Variant::FrontlitMixed => {
+                let light = FrontLight::random(&mut fx, w, h);
+                let dark = v
+                    .catalogue()
+                    .iter()
+                    .filter(|_| fx.chance(frontlit::MIXED_DARK_SHARE))
+                    .map(|c| c.name)
+                    .collect();
+                Effect::Frontlit(FrontLight { dark, ..light })
+            }
             Variant::Large => Effect::Large(large::Paper::random(&mut fx, w, h, px_per_mm)),
             _ => Effect::Ideal,
         };
@@ -709,6 +726,8 @@ impl SetPlan {
                 "mat_lighting": f.mat_lighting,
                 "texture_std": f.texture_std,
                 "contrast": [frontlit::METAL_CONTRAST.0, frontlit::METAL_CONTRAST.1],
+                "dark_classes": f.dark,
+                "dark_contrast": [-frontlit::DARK_CONTRAST.1, -frontlit::DARK_CONTRAST.0],
                 "shading": [frontlit::METAL_SHADING.0, frontlit::METAL_SHADING.1],
                 "facet_share": [frontlit::FACET_SHARE.0, frontlit::FACET_SHARE.1],
                 "facet_level": [frontlit::FACET_LEVEL.0, frontlit::FACET_LEVEL.1],
@@ -1039,6 +1058,9 @@ impl SetPlan {
                 put("shadow_dy", json!(s.offset[1]));
                 put("shadow_sigma", json!(s.sigma));
                 put("shadow_depth", json!(s.depth));
+                if p.look.contrast < 0.0 {
+                    put("dark", json!(true));
+                }
                 if let Texture::Metal(m) = &p.look.texture {
                     put("facet", json!(if m.facet.edge { "edge" } else { "band" }));
                     put("facet_share", json!(m.facet.share));
