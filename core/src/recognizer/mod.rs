@@ -111,6 +111,13 @@ pub const STROKE_WIDTHS: f32 = 2.0;
 /// most: [`MAX_DETECTIONS`] of them are reported.
 pub const SHADOW_BLOBS: usize = 32;
 
+/// How much blurrier than its part's edge the edge of what lay beside it must be to be its
+/// shadow ([`crate::pixels::shadow`]): √2, a penumbra at least as wide as the lens's own blur
+/// (blurs add in quadrature: `σ² = σ_lens² + σ_penumbra²`). Parts' edges in one frame agree to
+/// about ±10 %; a dark part against a bright one, as sharp as it, measures 0.9–1.2 times its
+/// edge, a shadow 1.5–3.8 times (`docs/accuracy.md`).
+pub const PENUMBRA: f32 = core::f32::consts::SQRT_2;
+
 /// Border points per chord when a blob's perimeter is measured for its thickness: a chord over
 /// 4 pixel steps follows a straight edge at any slope within a few per cent, where the steps
 /// themselves would add up to 8 % more for a staircase.
@@ -371,7 +378,8 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         // shadow, a halo or a part of the other sign: cut off the part, and the borders are
         // followed again (pixels/shadow.rs).
         let mut mask = mask;
-        let mut beside: heapless::Vec<Beside, SHADOW_BLOBS> = heapless::Vec::new();
+        // Each cut, with the blur of its part's edge.
+        let mut beside: heapless::Vec<(Beside, Option<f32>), SHADOW_BLOBS> = heapless::Vec::new();
         let diff = Difference::new(frame, background.plane(), params.alpha());
         if params.polarity == Polarity::Either {
             for index in 0..self.store.contours().len() {
@@ -388,8 +396,10 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
                     let d = |x: usize, y: usize| diff.at(x as isize, y as isize);
                     if let Some(cut) = shadow::separate(labels, w, h, outline, mask.threshold, d) {
                         mask.foreground = mask.foreground.saturating_sub(cut.taken as usize);
+                        // (The border is the blob's before the cut: the part's edge on it is.)
+                        let blur = self.outline_blur(index, &diff, mask.threshold, true);
                         // (Not full: checked above.)
-                        let _ = beside.push(cut);
+                        let _ = beside.push((cut, blur));
                     }
                 }
             }
@@ -477,9 +487,19 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         Ok(report)
     }
 
-    /// Whether outer border `index` is of what lay beside a part before the shadow pass cut it
-    /// off ([`Beside::holds`]: in its box, its outline mostly of the other sign).
-    fn lay_beside<B: AsRef<[u8]>>(&self, index: usize, beside: &[Beside], diff: &Difference<'_, B>, tau: u8) -> bool {
+    /// Whether outer border `index` is what lay beside a part before the shadow pass cut it off
+    /// ([`Beside::holds`]: in its box, its outline mostly darker than the platform beyond
+    /// `tau`), and a shadow: its edge against the platform blurrier than its part's by
+    /// [`PENUMBRA`] or more ([`Self::outline_blur`]). A dark part against a bright one has an
+    /// edge as sharp as the part's, and is looked at as any blob is. Where either blur cannot
+    /// be measured, what lay beside is taken for a shadow.
+    fn lay_beside<B: AsRef<[u8]>>(
+        &self,
+        index: usize,
+        beside: &[(Beside, Option<f32>)],
+        diff: &Difference<'_, B>,
+        tau: u8,
+    ) -> bool {
         let border = self.store.points(index);
         let Some(first) = border.first() else {
             return false;
@@ -491,9 +511,47 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
             brighter += usize::from(d > t);
             darker += usize::from(d < -t);
         }
-        beside
+        let Some((_, part)) = beside
             .iter()
-            .any(|b| b.holds(first.x as usize, first.y as usize, brighter, darker))
+            .find(|(b, _)| b.holds(first.x as usize, first.y as usize, brighter, darker))
+        else {
+            return false;
+        };
+        match (self.outline_blur(index, diff, tau, false), part) {
+            (Some(own), Some(part)) => own >= PENUMBRA * part,
+            _ => true,
+        }
+    }
+
+    /// The blur of the frame's edge (σ px, [`crate::pose::holes::edge_blur`]) along outer
+    /// border `index` where it bounds a face brighter than the platform beyond `tau`
+    /// (`brighter`) or darker: at its points of that sign with none of the other within 2 px
+    /// (not where a part and what lay beside it met), across the normal of the chord over
+    /// four border steps. `None` where no such point shows a fall.
+    fn outline_blur<B: AsRef<[u8]>>(
+        &self,
+        index: usize,
+        diff: &Difference<'_, B>,
+        tau: u8,
+        brighter: bool,
+    ) -> Option<f32> {
+        let points = self.store.points(index);
+        let n = points.len();
+        let (t, sign) = (f32::from(tau), if brighter { 1.0 } else { -1.0 });
+        let edge = |i: &usize| {
+            points.get(*i).is_some_and(|p| {
+                let (x, y) = (p.x as isize, p.y as isize);
+                sign * diff.at(x, y) > t && (-2..=2).all(|dy| (-2..=2).all(|dx| -sign * diff.at(x + dx, y + dy) <= t))
+            })
+        };
+        let count = (0..n).filter(edge).count();
+        let profiles = (0..n).filter(edge).filter_map(|i| {
+            let (a, b, p) = (points.get((i + n - 2) % n)?, points.get((i + 2) % n)?, points.get(i)?);
+            let (tx, ty) = (f32::from(b.x) - f32::from(a.x), f32::from(b.y) - f32::from(a.y));
+            let len = math::sqrt(tx * tx + ty * ty);
+            (len > 0.0).then(|| ([f32::from(p.x), f32::from(p.y)], [-ty / len, tx / len]))
+        });
+        crate::pose::holes::edge_blur(profiles, count, |x, y| diff.bilinear(x, y).abs())
     }
 
     /// The least mean thickness (`2·area / perimeter`, [`Template::thickness`]) a blob must
@@ -1228,6 +1286,87 @@ mod tests {
         let err = (d.angle_deg - 30.0 + 540.0).rem_euclid(360.0) - 180.0;
         assert!(err.abs() < 1.0, "{d:?}");
         assert!((d.x - b.x).abs() < 0.05 && (d.y - b.y).abs() < 0.05, "{d:?} {b:?}");
+    }
+
+    /// What is cut off a bright cam is its shadow only where its edge is blurrier than the
+    /// cam's ([`PENUMBRA`]): a soft shadow (σ ≈ 2.4 px, moved 10 px right and 7 down) is skipped, a sharp dark disc against
+    /// the cam (an untaught part) is reported, unknown.
+    #[test]
+    fn only_a_blurred_neighbour_of_a_bright_part_is_its_shadow() {
+        let (w, h) = (140usize, 100usize);
+        let cover = |px: &[u8]| {
+            px.iter()
+                .map(|&v| (200.0 - f32::from(v)) / 180.0)
+                .collect::<std::vec::Vec<f32>>()
+        };
+        let cam = cover(&scene_of(w, h, &[(cam_inside, 60.0, 46.0, 30.0, false)]));
+        // The shadow, blurred by three box passes of radius 2 each way (σ ≈ 2.4 px).
+        let mut shade = cover(&scene_of(w, h, &[(cam_inside, 70.0, 53.0, 30.0, false)]));
+        for _ in 0..3 {
+            for horizontal in [true, false] {
+                let before = shade.clone();
+                for y in 0..h {
+                    for x in 0..w {
+                        let at = |k: isize| {
+                            let (a, b) = if horizontal {
+                                (x as isize + k, y as isize)
+                            } else {
+                                (x as isize, y as isize + k)
+                            };
+                            let (a, b) = (a.clamp(0, w as isize - 1) as usize, b.clamp(0, h as isize - 1) as usize);
+                            before[b * w + a]
+                        };
+                        shade[y * w + x] = (-2..=2).map(at).sum::<f32>() / 5.0;
+                    }
+                }
+            }
+        }
+        let disc = cover(&scene_of(w, h, &[(disc_inside, 60.0, 73.0, 0.0, false)]));
+        let bg = {
+            let mut bg = Background::new(std::vec![0u8; w * h], w, h).unwrap();
+            let level = std::vec![100u8; w * h];
+            bg.set_from_frame(&Frame::new_checked(&level[..], w, h).unwrap(), Params::DEFAULT.alpha())
+                .unwrap();
+            bg
+        };
+        let run = |beside: &[f32], depth: f32| {
+            let px: std::vec::Vec<u8> = cam
+                .iter()
+                .zip(beside)
+                .map(|(&c, &s)| {
+                    let floor = 100.0 - depth * s;
+                    (floor + (170.0 - floor) * c).round() as u8
+                })
+                .collect();
+            let mut rec: std::boxed::Box<Recognizer<4, 96, 4096, 64, 2112>> = std::boxed::Box::default();
+            rec.add_template(taught(cam_inside)).unwrap();
+            let mut labels = std::vec![0u8; w * h];
+            rec.process(&Frame::new_checked(&px[..], w, h).unwrap(), &bg, &mut labels)
+                .unwrap()
+        };
+        let soft = run(&shade, 60.0);
+        assert_eq!(
+            soft.shadows, 1,
+            "{:?} {:?} {:?}",
+            soft.mask, soft.detections, soft.skips
+        );
+        assert!(
+            soft.skips.iter().any(|s| s.reason == SkipReason::Shadow),
+            "{:?}",
+            soft.skips
+        );
+        assert_eq!(soft.detections.len(), 1, "{:?}", soft.detections);
+        assert_eq!(soft.detections[0].template, Some(0));
+        let sharp = run(&disc, 80.0);
+        assert_eq!(sharp.shadows, 1);
+        assert!(
+            sharp.skips.iter().all(|s| s.reason != SkipReason::Shadow),
+            "{:?}",
+            sharp.skips
+        );
+        assert_eq!(sharp.detections.len(), 2, "{:?}", sharp.detections);
+        assert!(sharp.detections.iter().any(|d| d.template == Some(0)));
+        assert!(sharp.detections.iter().any(|d| d.template.is_none()));
     }
 
     /// A whole part far from every template in shape (a disc against an L of its area: its
