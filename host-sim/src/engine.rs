@@ -635,7 +635,9 @@ pub fn skip_text(reason: SkipReason) -> &'static str {
         SkipReason::InsideHole => {
             "inside a hole of another part (print or a nested part; nested_parts = true keeps it)"
         }
-        SkipReason::Shadow => "a shadow: beside a part of the other sign, cut off it, and no template explains it",
+        SkipReason::Shadow => {
+            "a shadow: darker beside a bright part, its edge blurred, cut off it, and no template explains it"
+        }
         _ => "skipped",
     }
 }

@@ -105,7 +105,7 @@ pub const THIN_SHARE: f32 = 0.5;
 /// is thicker, and is still looked at and reported, unknown.
 pub const STROKE_WIDTHS: f32 = 2.0;
 
-/// Most blobs of one frame whose shadow (or halo, or part of the other sign) the shadow pass
+/// Most blobs of one frame whose shadow (or a darker part against them) the shadow pass
 /// cuts off ([`crate::pixels::shadow::separate`]); the frame's further blobs keep theirs. Front
 /// light throws a shadow beside every part, and a conveyor's frame holds a few dozen parts at
 /// most: [`MAX_DETECTIONS`] of them are reported.
@@ -374,8 +374,8 @@ impl<const T: usize, const M: usize, const P: usize, const C: usize, const D: us
         // From here on the label plane is the plain 0/1 mask (the shadow pass and the
         // partial-volume centroid use its other bits as scratch and clear them again).
         clear_labels(labels, w, h, &spans);
-        // Taking both signs, a blob of both with the other beside its part's extent holds a
-        // shadow, a halo or a part of the other sign: cut off the part, and the borders are
+        // Taking both signs, a bright part's blob with darker pixels beside its extent holds
+        // its shadow (or a darker part against it): cut off the part, and the borders are
         // followed again (pixels/shadow.rs).
         let mut mask = mask;
         // Each cut, with the blur of its part's edge.

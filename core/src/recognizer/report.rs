@@ -110,9 +110,9 @@ pub enum SkipReason {
     /// An outer border inside a hole of another part: print, a label, a pattern, or a small
     /// part resting in a ring, not a part of its own unless [`Params::nested_parts`].
     InsideHole,
-    /// What lay beside a part in one blob with it, of the other sign, and no template
-    /// explains: its shadow (or halo), cut off it by [`crate::pixels::shadow::separate`]
-    /// (polarity `Either`).
+    /// What lay darker beside a bright part in one blob with it, cut off it by
+    /// [`crate::pixels::shadow::separate`] (polarity `Either`), that no template explains and
+    /// whose edge is blurred as a shadow's is ([`crate::recognizer::PENUMBRA`]): its shadow.
     Shadow,
 }
 
@@ -159,7 +159,7 @@ pub struct Report {
     /// print on the platform, scratches, threads. Counted, not looked at; they take no part's
     /// place.
     pub thin: usize,
-    /// Blobs that held a shadow, a halo or a part of the other sign beside their part, cut off
+    /// Blobs that held a shadow (or a darker part) beside their bright part, cut off
     /// it before the parts were looked at (with [`crate::pixels::mask::Polarity::Either`],
     /// [`crate::pixels::shadow::separate`]; at most [`crate::recognizer::SHADOW_BLOBS`]).
     pub shadows: usize,
