@@ -527,7 +527,7 @@ fn keep_polarity(out: &std::path::Path, ask: PolarityAsk) -> Result<(), String> 
         _ => return Ok(()),
     };
     let why = if wanted == crate::config::PolaritySetting::Either {
-        "# Measured by `vorl teach`: parts darker and brighter than the platform, or a dark part, whose shadow joins it."
+        "# Measured by `vorl teach`: a part darker than the platform; the set keeps parts of either sign (a bright part's shadow is cut off it as detected)."
     } else {
         "# Measured by `vorl teach`: a shadow beside the taught part is not part of it."
     };
