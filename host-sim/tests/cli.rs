@@ -14,6 +14,8 @@
 //! Bad input must give a one-line `error:` on stderr naming the file and the problem, a non-zero
 //! exit and no panic; in a batch of frames the good ones are still processed and reported.
 
+use imageproc::drawing::draw_filled_rect_mut;
+use imageproc::rect::Rect;
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
@@ -1426,16 +1428,8 @@ fn teach_leaves_the_shadow_out_keeps_the_polarity_and_takes_an_open_part_at_its_
     std::fs::create_dir_all(set.join("frames")).expect("mkdir");
     let mut img = GrayImage::from_pixel(320, 240, Luma([110]));
     // The shadow: the bar's 100×24 rectangle 6 px right and 6 px down, drawn first.
-    for y in 56..80u32 {
-        for x in 66..166u32 {
-            img.put_pixel(x, y, Luma([60]));
-        }
-    }
-    for y in 50..74u32 {
-        for x in 60..160u32 {
-            img.put_pixel(x, y, Luma([200]));
-        }
-    }
+    draw_filled_rect_mut(&mut img, Rect::at(66, 56).of_size(100, 24), Luma([60]));
+    draw_filled_rect_mut(&mut img, Rect::at(60, 50).of_size(100, 24), Luma([200]));
     // The C: a ring of radii 18 and 30 about (240, 170), open over 60° to the right.
     for y in 130..212u32 {
         for x in 200..282u32 {
@@ -1511,18 +1505,9 @@ fn teach_leaves_the_shadow_out_keeps_the_polarity_and_takes_an_open_part_at_its_
 fn a_set_of_dark_and_bright_parts_keeps_both_and_cuts_the_bright_ones_shadow() {
     let mut img = GrayImage::from_pixel(320, 240, Luma([110]));
     // Shadows first: the bar's 100×24 rectangle and the plate's 60×40, each 6 px right and down.
-    for (x0, y0, w, h) in [(66u32, 56u32, 100u32, 24u32), (206, 146, 60, 40)] {
-        for y in y0..y0 + h {
-            for x in x0..x0 + w {
-                img.put_pixel(x, y, Luma([70]));
-            }
-        }
-    }
-    for y in 50..74u32 {
-        for x in 60..160u32 {
-            img.put_pixel(x, y, Luma([200]));
-        }
-    }
+    draw_filled_rect_mut(&mut img, Rect::at(66, 56).of_size(100, 24), Luma([70]));
+    draw_filled_rect_mut(&mut img, Rect::at(206, 146).of_size(60, 40), Luma([70]));
+    draw_filled_rect_mut(&mut img, Rect::at(60, 50).of_size(100, 24), Luma([200]));
     // The plate, with a hole that keeps it from being a rectangle turned.
     for y in 140..180u32 {
         for x in 200..260u32 {
